@@ -1,0 +1,126 @@
+#!/usr/bin/env python3
+"""Set up fluidnb in a virtual environment in this folder, then do one job.
+
+    python3 dev.py lab     # set up, then open JupyterLab on notebooks/
+    python3 dev.py test    # set up (with test tools and Chromium), then run every test
+
+Only Python >= 3.10 and the package registries are needed. Both commands are
+idempotent: a re-run skips the install unless pyproject.toml changed.
+Arguments after the job go to JupyterLab (lab) or pytest (test), e.g.
+``python3 dev.py lab --no-browser --port 8899`` or ``python3 dev.py test -k clip``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import subprocess
+import sys
+import venv
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent
+VENV = ROOT / ".venv"
+BIN = VENV / ("Scripts" if os.name == "nt" else "bin")
+PY = BIN / ("python.exe" if os.name == "nt" else "python")
+CHROMIUM_CANDIDATES = [
+    "/usr/bin/chromium",
+    "/usr/lib/chromium/chromium",
+    "/usr/bin/chromium-browser",
+]
+
+
+def say(msg):
+    print(f"[dev.py] {msg}", flush=True)
+
+
+def run(cmd, **kw):
+    say(" ".join(str(c) for c in cmd))
+    return subprocess.run([str(c) for c in cmd], check=False, **kw).returncode
+
+
+def must(cmd, **kw):
+    code = run(cmd, **kw)
+    if code:
+        sys.exit(f"[dev.py] failed ({code}): {' '.join(str(c) for c in cmd)}")
+
+
+def setup(extras):
+    """Create .venv and install the package (editable) with the given extras."""
+    if sys.version_info < (3, 10):  # noqa: UP036 - dev.py may be run by an older python3
+        sys.exit(f"[dev.py] fluidnb needs Python >= 3.10, this is {sys.version.split()[0]}")
+    if not PY.exists():
+        say(f"creating virtual environment {VENV}")
+        venv.EnvBuilder(with_pip=True, clear=False).create(VENV)
+    spec = f".[{extras}]" if extras else "."
+    digest = hashlib.sha256((ROOT / "pyproject.toml").read_bytes() + spec.encode()).hexdigest()
+    stamp = VENV / f".fluidnb-installed-{extras or 'base'}"
+    if stamp.exists() and stamp.read_text() == digest:
+        say(f"environment up to date ({spec})")
+        return
+    must([PY, "-m", "pip", "install", "--upgrade", "--quiet", "pip"])
+    must([PY, "-m", "pip", "install", "--quiet", "-e", spec], cwd=ROOT)
+    stamp.write_text(digest)
+    say(f"installed fluidnb {spec} into {VENV}")
+
+
+def chromium():
+    """Path of a Chromium for the browser tests; installs Debian's when it can."""
+    wanted = os.environ.get("FLUIDNB_CHROMIUM")
+    if wanted:
+        if not Path(wanted).exists():
+            sys.exit(f"[dev.py] FLUIDNB_CHROMIUM={wanted} does not exist")
+        return wanted
+    found = next((p for p in CHROMIUM_CANDIDATES if Path(p).exists()), None)
+    if found:
+        return found
+    is_root = hasattr(os, "geteuid") and os.geteuid() == 0
+    if is_root and shutil.which("apt-get"):
+        say("installing Debian's chromium for the browser tests (about 30 s)")
+        env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+        must(["apt-get", "update", "-qq"], env=env)
+        must(["apt-get", "install", "-y", "-qq", "--no-install-recommends", "chromium"], env=env)
+        found = next((p for p in CHROMIUM_CANDIDATES if Path(p).exists()), None)
+        if found:
+            return found
+    sys.exit(
+        "[dev.py] The browser tests need Chromium and none was found.\n"
+        "  On Debian/Ubuntu: sudo apt-get install chromium\n"
+        "  Or point FLUIDNB_CHROMIUM at a Chromium/Chrome binary.\n"
+        "  (Browser tests are part of the suite and are never skipped.)"
+    )
+
+
+def lab(args):
+    setup("")
+    cmd = [BIN / "jupyter", "lab", "--notebook-dir", ROOT / "notebooks"]
+    if hasattr(os, "geteuid") and os.geteuid() == 0 and "--allow-root" not in args:
+        cmd.append("--allow-root")
+    cmd += args
+    say(" ".join(str(c) for c in cmd))
+    os.execv(str(cmd[0]), [str(c) for c in cmd])
+
+
+def test(args):
+    setup("test")
+    env = dict(os.environ, FLUIDNB_CHROMIUM=chromium())
+    must([BIN / "ruff", "check", "."], cwd=ROOT)
+    must([BIN / "ruff", "format", "--check", "."], cwd=ROOT)
+    code = run([PY, "-m", "pytest", *args], cwd=ROOT, env=env)
+    if code == 5:
+        sys.exit("[dev.py] pytest collected no tests: that is a failure, not a pass")
+    if code:
+        sys.exit(f"[dev.py] tests failed (pytest exit status {code})")
+    say("all checks passed")
+
+
+def main(argv):
+    jobs = {"lab": lab, "test": test, "setup": lambda a: setup("test")}
+    if not argv or argv[0] not in jobs:
+        sys.exit(__doc__)
+    jobs[argv[0]](argv[1:])
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

@@ -1,0 +1,50 @@
+"""fluidnb: five published fluid-animation methods as a fast, tested library.
+
+The library (this package) depends only on numpy, scipy, scikit-image, PyMaxflow,
+imageio, Pillow and matplotlib; the interactive layer is the separate subpackage
+:mod:`fluidnb.widgets`, which this package never imports. See docs/conventions.md for
+the array, vector-field, parameter, seeding and error conventions.
+"""
+
+import importlib
+
+from ._clip import Clip, load_clip
+from ._image import as_image, as_mask, to_uint8
+from ._params import Params, ParamSpec, param
+from ._progress import Cancelled, CancelToken, Progress, TextProgress
+from ._random import rng
+from ._version import __version__
+
+__all__ = [
+    "CancelToken",
+    "Cancelled",
+    "Clip",
+    "ParamSpec",
+    "Params",
+    "Progress",
+    "TextProgress",
+    "__version__",
+    "as_image",
+    "as_mask",
+    "data",
+    "fields",
+    "load_clip",
+    "param",
+    "rng",
+    "sketch",
+    "to_uint8",
+]
+
+# Subpackages load on first use so `import fluidnb` (and `fluidnb --version`) stays
+# quick; `fluidnb.fields` and `fluidnb.sketch` pull in scikit-image.
+_SUBPACKAGES = {"data", "fields", "sketch"}
+
+
+def __getattr__(name):
+    if name in _SUBPACKAGES:
+        return importlib.import_module(f"{__name__}.{name}")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | _SUBPACKAGES)

@@ -1,0 +1,5 @@
+"""``python -m fluidnb`` runs the command line."""
+
+from fluidnb.cli import main
+
+raise SystemExit(main())

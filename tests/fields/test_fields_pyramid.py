@@ -1,0 +1,189 @@
+import math
+
+import numpy as np
+import pytest
+
+from fluidnb.fields import collapse, expand, gaussian_pyramid, laplacian_pyramid, pyramid_blend
+
+
+@pytest.mark.parametrize("shape", [(37, 53), (37, 53, 3), (64, 64), (128, 192, 2), (5, 9)])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_collapse_returns_input(shape, dtype):
+    img = np.random.default_rng(0).random(shape).astype(dtype)
+    pyr = laplacian_pyramid(img)
+    assert all(p.dtype == dtype for p in pyr)
+    out = collapse(pyr)
+    assert out.dtype == dtype
+    assert out.shape == img.shape
+    atol = 1e-6 if dtype == np.float32 else 1e-12
+    np.testing.assert_allclose(out, img, rtol=0, atol=atol)
+
+
+@pytest.mark.parametrize("levels", [1, 2, 4, 7])
+def test_collapse_explicit_levels_and_sigma(levels):
+    img = np.random.default_rng(1).random((37, 53, 3))
+    pyr = laplacian_pyramid(img, levels, sigma=1.6)
+    assert len(pyr) == levels
+    np.testing.assert_allclose(collapse(pyr, sigma=1.6), img, rtol=0, atol=1e-12)
+
+
+def test_pyramid_level_shapes():
+    pyr = gaussian_pyramid(np.zeros((37, 53, 3), dtype=np.float32), 5)
+    assert [p.shape for p in pyr] == [
+        (37, 53, 3),
+        (19, 27, 3),
+        (10, 14, 3),
+        (5, 7, 3),
+        (3, 4, 3),
+    ]
+    lap = laplacian_pyramid(np.zeros((37, 53)), 5)
+    assert [p.shape for p in lap] == [p.shape[:2] for p in pyr]
+
+
+@pytest.mark.parametrize(
+    ("shape", "n"), [((37, 53), 3), ((128, 192), 5), ((7, 100), 1), ((16, 16), 2)]
+)
+def test_default_levels_stop_near_eight_pixels(shape, n):
+    pyr = gaussian_pyramid(np.zeros(shape))
+    assert len(pyr) == n
+    assert min(pyr[-1].shape) >= 8 or n == 1
+    h, w = pyr[-1].shape
+    assert min(math.ceil(h / 2), math.ceil(w / 2)) < 8
+
+
+def test_gaussian_pyramid_first_level_is_a_copy_and_channels_do_not_mix():
+    rng = np.random.default_rng(2)
+    img = rng.random((40, 30, 3)).astype(np.float32)
+    pyr = gaussian_pyramid(img, 3)
+    assert np.array_equal(pyr[0], img)
+    assert pyr[0] is not img
+    single = gaussian_pyramid(img[..., 1], 3)
+    for level, level1 in zip(pyr, single, strict=True):
+        np.testing.assert_allclose(level[..., 1], level1, atol=1e-7)
+
+
+def test_gaussian_pyramid_smooths():
+    checker = (np.indices((64, 64)).sum(axis=0) % 2).astype(np.float64)
+    pyr = gaussian_pyramid(checker, 3)
+    assert pyr[1].std() < 0.1 * checker.std()
+
+
+@pytest.mark.parametrize("channels", [(), (3,)])
+def test_laplacian_bands_of_constant_are_zero_except_residual(channels):
+    img = np.full((37, 53, *channels), 0.6, dtype=np.float32)
+    pyr = laplacian_pyramid(img, 4)
+    for band in pyr[:-1]:
+        np.testing.assert_allclose(band, 0.0, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(pyr[-1], 0.6, rtol=0, atol=1e-6)
+
+
+def test_expand_constant_and_shape():
+    out = expand(np.full((10, 14, 3), 0.2, dtype=np.float32), (19, 27))
+    assert out.shape == (19, 27, 3)
+    assert out.dtype == np.float32
+    np.testing.assert_allclose(out, 0.2, atol=1e-6)
+
+
+@pytest.mark.parametrize("shape", [(37, 53), (40, 60, 3)])
+def test_blend_identical_inputs_returns_input(shape):
+    rng = np.random.default_rng(3)
+    img = rng.random(shape).astype(np.float32)
+    w = rng.random(shape[:2])
+    out = pyramid_blend(img, img, w)
+    assert out.dtype == np.float32
+    assert out.shape == img.shape
+    np.testing.assert_allclose(out, img, rtol=0, atol=1e-6)
+
+
+def test_blend_weight_ones_and_zeros():
+    rng = np.random.default_rng(4)
+    a = rng.random((37, 53, 3)).astype(np.float32)
+    b = rng.random((37, 53, 3)).astype(np.float32)
+    np.testing.assert_allclose(pyramid_blend(a, b, np.ones((37, 53))), a, atol=1e-6)
+    np.testing.assert_allclose(pyramid_blend(a, b, np.zeros((37, 53))), b, atol=1e-6)
+    # A boolean mask is accepted as a weight.
+    np.testing.assert_allclose(
+        pyramid_blend(a, b, np.ones((37, 53), dtype=bool), levels=3), a, atol=1e-6
+    )
+
+
+def test_blend_hard_edge_gives_smooth_monotone_seam():
+    a = np.ones((48, 64), dtype=np.float64)  # white
+    b = np.zeros((48, 64), dtype=np.float64)  # black
+    w = np.zeros((48, 64))
+    w[:, :32] = 1.0
+    out = pyramid_blend(a, b, w)
+    assert out.min() >= -1e-12
+    assert out.max() <= 1 + 1e-12
+    for row in out:
+        assert np.all(np.diff(row) <= 1e-12)  # monotone: white to black, left to right
+    # Several pixels lie strictly inside the transition: the seam is soft, not a step.
+    transition = np.count_nonzero((out[24] > 0.05) & (out[24] < 0.95))
+    assert transition >= 6
+    np.testing.assert_allclose(out[:, 0], 1.0, atol=1e-3)
+    np.testing.assert_allclose(out[:, -1], 0.0, atol=1e-3)
+    # With one level it is the plain per-pixel mix.
+    assert np.array_equal(pyramid_blend(a, b, w, levels=1), w)
+
+
+def test_blend_keeps_detail_far_from_seam():
+    rng = np.random.default_rng(5)
+    a = rng.random((64, 64)).astype(np.float32)
+    b = rng.random((64, 64)).astype(np.float32)
+    w = np.zeros((64, 64))
+    w[:, :32] = 1.0
+    out = pyramid_blend(a, b, w, levels=3)
+    np.testing.assert_allclose(out[:, :8], a[:, :8], atol=0.02)
+    np.testing.assert_allclose(out[:, -8:], b[:, -8:], atol=0.02)
+
+
+def test_inputs_not_modified():
+    rng = np.random.default_rng(6)
+    a = rng.random((20, 20)).astype(np.float32)
+    b = rng.random((20, 20)).astype(np.float32)
+    w = rng.random((20, 20))
+    copies = [x.copy() for x in (a, b, w)]
+    pyramid_blend(a, b, w)
+    pyr = laplacian_pyramid(a, 3)
+    pyr_copy = [p.copy() for p in pyr]
+    collapse(pyr)
+    for x, x0 in zip((a, b, w), copies, strict=True):
+        assert np.array_equal(x, x0)
+    for p, p0 in zip(pyr, pyr_copy, strict=True):
+        assert np.array_equal(p, p0)
+
+
+@pytest.mark.parametrize(
+    ("call", "match"),
+    [
+        (lambda: gaussian_pyramid(np.zeros((8, 8)), 0), "levels"),
+        (lambda: gaussian_pyramid(np.zeros((8, 8)), 2.5), "levels"),
+        (lambda: laplacian_pyramid(np.zeros((8, 8)), -1), "levels"),
+        (lambda: laplacian_pyramid(np.zeros(8), 2), "image"),
+        (lambda: laplacian_pyramid(np.full((8, 8), np.nan), 2), "image"),
+        (lambda: gaussian_pyramid(np.zeros((8, 8)), 2, sigma=-1), "sigma"),
+        (lambda: expand(np.zeros((4, 4)), (0, 8)), "shape"),
+        (lambda: collapse([]), "pyramid"),
+        (lambda: collapse(np.zeros((4, 4))), "pyramid"),
+        (lambda: collapse([np.zeros((4, 4, 3)), np.zeros((2, 2))]), "pyramid"),
+        (lambda: pyramid_blend(np.zeros((8, 8)), np.zeros((8, 9)), np.zeros((8, 8))), "b"),
+        (lambda: pyramid_blend(np.zeros((8, 8, 3)), np.zeros((8, 8)), np.zeros((8, 8))), "b"),
+        (lambda: pyramid_blend(np.zeros((8, 8)), np.zeros((8, 8)), np.zeros((8, 7))), "weight"),
+        (lambda: pyramid_blend(np.zeros((8, 8)), np.zeros((8, 8)), np.full((8, 8), 2.0)), "weight"),
+        (lambda: pyramid_blend(np.zeros((8, 8)), np.zeros((8, 8)), np.zeros((8, 8, 1))), "weight"),
+        (lambda: pyramid_blend(np.zeros((8, 8)), np.zeros((8, 8)), np.zeros((8, 8)), 0), "levels"),
+    ],
+)
+def test_bad_inputs_raise(call, match):
+    with pytest.raises(ValueError, match=match):
+        call()
+
+
+@pytest.mark.parametrize(("shape", "target"), [((10, 14, 3), (19, 27)), ((19, 27), (37, 53))])
+def test_expand_without_blur_is_bilinear_resize(shape, target):
+    from fluidnb.fields import resize
+
+    x = np.random.default_rng(7).random(shape)
+    np.testing.assert_allclose(
+        expand(x, target, sigma=0), resize(x, target, anti_aliasing=False), atol=1e-12
+    )

@@ -1,0 +1,85 @@
+import subprocess
+import sys
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from fluidnb import Clip, Params, param
+from fluidnb.cli import add_params_options, build_parser, main, params_from_args
+
+
+def test_version_and_help(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.startswith("fluidnb ")
+    assert main([]) == 0
+    assert "info" in capsys.readouterr().out
+
+
+def test_console_script_entry_point_runs():
+    out = subprocess.run(
+        [sys.executable, "-m", "fluidnb", "--version"], capture_output=True, text=True, check=True
+    )
+    assert out.stdout.startswith("fluidnb ")
+
+
+def test_info_lists_versions_and_data(capsys):
+    assert main(["info"]) == 0
+    out = capsys.readouterr().out
+    assert "numpy" in out
+    assert "sample data:" in out
+
+
+def test_sample_writes_an_image(tmp_path, capsys):
+    assert main(["sample"]) == 0
+    listing = capsys.readouterr().out
+    name = listing.split()[0]
+    out = tmp_path / "s.png"
+    assert main(["sample", name, "--size", "32", "-o", str(out)]) == 0
+    assert out.exists()
+    assert main(["sample", "no-such-sample", "-o", str(out)]) == 2
+    assert "no-such-sample" in capsys.readouterr().err
+
+
+def test_convert_between_formats(tmp_path):
+    frames = np.random.default_rng(0).random((3, 8, 10)).astype(np.float32)
+    Clip(frames, fps=5, metadata={"method": "test"}).save(tmp_path / "c.npz")
+    assert main(["convert", str(tmp_path / "c.npz"), "-o", str(tmp_path / "c.gif")]) == 0
+    assert (tmp_path / "c.gif").exists()
+    assert main(["convert", str(tmp_path / "c.npz"), "-o", str(tmp_path / "pngs")]) == 0
+    assert len(list((tmp_path / "pngs").glob("*.png"))) == 3
+
+
+def test_convert_reports_bad_input_as_error(tmp_path, capsys):
+    (tmp_path / "bad.npz").write_bytes(b"garbage")
+    assert main(["convert", str(tmp_path / "bad.npz"), "-o", str(tmp_path / "x.gif")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("fluidnb convert: error:")
+    assert "bad.npz" in err
+
+
+@dataclass(frozen=True)
+class Demo(Params):
+    rth: float = param(0.0, lo=0, hi=1, symbol="r_{th}")
+    steps: int = param(10, lo=1, integer=True)
+    mapping: str = param("convex", choices=("plane", "convex"))
+    shade: bool = param(True)
+
+
+def test_params_options_follow_field_names():
+    import argparse
+
+    parser = argparse.ArgumentParser()
+    add_params_options(parser, Demo)
+    args = parser.parse_args(["--rth", "0.4", "--mapping", "plane", "--no-shade"])
+    p = params_from_args(Demo, args)
+    assert p == Demo(rth=0.4, mapping="plane", shade=False)
+    assert params_from_args(Demo, parser.parse_args([])) == Demo()
+    with pytest.raises(ValueError, match=r"rth must be in \[0, 1\]"):
+        params_from_args(Demo, parser.parse_args(["--rth", "2"]))
+
+
+def test_parser_builds():
+    assert build_parser().prog == "fluidnb"

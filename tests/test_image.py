@@ -1,0 +1,98 @@
+import numpy as np
+import pytest
+from PIL import Image
+
+from fluidnb import as_image, as_mask, to_uint8
+
+
+def test_uint8_uint16_bool_float_convert_to_float32_01():
+    u8 = np.array([[0, 51, 255]], np.uint8)
+    assert as_image(u8) == pytest.approx(np.array([[0.0, 0.2, 1.0]]))
+    u16 = np.array([[0, 65535]], np.uint16)
+    assert as_image(u16).tolist() == [[0.0, 1.0]]
+    assert as_image(np.array([[True, False]])).tolist() == [[1.0, 0.0]]
+    f = np.array([[0.25, 0.5]], np.float64)
+    out = as_image(f)
+    assert out.dtype == np.float32
+    assert out.tolist() == [[0.25, 0.5]]
+
+
+def test_never_aliases_or_modifies_input():
+    f = np.full((4, 4), 0.5, np.float32)
+    out = as_image(f)
+    out[:] = 0
+    assert np.all(f == 0.5)
+
+
+def test_channels_and_modes():
+    rgba = np.zeros((2, 3, 4), np.uint8)
+    rgba[..., 0] = 255
+    rgba[..., 3] = 128
+    rgb, alpha = as_image(rgba, return_alpha=True)
+    assert rgb.shape == (2, 3, 3)
+    assert alpha == pytest.approx(np.full((2, 3), 128 / 255))
+    assert as_image(rgba).shape == (2, 3, 3)
+    grey = as_image(rgba, mode="grey")
+    assert grey.shape == (2, 3)
+    assert grey[0, 0] == pytest.approx(0.2125)
+    assert as_image(np.zeros((2, 3, 1), np.uint8)).shape == (2, 3)
+    assert as_image(np.zeros((2, 3), np.uint8), mode="rgb").shape == (2, 3, 3)
+    _, none = as_image(np.zeros((2, 3)), return_alpha=True)
+    assert none is None
+
+
+def test_paths_and_pil(tmp_path):
+    arr = (np.arange(12, dtype=np.uint8).reshape(3, 4) * 20).astype(np.uint8)
+    Image.fromarray(arr).save(tmp_path / "a.png")
+    assert np.array_equal(as_image(tmp_path / "a.png"), arr / np.float32(255))
+    assert np.array_equal(as_image(str(tmp_path / "a.png")), as_image(Image.fromarray(arr)))
+    pal = Image.fromarray(np.stack([arr] * 3, -1)).convert("P")
+    assert as_image(pal).shape == (3, 4, 3)
+
+
+@pytest.mark.parametrize(
+    ("bad", "message"),
+    [
+        (np.array([[np.nan, 0.5]]), "image contains NaN"),
+        (np.array([[0.0, 2.0]]), r"floats must lie in \[0, 1\]"),
+        (np.zeros(5), r"image must have shape \(H, W\)"),
+        (np.zeros((2, 2, 2)), r"image must have shape \(H, W\)"),
+        (np.zeros((0, 3)), "image is empty"),
+        (np.zeros((2, 2), np.int64), "image has dtype int64"),
+        ({"a": 1}, "must be a file path, a numpy array or a PIL image"),
+        (np.array([["x"]]), "image has dtype"),
+    ],
+)
+def test_bad_images(bad, message):
+    with pytest.raises(ValueError, match=message):
+        as_image(bad)
+
+
+def test_bad_files(tmp_path):
+    with pytest.raises(ValueError, match="no such file"):
+        as_image(tmp_path / "missing.png")
+    (tmp_path / "corrupt.png").write_bytes(b"not a png at all")
+    with pytest.raises(ValueError, match="cannot read"):
+        as_image(tmp_path / "corrupt.png", name="photo")
+    with pytest.raises(ValueError, match="mode must be one of"):
+        as_image(np.zeros((2, 2)), mode="hsv")
+
+
+def test_as_mask():
+    m = as_mask(np.array([[0, 200]], np.uint8), (1, 2))
+    assert m.tolist() == [[False, True]]
+    with pytest.raises(ValueError, match="region is empty"):
+        as_mask(np.zeros((3, 3)), name="region")
+    with pytest.raises(ValueError, match="must have the same height and width"):
+        as_mask(np.ones((3, 3)), (3, 4))
+
+
+def test_to_uint8_rounds_and_clips():
+    assert to_uint8(np.array([-0.1, 0.0, 0.499 / 255, 0.5, 0.999, 1.2])).tolist() == [
+        0,
+        0,
+        0,
+        128,
+        255,
+        255,
+    ]
