@@ -1,0 +1,17 @@
+"""From what a user draws to plain arrays: strokes, brushes and direction fields."""
+
+from ._direction import direction_field, resample_stroke, stroke_tangents
+from ._draw import arrow_heads, quiver_segments, scalar_to_rgba
+from ._paint import flood_fill, paint_disk, paint_segment
+
+__all__ = [
+    "arrow_heads",
+    "direction_field",
+    "flood_fill",
+    "paint_disk",
+    "paint_segment",
+    "quiver_segments",
+    "resample_stroke",
+    "scalar_to_rgba",
+    "stroke_tangents",
+]

@@ -1,0 +1,195 @@
+"""A unit direction field interpolated from sketched flow strokes.
+
+Strokes are polylines in image pixels, (row, col). Their tangents, sampled evenly
+along each stroke, are interpolated over the whole image with radial basis functions
+(:class:`scipy.interpolate.RBFInterpolator`), then normalised. The video-database
+method reads the user's intended flow from this field.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.interpolate import RBFInterpolator
+
+from .._validation import check_array, check_choice, check_int, check_range
+
+__all__ = ["direction_field", "resample_stroke", "stroke_tangents"]
+
+_KERNELS = ("thin_plate_spline", "linear", "cubic", "quintic", "gaussian", "multiquadric")
+
+
+def _as_stroke(stroke, name):
+    arr = check_array(name, stroke, ndim=2, dtype_kinds="iuf")
+    if arr.shape[1] != 2:
+        raise ValueError(f"{name} must have shape (n, 2) as (row, col), got {arr.shape}")
+    return arr.astype(np.float64)
+
+
+def resample_stroke(stroke, spacing):
+    """Points evenly spaced by arc length along a polyline.
+
+    Parameters
+    ----------
+    stroke : array_like, shape (n, 2)
+        Polyline vertices (row, col) in pixels.
+    spacing : float
+        Distance between samples in pixels (> 0).
+
+    Returns
+    -------
+    ndarray, shape (m, 2)
+        Samples from the first vertex to the last, at most ``spacing`` apart; a
+        stroke of zero length gives its single point.
+
+    Examples
+    --------
+    >>> resample_stroke([[0, 0], [0, 4]], 1.0)[:, 1].tolist()
+    [0.0, 1.0, 2.0, 3.0, 4.0]
+    """
+    pts = _as_stroke(stroke, "stroke")
+    spacing = check_range("spacing", spacing, 0, None, lo_open=True)
+    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    if s[-1] == 0:
+        return pts[:1].copy()
+    n = max(int(np.ceil(s[-1] / spacing)), 1) + 1
+    t = np.linspace(0.0, s[-1], n)
+    keep = np.concatenate([[True], seg > 0])  # repeated vertices break np.interp
+    return np.stack([np.interp(t, s[keep], pts[keep, k]) for k in range(2)], axis=1)
+
+
+def stroke_tangents(strokes, spacing=8.0):
+    """Sample positions and unit tangents along every stroke.
+
+    Parameters
+    ----------
+    strokes : sequence of array_like, each shape (n_i, 2)
+        Polylines (row, col) in pixels, each drawn in its direction of flow.
+    spacing : float
+        Distance between samples along a stroke, in pixels.
+
+    Returns
+    -------
+    points : ndarray, shape (m, 2)
+        Sample positions (row, col).
+    tangents : ndarray, shape (m, 2)
+        Unit tangents (dy, dx) at those positions (central differences).
+        Strokes shorter than a pixel contribute nothing.
+    """
+    points, tangents = [], []
+    for i, stroke in enumerate(strokes):
+        pts = _as_stroke(stroke, f"strokes[{i}]")
+        if len(pts) < 2 or (np.linalg.norm(pts[-1] - pts[0]) < 1.0 and _length(pts) < 1.0):
+            continue
+        samples = resample_stroke(pts, spacing)
+        if len(samples) < 2:
+            continue
+        d = np.gradient(samples, axis=0)
+        norm = np.linalg.norm(d, axis=1, keepdims=True)
+        ok = norm[:, 0] > 0
+        points.append(samples[ok])
+        tangents.append(d[ok] / norm[ok])
+    if not points:
+        return np.empty((0, 2)), np.empty((0, 2))
+    return np.concatenate(points), np.concatenate(tangents)
+
+
+def _length(pts):
+    return float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
+
+
+def direction_field(
+    strokes,
+    shape,
+    *,
+    spacing=None,
+    kernel="thin_plate_spline",
+    smoothing=1.0,
+    grid_step=None,
+    max_samples=400,
+):
+    """Interpolate a unit direction field over an image from flow strokes.
+
+    Parameters
+    ----------
+    strokes : sequence of array_like, each shape (n_i, 2)
+        Polylines (row, col) in image pixels, each drawn along the flow.
+    shape : tuple of int
+        The image's (H, W) (extra trailing entries are ignored).
+    spacing : float, optional
+        Distance between tangent samples along a stroke (default: 1/40 of the
+        larger image side, at least 2 px).
+    kernel : str
+        RBF kernel of :class:`scipy.interpolate.RBFInterpolator`. The default thin-plate
+        spline bends smoothly between strokes and needs no length scale.
+    smoothing : float
+        RBF smoothing (>= 0): 0 interpolates the samples exactly; a little smoothing
+        keeps nearby, slightly disagreeing strokes from making whorls.
+    grid_step : int, optional
+        The RBF is evaluated on a grid this many pixels apart and bilinearly upsampled
+        (the field is smooth, and this keeps large images fast). Default: 1/64 of the
+        larger side, at least 1.
+    max_samples : int
+        At most this many tangent samples (the spacing grows to fit): the RBF fit costs
+        O(m^3).
+
+    Returns
+    -------
+    ndarray, shape (H, W, 2), float32
+        Unit vectors (dy, dx); zero where opposing strokes cancel exactly.
+
+    Raises
+    ------
+    ValueError
+        If no stroke is at least a pixel long, or a stroke is not an (n, 2) array.
+
+    Examples
+    --------
+    >>> field = direction_field([[[10, 2], [10, 30]]], (20, 32))
+    >>> field.shape, bool(np.allclose(field[..., 1], 1.0, atol=1e-3))
+    ((20, 32, 2), True)
+    """
+    h, w = (check_int("shape[0]", shape[0], 1), check_int("shape[1]", shape[1], 1))
+    check_choice("kernel", kernel, _KERNELS)
+    smoothing = check_range("smoothing", smoothing, 0, None)
+    max_samples = check_int("max_samples", max_samples, 3)
+    if spacing is None:
+        spacing = max(2.0, max(h, w) / 40.0)
+    spacing = check_range("spacing", spacing, 0, None, lo_open=True)
+    if isinstance(strokes, np.ndarray) and strokes.ndim == 2:
+        strokes = [strokes]
+    strokes = list(strokes)
+    total = sum(_length(_as_stroke(s, f"strokes[{i}]")) for i, s in enumerate(strokes))
+    if total < 1.0:
+        raise ValueError("strokes: draw at least one stroke longer than one pixel")
+    spacing = max(spacing, total / max_samples)
+    points, tangents = stroke_tangents(strokes, spacing)
+    if len(points) < 3:
+        # Too few samples for an RBF fit: the field is the mean direction.
+        mean = tangents.mean(axis=0)
+        out = np.empty((h, w, 2), np.float32)
+        out[:] = mean / max(np.linalg.norm(mean), 1e-12)
+        return out
+    if grid_step is None:
+        grid_step = max(1, max(h, w) // 64)
+    grid_step = check_int("grid_step", grid_step, 1)
+    rows = np.arange(0, h + grid_step - 1, grid_step, dtype=np.float64).clip(max=h - 1)
+    cols = np.arange(0, w + grid_step - 1, grid_step, dtype=np.float64).clip(max=w - 1)
+    rr, cc = np.meshgrid(np.unique(rows), np.unique(cols), indexing="ij")
+    # A degree-1 polynomial term lets a straight stroke reproduce a uniform field, but
+    # it is singular when every sample lies on one line; then a linear kernel with a
+    # constant term (which it allows) does the same job.
+    centred = points - points.mean(axis=0)
+    collinear = np.linalg.matrix_rank(centred, tol=1e-6 * max(h, w)) < 2
+    if collinear:
+        rbf = RBFInterpolator(points, tangents, kernel="linear", smoothing=smoothing, degree=0)
+    else:
+        rbf = RBFInterpolator(points, tangents, kernel=kernel, smoothing=smoothing, degree=1)
+    coarse = rbf(np.column_stack([rr.ravel(), cc.ravel()])).reshape(rr.shape + (2,))
+    if coarse.shape[:2] != (h, w):
+        from ..fields import resize
+
+        coarse = resize(coarse, (h, w))
+    norm = np.linalg.norm(coarse, axis=-1, keepdims=True)
+    field = np.where(norm > 1e-9, coarse / np.maximum(norm, 1e-12), 0.0)
+    return field.astype(np.float32)
