@@ -1,0 +1,162 @@
+import threading
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from fluidnb import Clip, Params, Progress, param
+from fluidnb.widgets import App, DrawingCanvas, ParamPanel
+
+
+@dataclass(frozen=True)
+class Demo(Params):
+    level: float = param(0.5, lo=0, hi=1)
+    n: int = param(4, lo=2, hi=400, integer=True)
+    lo: int = param(1, lo=0, hi=10, integer=True)
+
+    def check(self):
+        if self.lo >= self.n:
+            raise ValueError(f"lo must be < n = {self.n}, got {self.lo}")
+
+
+def level_clip(params, n=2):
+    return Clip(np.full((n, 6, 6), params.level, np.float32), fps=4, metadata={"method": "demo"})
+
+
+def make_app(run=None, preview=None, canvas=True):
+    c = DrawingCanvas(np.zeros((16, 16)), masks=["region"]) if canvas else None
+
+    def default_run(params, progress):
+        report = Progress(progress)
+        for i in range(params.n):
+            report(i / params.n, f"frame {i}")
+            time.sleep(0.01)
+        if c is not None and not c.get_mask("region").any():
+            raise ValueError("region is empty: paint at least one pixel")
+        return level_clip(params, params.n)
+
+    app = App(
+        panel=ParamPanel(Demo),
+        run=run or default_run,
+        preview=preview,
+        canvas=c,
+        title="Demo",
+        min_interval=0.0,
+    )
+    return app, c
+
+
+def test_preview_follows_sliders_latest_value_wins():
+    calls = []
+
+    def preview(params):
+        calls.append(params.level)
+        time.sleep(0.02)
+        return level_clip(params)
+
+    app, _ = make_app(preview=preview)
+    try:
+        for v in np.linspace(0, 1, 21):
+            app.panel.controls["level"].value = float(v)
+        app.wait_preview()
+        assert app.player.clip.frames[0, 0, 0] == pytest.approx(1.0)
+        # Throttled: far fewer computations than slider events, and the last is the latest.
+        assert len(calls) < 21
+        assert calls[-1] == pytest.approx(1.0)
+    finally:
+        app.close()
+
+
+def test_drawing_triggers_preview():
+    seen = []
+
+    def preview(params):
+        seen.append(1)
+        return level_clip(params)
+
+    app, canvas = make_app(preview=preview)
+    try:
+        app.wait_preview()
+        before = len(seen)
+        canvas.paint([[4, 4]], radius=2)
+        app.wait_preview()
+        assert len(seen) == before + 1
+    finally:
+        app.close()
+
+
+def test_run_reports_progress_and_shows_result():
+    app, canvas = make_app()
+    fractions = []
+    app.progress.observe(lambda c: fractions.append(c["new"]), "value")
+    canvas.paint([[4, 4]], radius=2)
+    clip = app.run(timeout=10)
+    assert isinstance(clip, Clip)
+    assert app.player.clip is clip
+    assert app.progress.value == 1
+    assert fractions == sorted(fractions)
+    assert len(fractions) >= 3
+    assert "done" in app.status
+    app.close()
+
+
+def test_cancel_stops_within_a_second_and_keeps_the_drawing():
+    started = threading.Event()
+
+    def slow(params, progress):
+        report = Progress(progress)
+        started.set()
+        for i in range(1000):
+            report(i / 1000)
+            time.sleep(0.01)
+        return level_clip(params)
+
+    app, canvas = make_app(run=slow)
+    canvas.paint([[4, 4]], radius=2)
+    mask = canvas.get_mask()
+    assert app.start()
+    assert started.wait(5)
+    assert not app.start()  # a second press while running does nothing
+    t0 = time.monotonic()
+    app._cancel_button.click()
+    app.wait(timeout=5)
+    assert time.monotonic() - t0 < 1.0
+    assert "cancelled" in app.status
+    assert app.result is None
+    assert np.array_equal(canvas.get_mask(), mask)
+    assert not app._run_button.disabled
+    app.close()
+
+
+def test_errors_appear_in_plain_words_and_nothing_is_lost():
+    app, canvas = make_app()
+    canvas.draw_stroke  # noqa: B018 - the canvas has no stroke layer; paint nothing
+    app.run(timeout=10)
+    assert app.status == "region is empty: paint at least one pixel"
+    assert app.progress.bar_style == "danger"
+    canvas.paint([[4, 4]], radius=2)
+    assert app.run(timeout=10) is not None
+    app.close()
+
+
+def test_unexpected_exceptions_are_shown_not_raised(capsys):
+    def broken(params, progress):
+        raise RuntimeError("boom")
+
+    app, _ = make_app(run=broken)
+    app.run(timeout=10)
+    assert app.status == "RuntimeError: boom"
+    assert "boom" in capsys.readouterr().err
+    app.close()
+
+
+def test_invalid_parameters_disable_run_and_explain():
+    app, _ = make_app(canvas=False)
+    app.panel.controls["lo"].value = 9  # lo >= n = 4: invalid combination
+    assert app._run_button.disabled
+    assert "lo must be < n" in app.status
+    assert not app.start()
+    app.panel.controls["n"].value = 20
+    assert not app._run_button.disabled
+    app.close()

@@ -1,0 +1,111 @@
+from dataclasses import dataclass
+
+import ipywidgets as W
+import pytest
+
+from fluidnb import Params, param
+from fluidnb.widgets import ParamPanel
+
+
+@dataclass(frozen=True)
+class Demo(Params):
+    sigma: float = param(
+        5.0, lo=0, lo_open=True, symbol=r"\sigma", eq="Eq. (6)", log=True, ui_range=(0.1, 100)
+    )
+    lam: float = param(1.0, lo=0, hi=10, symbol=r"\lambda", eq="Eq. (6)")
+    rth: float = param(0.0, lo=0, hi=1, symbol="r_{th}", doc="random threshold")
+    T: int = param(64, lo=2, hi=256, integer=True)
+    f0: int = param(4, lo=1, hi=64, integer=True)
+    mapping: str = param("convex", choices=("plane", "convex", "concave"))
+    shade: bool = param(True)
+
+    def check(self):
+        if self.f0 >= self.T / 2:
+            raise ValueError(f"f0 must be < T / 2 = {self.T / 2:g}, got {self.f0}")
+
+
+def test_one_control_per_field_with_paper_defaults_and_tooltips():
+    panel = ParamPanel(Demo)
+    assert list(panel.controls) == list(Demo.specs())
+    assert isinstance(panel.controls["sigma"], W.FloatLogSlider)
+    assert isinstance(panel.controls["lam"], W.FloatSlider)
+    assert isinstance(panel.controls["T"], W.IntSlider)
+    assert isinstance(panel.controls["mapping"], W.Dropdown)
+    assert isinstance(panel.controls["shade"], W.Checkbox)
+    for name, control in panel.controls.items():
+        assert control.value == getattr(Demo(), name)
+    assert "Eq. (6)" in panel.controls["sigma"].tooltip
+    assert r"$\sigma$" in panel.controls["sigma"].description
+    assert panel.controls["sigma"].min == pytest.approx(-1)
+    assert panel.controls["sigma"].max == pytest.approx(2)
+    assert panel.controls["rth"].max == 1
+
+
+@pytest.mark.parametrize(
+    ("name", "value"),
+    [
+        ("sigma", 20.0),
+        ("lam", 3.5),
+        ("rth", 0.8),
+        ("T", 100),
+        ("f0", 10),
+        ("mapping", "plane"),
+        ("shade", False),
+    ],
+)
+def test_every_field_round_trips(name, value):
+    panel = ParamPanel(Demo)
+    panel.set(name, value)
+    assert (
+        getattr(panel.params, name) == pytest.approx(value)
+        if isinstance(value, float)
+        else (getattr(panel.params, name) == value)
+    )
+    assert isinstance(panel.params, Demo)
+    panel.controls[name].value = getattr(Demo(), name)
+    assert panel.params == Demo()
+
+
+def test_out_of_range_is_refused_with_message_and_control_unchanged():
+    panel = ParamPanel(Demo)
+    with pytest.raises(ValueError, match=r"rth must be in \[0, 1\], got 1.3"):
+        panel.set("rth", 1.3)
+    assert panel.controls["rth"].value == 0
+    assert "rth must be in [0, 1]" in panel._msg.value
+    assert panel.params == Demo()
+
+
+def test_invalid_combination_is_shown_not_raised():
+    panel = ParamPanel(Demo)
+    seen = []
+    panel.observe(lambda c: seen.append(c["new"]), "params")
+    panel.controls["T"].value = 6  # f0 = 4 >= 3: invalid, shown in the panel
+    assert not panel.valid
+    assert "f0 must be < T / 2" in panel.message
+    assert "f0 must be" in panel._msg.value
+    assert panel.params.T == 64  # still the last valid object
+    panel.controls["f0"].value = 2
+    assert panel.valid
+    assert panel.params == Demo(T=6, f0=2)
+    assert seen == [Demo(T=6, f0=2)]
+
+
+def test_reset_to_paper_defaults_and_set_params():
+    panel = ParamPanel(Demo(sigma=50, rth=0.5))
+    assert panel.controls["sigma"].value == pytest.approx(50)
+    panel._reset.click()
+    assert panel.params == Demo()
+    panel.set_params(Demo(lam=2))
+    assert panel.params.lam == 2
+    with pytest.raises(ValueError, match="params must be a Demo"):
+        panel.set_params(object())
+
+
+def test_exclude_and_bad_arguments():
+    panel = ParamPanel(Demo, exclude=["shade"])
+    assert "shade" not in panel.controls
+    assert panel.params.shade is True
+    with pytest.raises(ValueError, match="no parameter 'nope'"):
+        panel.set("nope", 1)
+    with pytest.raises(ValueError, match=r"params must be a fluidnb\.Params"):
+        ParamPanel(dict)

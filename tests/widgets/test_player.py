@@ -1,0 +1,89 @@
+import os
+
+import numpy as np
+import pytest
+
+from fluidnb import Clip
+from fluidnb.widgets import FramePlayer
+
+
+def clip(n=5):
+    frames = np.stack([np.full((8, 12), i / (n - 1), np.float32) for i in range(n)])
+    return Clip(frames, fps=6, metadata={"method": "demo"})
+
+
+def test_frames_show_and_are_encoded_once():
+    p = FramePlayer(clip())
+    first = p.image.value
+    p.show(3)
+    assert p.frame == 3
+    assert p._slider.value == 3
+    assert p.image.value != first
+    cached = p._png[3]
+    p.show(0)
+    p.show(3)
+    assert p._png[3] is cached  # not re-encoded
+    assert bytes(p.image.value) == cached
+
+
+def test_slider_drives_the_frame_and_fps_drives_play_interval():
+    p = FramePlayer(clip())
+    assert p.fps == 6
+    p._slider.value = 4
+    assert p.frame == 4
+    p.fps = 20
+    assert p._play.interval == 50
+    assert p._play.max == 4
+    p.play()
+    assert p.playing
+    p.play(False)
+    assert not p.playing
+
+
+def test_new_clip_resets_cache_and_bounds():
+    p = FramePlayer(clip(5))
+    p.show(4)
+    p.clip = clip(3)
+    assert p.frame == 2
+    assert p._play.max == 2
+    assert set(p._png) == {2}
+
+
+def test_export_gif_and_mp4_write_files_with_links(tmp_path):
+    p = FramePlayer(clip(), export_dir=tmp_path)
+    gif = p.export("gif")
+    mp4 = p.export("mp4")
+    assert gif.exists()
+    assert mp4.exists()
+    assert gif.parent == tmp_path
+    assert Clip.load(gif).n_frames == 5
+    assert mp4.name in p.link.value
+    assert "<a href=" in p.link.value
+
+
+def test_export_button_writes_next_to_the_notebook(tmp_path):
+    cwd = os.getcwd()
+    os.chdir(tmp_path)
+    try:
+        p = FramePlayer(clip())
+        p._gif.click()
+        (written,) = tmp_path.glob("fluidnb-demo-*.gif")
+        assert f"href='{written.name}'" in p.link.value
+    finally:
+        os.chdir(cwd)
+
+
+def test_errors_without_clip_and_bad_values():
+    p = FramePlayer()
+    assert p._gif.disabled
+    with pytest.raises(ValueError, match="no clip to export"):
+        p.export()
+    with pytest.raises(ValueError, match="no clip to show"):
+        p.show(0)
+    p.clip = clip()
+    with pytest.raises(ValueError, match=r"frame must be in \[0, 4\]"):
+        p.show(9)
+    with pytest.raises(ValueError, match="fmt must be 'gif' or 'mp4'"):
+        p.export("avi")
+    with pytest.raises(ValueError, match=r"clip must be a fluidnb\.Clip"):
+        p.clip = np.zeros((3, 4, 4))

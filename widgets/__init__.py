@@ -1,0 +1,15 @@
+"""Interactive layer of fluidnb (ipywidgets + ipycanvas); installed as ``fluidnb.widgets``.
+
+Reusable pieces every method's app is made of: :class:`DrawingCanvas` (strokes, brush,
+points over an image), :class:`FramePlayer` (play and export a clip),
+:class:`ParamPanel` (sliders from a parameter dataclass) and :class:`App` (all of them
+with a run button, progress, cancel and a live preview). No algorithm lives here:
+everything calls :mod:`fluidnb`.
+"""
+
+from ._app import App
+from ._canvas import DrawingCanvas
+from ._panel import ParamPanel
+from ._player import FramePlayer
+
+__all__ = ["App", "DrawingCanvas", "FramePlayer", "ParamPanel"]

@@ -1,0 +1,255 @@
+"""The app shell every method's app is made of: canvas, panel, run, progress, player."""
+
+from __future__ import annotations
+
+import html
+import threading
+import time
+import traceback
+
+import ipywidgets as W
+from traitlets import Unicode
+
+from fluidnb import Cancelled, CancelToken, Clip
+
+from ._player import FramePlayer
+
+__all__ = ["App"]
+
+
+class App(W.VBox):
+    """A drawing canvas, a parameter panel, a run button with progress and a player.
+
+    The app holds no algorithm: it calls the method's library functions through the
+    two callables it is given, with plain arrays and a parameter object.
+
+    Parameters
+    ----------
+    panel : ParamPanel
+        The method's parameters.
+    run : callable
+        ``run(params, progress) -> Clip``: the full computation, started by the Run
+        button in a worker thread (the kernel stays responsive); ``progress`` is the
+        library's progress callable, which raises :class:`fluidnb.Cancelled` after
+        Cancel.
+    preview : callable, optional
+        ``preview(params) -> Clip``: a cheap version recomputed live (throttled, the
+        latest state wins) whenever a parameter or the drawing changes.
+    canvas : DrawingCanvas, optional
+        Where the user draws; its changes trigger the preview.
+    title : str
+        A heading shown above the app.
+    extra : sequence of widgets
+        More widgets placed under the panel (method-specific outputs).
+    """
+
+    #: The status line's text (errors appear here in plain words).
+    status = Unicode("")
+
+    def __init__(
+        self, *, panel, run, preview=None, canvas=None, title="", extra=(), min_interval=0.15
+    ):
+        self.panel = panel
+        self.canvas = canvas
+        self._run_fn = run
+        self._preview_fn = preview
+        self.min_interval = float(min_interval)
+        self.player = FramePlayer()
+        self.result = None  #: The last full run's Clip.
+        self._token = None
+        self._thread = None
+        self._preview_lock = threading.Condition()
+        self._preview_requested = 0
+        self._preview_done = 0
+        self._preview_thread = None
+        self._closed = False
+
+        self._run_button = W.Button(description="Run", icon="play", button_style="primary")
+        self._cancel_button = W.Button(description="Cancel", icon="stop", disabled=True)
+        self.progress = W.FloatProgress(value=0, min=0, max=1, layout=W.Layout(width="220px"))
+        self._progress_text = W.Label()
+        self._status = W.HTML(layout=W.Layout(min_height="1.6em"))
+        for wid, cls in [
+            (self._run_button, "fluidnb-run"),
+            (self._cancel_button, "fluidnb-cancel"),
+            (self.progress, "fluidnb-progress"),
+            (self._status, "fluidnb-status"),
+        ]:
+            wid.add_class(cls)
+        self._run_button.on_click(lambda _: self.start())
+        self._cancel_button.on_click(lambda _: self.cancel())
+        panel.observe(self._params_changed, "params")
+        panel.observe(self._validity_changed, "valid")
+        if canvas is not None:
+            canvas.observe(lambda _: self.request_preview(), "version")
+
+        runbar = W.HBox([self._run_button, self._cancel_button, self.progress, self._progress_text])
+        side = W.VBox([panel, runbar, self._status, *extra], layout=W.Layout(margin="0 0 0 1em"))
+        top = [canvas, side] if canvas is not None else [side]
+        children = []
+        if title:
+            children.append(W.HTML(f"<h3 style='margin:0.2em 0'>{html.escape(title)}</h3>"))
+        children += [W.HBox(top, layout=W.Layout(flex_flow="row wrap")), self.player]
+        super().__init__(children)
+        self.add_class("fluidnb-app")
+        if preview is not None:
+            self.request_preview()
+
+    # ------------------------------------------------------------------ status
+    def say(self, text, kind="info"):
+        """Show a message in the status line (kind: info, ok, error)."""
+        color = {
+            "error": "var(--jp-error-color1, #d32f2f)",
+            "ok": "var(--jp-success-color1, #388e3c)",
+        }.get(kind, "inherit")
+        self.status = text
+        self._status.value = f"<span style='color:{color}'>{html.escape(text)}</span>"
+
+    def _validity_changed(self, change):
+        self._run_button.disabled = not change["new"] or self.running
+        if not change["new"]:
+            self.say(f"Fix the parameters: {self.panel.message}", "error")
+        else:
+            self.say("")
+
+    def _params_changed(self, change):
+        self.request_preview()
+
+    # ------------------------------------------------------------------ preview
+    def request_preview(self):
+        """Ask for a fresh preview; returns at once (a worker computes it)."""
+        if self._preview_fn is None or self._closed:
+            return
+        with self._preview_lock:
+            self._preview_requested += 1
+            self._preview_lock.notify_all()
+            if self._preview_thread is None:
+                self._preview_thread = threading.Thread(
+                    target=self._preview_loop, name="fluidnb-preview", daemon=True
+                )
+                self._preview_thread.start()
+
+    def _preview_loop(self):
+        while True:
+            with self._preview_lock:
+                while self._preview_done >= self._preview_requested and not self._closed:
+                    self._preview_lock.wait()
+                if self._closed:
+                    return
+                # Everything requested so far is served by this one computation,
+                # which reads the latest parameters and drawing: the latest state wins.
+                target = self._preview_requested
+            started = time.monotonic()
+            try:
+                clip = self._preview_fn(self.panel.params)
+                if not isinstance(clip, Clip):
+                    raise TypeError(
+                        f"preview must return a fluidnb.Clip, got {type(clip).__name__}"
+                    )
+                if not self.running:
+                    self.player.clip = clip
+                    self.say(f"preview ({time.monotonic() - started:.2f} s)")
+            except ValueError as exc:
+                self.say(str(exc), "error")
+            except Exception as exc:  # shown, never raised into the kernel's thread
+                self.say(f"preview failed: {type(exc).__name__}: {exc}", "error")
+                traceback.print_exc()
+            with self._preview_lock:
+                self._preview_done = target
+                self._preview_lock.notify_all()
+            time.sleep(max(0.0, self.min_interval - (time.monotonic() - started)))
+
+    def wait_preview(self, timeout=30):
+        """Block until every preview requested so far has been shown (for scripts/tests)."""
+        deadline = time.monotonic() + timeout
+        with self._preview_lock:
+            target = self._preview_requested
+            while self._preview_done < target:
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    raise TimeoutError("the preview did not finish in time")
+                self._preview_lock.wait(left)
+
+    # ------------------------------------------------------------------ run / cancel
+    @property
+    def running(self):
+        """Whether a full run is in progress."""
+        return self._thread is not None and self._thread.is_alive()
+
+    def start(self):
+        """Start the full run in a worker thread (what the Run button does)."""
+        if self.running:
+            return False
+        if not self.panel.valid:
+            self.say(f"Fix the parameters: {self.panel.message}", "error")
+            return False
+        params = self.panel.params
+        self._token = CancelToken(self._report)
+        self._run_button.disabled = True
+        self._cancel_button.disabled = False
+        self.progress.value = 0
+        self.progress.bar_style = ""
+        self.say("running…")
+        self._thread = threading.Thread(
+            target=self._run_worker, args=(params, self._token), name="fluidnb-run", daemon=True
+        )
+        self._thread.start()
+        return True
+
+    def _report(self, fraction, message=""):
+        self.progress.value = fraction
+        self._progress_text.value = message
+
+    def _run_worker(self, params, token):
+        started = time.monotonic()
+        try:
+            clip = self._run_fn(params, token)
+            if not isinstance(clip, Clip):
+                raise TypeError(f"run must return a fluidnb.Clip, got {type(clip).__name__}")
+            self.result = clip
+            self.player.clip = clip
+            self.progress.value = 1
+            self.progress.bar_style = "success"
+            self.say(f"done in {time.monotonic() - started:.1f} s: {len(clip)} frames", "ok")
+        except Cancelled:
+            self.progress.bar_style = "warning"
+            self.say("cancelled; your drawing and settings are unchanged")
+        except ValueError as exc:
+            self.progress.bar_style = "danger"
+            self.say(str(exc), "error")
+        except Exception as exc:
+            self.progress.bar_style = "danger"
+            self.say(f"{type(exc).__name__}: {exc}", "error")
+            traceback.print_exc()
+        finally:
+            self._run_button.disabled = not self.panel.valid
+            self._cancel_button.disabled = True
+            self._progress_text.value = ""
+
+    def cancel(self):
+        """Ask the running computation to stop at its next progress report."""
+        if self._token is not None and self.running:
+            self._token.cancel()
+            self.say("cancelling…")
+
+    def wait(self, timeout=None):
+        """Block until the current run ends (for scripts and tests); returns the result."""
+        if self._thread is not None:
+            self._thread.join(timeout)
+            if self._thread.is_alive():
+                raise TimeoutError("the run did not finish in time")
+        return self.result
+
+    def run(self, timeout=None):
+        """Press Run and wait for the result (headless driving)."""
+        self.start()
+        return self.wait(timeout)
+
+    def close(self):
+        """Stop the preview worker and close the widgets."""
+        self._closed = True
+        with self._preview_lock:
+            self._preview_lock.notify_all()
+        if self._token is not None:
+            self._token.cancel()
+        super().close()

@@ -1,0 +1,214 @@
+"""A parameter panel generated from a method's parameter dataclass."""
+
+from __future__ import annotations
+
+import html
+import math
+
+import ipywidgets as W
+from traitlets import Any, Bool, Unicode
+
+from fluidnb import Params
+
+__all__ = ["ParamPanel"]
+
+
+class ParamPanel(W.VBox):
+    """One control per field of a :class:`fluidnb.Params` subclass.
+
+    Sliders start at the paper's defaults, span the field's range (log scale where
+    the field asks for it: sigma, lambda, rho), and carry a tooltip with the paper's
+    symbol and equation. :attr:`params` always holds a valid parameter object; an
+    invalid combination is shown in the panel (and :attr:`valid` turns False) instead
+    of raising.
+
+    Parameters
+    ----------
+    params : Params subclass or instance
+        The parameter class (defaults) or a starting object.
+    exclude : sequence of str
+        Fields to leave out of the panel (they keep their values).
+    continuous_update : bool
+        Whether sliders report while dragging (apps throttle their previews).
+
+    Examples
+    --------
+    >>> from dataclasses import dataclass
+    >>> from fluidnb import Params, param
+    >>> @dataclass(frozen=True)
+    ... class P(Params):
+    ...     rth: float = param(0.0, lo=0, hi=1, symbol="r_{th}")
+    >>> panel = ParamPanel(P)
+    >>> panel.set("rth", 0.4)
+    >>> panel.params
+    P(rth=0.4)
+    """
+
+    #: The current, valid parameter object.
+    params = Any()
+    #: False while the controls hold an invalid combination (see :attr:`message`).
+    valid = Bool(True)
+    #: What is wrong with the controls, in plain words ("" when valid).
+    message = Unicode("")
+
+    def __init__(self, params, *, exclude=(), continuous_update=True):
+        if isinstance(params, type) and issubclass(params, Params):
+            params = params()
+        if not isinstance(params, Params):
+            raise ValueError(f"params must be a fluidnb.Params class or object, got {params!r}")
+        self._cls = type(params)
+        self._specs = {n: s for n, s in self._cls.specs().items() if n not in set(exclude)}
+        self.controls = {
+            name: _control(spec, getattr(params, name), continuous_update)
+            for name, spec in self._specs.items()
+        }
+        self._quiet = False
+        for name, control in self.controls.items():
+            control.add_class(f"fluidnb-param-{name}")
+            control.observe(self._control_changed, "value")
+        self._reset = W.Button(
+            description="Paper defaults",
+            icon="refresh",
+            tooltip="Reset every field to the paper's value",
+        )
+        self._reset.add_class("fluidnb-reset")
+        self._reset.on_click(lambda _: self.reset())
+        self._msg = W.HTML()
+        self._msg.add_class("fluidnb-param-message")
+        super().__init__([*self.controls.values(), self._reset, self._msg])
+        self.add_class("fluidnb-panel")
+        self.params = params
+
+    def _gather(self):
+        values = self.params.to_dict() if self.params is not None else {}
+        values.update({name: c.value for name, c in self.controls.items()})
+        return values
+
+    def _control_changed(self, change):
+        if self._quiet:
+            return
+        self._apply(self._gather())
+
+    def _apply(self, values):
+        try:
+            new = self._cls(**values)
+        except ValueError as exc:
+            self.message = str(exc)
+            self.valid = False
+            self._msg.value = (
+                "<span style='color:var(--jp-error-color1, #d32f2f)'>"
+                f"&#9888; {html.escape(str(exc))}</span>"
+            )
+            return False
+        self.message = ""
+        self.valid = True
+        self._msg.value = ""
+        if new != self.params:
+            self.params = new
+        return True
+
+    def set(self, name, value):
+        """Set one field as a user would; a refused value raises ValueError.
+
+        The message is shown in the panel too, and the control goes back to the last
+        valid value.
+        """
+        if name not in self.controls:
+            raise ValueError(f"no parameter {name!r}; the panel has {', '.join(self.controls)}")
+        spec = self._specs[name]
+        try:
+            value = spec.validate(value)
+        except ValueError as exc:
+            self._msg.value = (
+                "<span style='color:var(--jp-error-color1, #d32f2f)'>"
+                f"&#9888; {html.escape(str(exc))}</span>"
+            )
+            self.message = str(exc)
+            raise
+        self.controls[name].value = value
+        if not self.valid:
+            raise ValueError(self.message)
+
+    def set_params(self, params):
+        """Load a whole parameter object into the controls."""
+        if not isinstance(params, self._cls):
+            raise ValueError(f"params must be a {self._cls.__name__}, got {type(params).__name__}")
+        self._quiet = True
+        try:
+            for name, control in self.controls.items():
+                control.value = getattr(params, name)
+        finally:
+            self._quiet = False
+        self._apply(params.to_dict())
+
+    def reset(self):
+        """Back to the paper's defaults."""
+        self.set_params(self._cls())
+
+
+def _bounds(spec, default):
+    lo, hi = spec.ui_range if spec.ui_range is not None else (spec.lo, spec.hi)
+    if lo is None:
+        lo = 0.0 if default >= 0 else default * 10
+    if hi is None:
+        hi = max(default * 10, lo + 1) if default > 0 else lo + 10
+    return lo, hi
+
+
+def _control(spec, value, continuous_update):
+    kind = spec.kind
+    label = (
+        f"{spec.name} ${spec.symbol}$" if spec.symbol and spec.symbol != spec.name else spec.name
+    )
+    common = {
+        "description": label,
+        "tooltip": spec.describe(),
+        "style": {"description_width": "110px"},
+        "layout": W.Layout(width="420px"),
+    }
+    if kind == "choice":
+        return W.Dropdown(options=list(spec.choices), value=value, **common)
+    if kind == "bool":
+        return W.Checkbox(value=value, indent=False, **common)
+    lo, hi = _bounds(spec, spec.default)
+    if kind == "int":
+        step = int(spec.step or 1)
+        return W.IntSlider(
+            value=value,
+            min=int(lo),
+            max=int(hi),
+            step=step,
+            continuous_update=continuous_update,
+            **common,
+        )
+    if spec.log:
+        lo = lo if lo > 0 else (spec.default / 100 if spec.default > 0 else 1e-3)
+        return W.FloatLogSlider(
+            value=value,
+            base=10,
+            min=math.log10(lo),
+            max=math.log10(hi),
+            step=spec.step or 0.01,
+            readout_format=".3g",
+            continuous_update=continuous_update,
+            **common,
+        )
+    step = spec.step or _nice_step(hi - lo)
+    return W.FloatSlider(
+        value=value,
+        min=lo,
+        max=hi,
+        step=step,
+        readout_format=".3g",
+        continuous_update=continuous_update,
+        **common,
+    )
+
+
+def _nice_step(span):
+    raw = span / 200.0
+    mag = 10 ** math.floor(math.log10(raw)) if raw > 0 else 0.01
+    for m in (1, 2, 5, 10):
+        if raw <= m * mag:
+            return m * mag
+    return 10 * mag

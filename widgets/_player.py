@@ -1,0 +1,188 @@
+"""A frame player for a :class:`fluidnb.Clip`: play/pause, scrub, fps, loop, export."""
+
+from __future__ import annotations
+
+import html
+import io
+import time
+from pathlib import Path
+
+import ipywidgets as W
+from PIL import Image
+from traitlets import Any, Int, observe
+
+from fluidnb import Clip, to_uint8
+
+__all__ = ["FramePlayer"]
+
+
+class FramePlayer(W.VBox):
+    """Play a clip inline, frame by frame, and export it as GIF or MP4.
+
+    Each frame is encoded to PNG the first time it is shown and kept, so playing
+    and scrubbing never re-encode the clip. The Play widget runs in the browser and
+    only asks the kernel for the frame to show.
+
+    Parameters
+    ----------
+    clip : fluidnb.Clip, optional
+        What to play (set :attr:`clip` later to change it).
+    display_width : int
+        Width on screen in pixels (small simulation grids are enlarged, pixelated).
+    export_dir : str or Path
+        Where the export buttons write (default: the notebook's folder).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fluidnb import Clip, to_uint8
+    >>> p = FramePlayer(Clip(np.zeros((4, 8, 8)), fps=4))
+    >>> p.show(2)
+    >>> p.frame
+    2
+    """
+
+    #: The clip being played (a fluidnb.Clip or None).
+    clip = Any(None, allow_none=True)
+    #: Index of the frame on screen.
+    frame = Int(0)
+
+    def __init__(self, clip=None, *, display_width=384, export_dir=".", label="clip"):
+        self.display_width = int(display_width)
+        self.export_dir = Path(export_dir)
+        self.label = label
+        self._png = {}
+        self.image = W.Image(format="png", layout=W.Layout(width=f"{self.display_width}px"))
+        self.image.add_class("fluidnb-frame")
+        self._play = W.Play(interval=125, step=1, repeat=True, show_repeat=True)
+        self._play.add_class("fluidnb-play")
+        self._slider = W.IntSlider(description="frame", readout=True, continuous_update=True)
+        self._slider.add_class("fluidnb-frame-slider")
+        # The slider follows Play in the browser (jslink): no kernel round trip per tick.
+        W.jslink((self._play, "value"), (self._slider, "value"))
+        self._fps = W.BoundedFloatText(
+            value=8.0, min=0.5, max=60, step=0.5, description="fps", layout=W.Layout(width="150px")
+        )
+        self._fps.add_class("fluidnb-fps")
+        self._gif = W.Button(description="GIF", icon="download", layout=W.Layout(width="80px"))
+        self._mp4 = W.Button(description="MP4", icon="download", layout=W.Layout(width="80px"))
+        self._gif.add_class("fluidnb-export-gif")
+        self._mp4.add_class("fluidnb-export-mp4")
+        self.link = W.HTML()
+        self.link.add_class("fluidnb-export-link")
+        self.info = W.HTML()
+        self._slider.observe(lambda c: setattr(self, "frame", c["new"]), "value")
+        self._fps.observe(self._fps_changed, "value")
+        self._gif.on_click(lambda _: self.export("gif"))
+        self._mp4.on_click(lambda _: self.export("mp4"))
+        controls = W.HBox([self._play, self._slider, self._fps])
+        exports = W.HBox([self._gif, self._mp4, self.link])
+        super().__init__([self.image, controls, self.info, exports])
+        self.add_class("fluidnb-player")
+        self.clip = clip
+        if clip is None:  # no change event for the default: set the empty state now
+            self._clip_changed({"new": None})
+
+    @observe("clip")
+    def _clip_changed(self, change):
+        clip = change["new"]
+        if clip is not None and not isinstance(clip, Clip):
+            raise ValueError(f"clip must be a fluidnb.Clip, got {type(clip).__name__}")
+        self._png = {}
+        n = 0 if clip is None else len(clip)
+        with self.hold_sync():
+            self._play.playing = False
+            self._play.max = max(n - 1, 0)
+            self._slider.max = max(n - 1, 0)
+            if clip is not None:
+                self._fps.value = min(max(float(clip.fps), 0.5), 60)
+            for b in (self._gif, self._mp4, self._play, self._slider):
+                b.disabled = clip is None
+        if clip is None:
+            self.info.value = "<i>no clip yet</i>"
+            self.image.value = b""
+            return
+        h, w = clip.shape
+        self.image.layout.width = f"{self.display_width}px"
+        # Tiny grids are enlarged by the browser; keep their cells crisp.
+        self.image.layout.object_fit = "contain"
+        method = clip.metadata.get("method", "")
+        self.info.value = (
+            f"<span style='opacity:0.75'>{n} frames, {w}x{h}, {html.escape(str(method))}</span>"
+        )
+        self.frame = min(self.frame, n - 1)
+        self._show(self.frame)
+
+    @observe("frame")
+    def _frame_changed(self, change):
+        if self.clip is not None:
+            self._show(change["new"])
+
+    def _fps_changed(self, change):
+        self._play.interval = max(int(round(1000.0 / change["new"])), 10)
+
+    def _encode(self, i):
+        png = self._png.get(i)
+        if png is None:
+            buf = io.BytesIO()
+            Image.fromarray(to_uint8(self.clip.frames[i])).save(buf, format="png", compress_level=1)
+            png = self._png[i] = buf.getvalue()
+        return png
+
+    def _show(self, i):
+        i = int(min(max(i, 0), len(self.clip) - 1))
+        self.image.value = self._encode(i)
+        if self._slider.value != i:
+            self._slider.value = i
+
+    def show(self, i):
+        """Show frame ``i`` (as the slider does)."""
+        if self.clip is None:
+            raise ValueError("there is no clip to show yet")
+        n = len(self.clip)
+        if not 0 <= int(i) < n:
+            raise ValueError(f"frame must be in [0, {n - 1}], got {i}")
+        self.frame = int(i)
+
+    @property
+    def fps(self):
+        """Playback rate (frames per second)."""
+        return self._fps.value
+
+    @fps.setter
+    def fps(self, value):
+        self._fps.value = value
+
+    @property
+    def playing(self):
+        """Whether the browser is playing the clip."""
+        return self._play.playing
+
+    def play(self, on=True):
+        """Start (or stop) playing in the browser."""
+        self._play.playing = bool(on)
+
+    def export(self, fmt="gif"):
+        """Write the clip as ``fmt`` ("gif" or "mp4") into :attr:`export_dir`.
+
+        Returns the path and shows a link to it under the player.
+        """
+        if self.clip is None:
+            raise ValueError("there is no clip to export yet")
+        if fmt not in ("gif", "mp4"):
+            raise ValueError(f"fmt must be 'gif' or 'mp4', got {fmt!r}")
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        method = str(self.clip.metadata.get("method") or self.label)
+        path = self.export_dir / f"fluidnb-{method}-{stamp}.{fmt}"
+        n = 1
+        while path.exists():
+            path = self.export_dir / f"fluidnb-{method}-{stamp}-{n}.{fmt}"
+            n += 1
+        self.link.value = f"<i>writing {path.name}…</i>"
+        out = self.clip.save(path, fps=self.fps)
+        href = html.escape(out.name if out.parent.resolve() == Path.cwd().resolve() else str(out))
+        self.link.value = (
+            f"<a href='{href}' download target='_blank'>{html.escape(out.name)}</a>"
+            f" <span style='opacity:0.7'>({out.stat().st_size // 1024} KB)</span>"
+        )
+        return out
