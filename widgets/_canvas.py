@@ -28,6 +28,14 @@ _TOOLS = {
     "fill": "paint",
     "points": "points",
 }
+# Focused canvases get a browser outline after the first click (ipycanvas focuses on
+# mouse-down); the frame would read as part of the picture.
+STYLE = W.HTML(
+    "<style>.fluidnb-canvas:focus, .fluidnb-canvas canvas:focus { outline: none; }"
+    ".fluidnb-frame { image-rendering: pixelated; }</style>",
+    layout=W.Layout(display="none"),
+)
+
 _ICONS = {
     "stroke": "long-arrow-right",
     "brush": "paint-brush",
@@ -122,13 +130,16 @@ class DrawingCanvas(W.VBox):
         self.canvas.layout.height = "auto"
         self.canvas.add_class("fluidnb-canvas")
         self._image_layer, self._draw_layer, self._overlay = (self.canvas[i] for i in range(3))
+        # Line widths and marker sizes in canvas pixels, proportional to the canvas so
+        # they stay visible when a large canvas is shown scaled down in a narrow cell.
+        self._pen = max(2.5, max(cw, ch) / 250)
         self._overlay_segments = None
         self._syncing = False
         self._current = None  # the points of the drag in progress
 
         self._tool_buttons = W.ToggleButtons(
             options=[t for t in _TOOLS if any(_TOOLS[t] == y.kind for y in self.layers.values())],
-            style={"button_width": "70px"},
+            style={"button_width": "100px"},
             layout=W.Layout(width="auto"),
         )
         self._tool_buttons.icons = [_ICONS[t] for t in self._tool_buttons.options]
@@ -175,7 +186,7 @@ class DrawingCanvas(W.VBox):
             [self._value_slider, self._radius_slider, self._undo, self._clear],
             layout=W.Layout(flex_flow="row wrap"),
         )
-        super().__init__([toolbar, brushbar, self.canvas, self.status])
+        super().__init__([STYLE, toolbar, brushbar, self.canvas, self.status])
         self.add_class("fluidnb-drawing")
 
         first = next(iter(self.layers.values()))
@@ -333,7 +344,7 @@ class DrawingCanvas(W.VBox):
             layer.clear()
             self._draw_overlay_segments()
             layer.stroke_style = _css(self.layers[self.layer].color)
-            layer.line_width = 2.5
+            layer.line_width = self._pen
             layer.stroke_lines(pts.tolist())
 
     def _changed(self, message=""):
@@ -388,10 +399,10 @@ class DrawingCanvas(W.VBox):
     def _draw_strokes(self, layer):
         d = self._draw_layer
         d.stroke_style = _css(layer.color)
-        d.line_width = 2.5
+        d.line_width = self._pen
         d.line_cap = "round"
         d.line_join = "round"
-        head = 10.0
+        head = 4 * self._pen
         for stroke in layer.strokes:
             pts = np.array([self.to_canvas(*p) for p in stroke])
             d.stroke_lines(pts.tolist())
@@ -405,9 +416,9 @@ class DrawingCanvas(W.VBox):
         xy = np.array([self.to_canvas(*p) for p in layer.points])
         d.fill_style = _css(layer.color)
         d.stroke_style = "rgba(0, 0, 0, 0.8)"
-        d.line_width = 1.5
-        d.fill_circles(xy[:, 0], xy[:, 1], 6)
-        d.stroke_circles(xy[:, 0], xy[:, 1], 6)
+        d.line_width = 0.6 * self._pen
+        d.fill_circles(xy[:, 0], xy[:, 1], 2.4 * self._pen)
+        d.stroke_circles(xy[:, 0], xy[:, 1], 2.4 * self._pen)
 
     def _draw_overlay_segments(self):
         if self._overlay_segments is None:
@@ -415,12 +426,12 @@ class DrawingCanvas(W.VBox):
         segs, color = self._overlay_segments
         o = self._overlay
         o.stroke_style = color
-        o.line_width = 1.5
+        o.line_width = 0.6 * self._pen
         xy = segs[..., ::-1] * [self._sx, self._sy] + [self._sx / 2, self._sy / 2]
         for (x0, y0), (x1, y1) in xy:
             o.stroke_line(x0, y0, x1, y1)
         for seg in xy:
-            for tip, end in arrow_heads(seg[:, ::-1], size=4.0):
+            for tip, end in arrow_heads(seg[:, ::-1], size=1.6 * self._pen):
                 o.stroke_line(tip[1], tip[0], end[1], end[0])
 
     def show_segments(self, segments, color="rgba(255, 255, 255, 0.85)"):

@@ -13,6 +13,8 @@ from traitlets import Any, Int, observe
 
 from fluidnb import Clip, to_uint8
 
+from ._canvas import STYLE
+
 __all__ = ["FramePlayer"]
 
 
@@ -35,7 +37,7 @@ class FramePlayer(W.VBox):
     Examples
     --------
     >>> import numpy as np
-    >>> from fluidnb import Clip, to_uint8
+    >>> from fluidnb import Clip
     >>> p = FramePlayer(Clip(np.zeros((4, 8, 8)), fps=4))
     >>> p.show(2)
     >>> p.frame
@@ -77,7 +79,7 @@ class FramePlayer(W.VBox):
         self._mp4.on_click(lambda _: self.export("mp4"))
         controls = W.HBox([self._play, self._slider, self._fps])
         exports = W.HBox([self._gif, self._mp4, self.link])
-        super().__init__([self.image, controls, self.info, exports])
+        super().__init__([STYLE, self.image, controls, self.info, exports])
         self.add_class("fluidnb-player")
         self.clip = clip
         if clip is None:  # no change event for the default: set the empty state now
@@ -106,10 +108,10 @@ class FramePlayer(W.VBox):
         self.image.layout.width = f"{self.display_width}px"
         # Tiny grids are enlarged by the browser; keep their cells crisp.
         self.image.layout.object_fit = "contain"
-        method = clip.metadata.get("method", "")
-        self.info.value = (
-            f"<span style='opacity:0.75'>{n} frames, {w}x{h}, {html.escape(str(method))}</span>"
-        )
+        parts = [f"{n} frames", f"{w}x{h}", f"{clip.fps:g} fps"]
+        if clip.metadata.get("method"):
+            parts.append(html.escape(str(clip.metadata["method"])))
+        self.info.value = f"<span style='opacity:0.75'>{', '.join(parts)}</span>"
         self.frame = min(self.frame, n - 1)
         self._show(self.frame)
 
@@ -183,6 +185,15 @@ class FramePlayer(W.VBox):
         href = html.escape(out.name if out.parent.resolve() == Path.cwd().resolve() else str(out))
         self.link.value = (
             f"<a href='{href}' download target='_blank'>{html.escape(out.name)}</a>"
-            f" <span style='opacity:0.7'>({out.stat().st_size // 1024} KB)</span>"
+            f" <span style='opacity:0.7'>({_size(out.stat().st_size)})</span>"
         )
         return out
+
+
+def _size(n):
+    """A file size in words a person reads at a glance."""
+    if n < 1024:
+        return f"{n} bytes"
+    if n < 1024**2:
+        return f"{n / 1024:.0f} KB"
+    return f"{n / 1024**2:.1f} MB"

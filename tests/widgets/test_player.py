@@ -87,3 +87,11 @@ def test_errors_without_clip_and_bad_values():
         p.export("avi")
     with pytest.raises(ValueError, match=r"clip must be a fluidnb\.Clip"):
         p.clip = np.zeros((3, 4, 4))
+
+
+def test_info_line_and_small_file_sizes_read_well(tmp_path):
+    p = FramePlayer(Clip(np.zeros((2, 4, 4))), export_dir=tmp_path)
+    assert "2 frames, 4x4, 8 fps</span>" in p.info.value
+    p.export("gif")
+    assert "bytes)" in p.link.value
+    assert "(0 KB)" not in p.link.value

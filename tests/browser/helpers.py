@@ -1,0 +1,207 @@
+"""Helpers for the browser tests: servers, polling, mouse drags, coordinates, pixels."""
+
+import json
+import os
+import re
+import signal
+import socket
+import subprocess
+import time
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+
+# ---------------------------------------------------------------------- processes
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def isolated_env(base):
+    """Environment for a Jupyter process with its config, runtime and settings in ``base``."""
+    env = dict(os.environ)
+    for var, sub in [
+        ("JUPYTER_CONFIG_DIR", "config"),
+        ("JUPYTER_RUNTIME_DIR", "runtime"),
+        ("JUPYTERLAB_SETTINGS_DIR", "settings"),
+        ("JUPYTERLAB_WORKSPACES_DIR", "workspaces"),
+    ]:
+        (base / sub).mkdir(parents=True, exist_ok=True)
+        env[var] = str(base / sub)
+    # No news toast over the widgets.
+    notes = base / "settings" / "@jupyterlab" / "apputils-extension"
+    notes.mkdir(parents=True, exist_ok=True)
+    (notes / "notification.jupyterlab-settings").write_text(
+        json.dumps({"fetchNews": "false", "checkForUpdates": False})
+    )
+    env["MPLBACKEND"] = "Agg"
+    return env
+
+
+def wait_http(url, proc, log, timeout=60, any_status=False):
+    """Poll ``url`` until it answers 200 (any HTTP status with ``any_status``).
+
+    Fails with the end of the server's log if the server exits or never answers.
+    """
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if proc.poll() is not None:
+            pytest.fail(f"server exited ({proc.returncode}):\n{log.read_text()[-3000:]}")
+        try:
+            with urllib.request.urlopen(url, timeout=2) as r:
+                if r.status == 200:
+                    return
+        except urllib.error.HTTPError as err:
+            err.close()
+            if any_status:
+                return
+        except (urllib.error.URLError, OSError):
+            pass
+        time.sleep(0.2)
+    pytest.fail(f"server did not answer {url} in {timeout} s:\n{log.read_text()[-3000:]}")
+
+
+def stop(proc, timeout=10):
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout)
+
+
+def poll(what, check, timeout=30, interval=0.1):
+    """Call ``check()`` until it returns something truthy; fail after ``timeout`` s."""
+    deadline = time.monotonic() + timeout
+    last = None
+    while True:
+        last = check()
+        if last:
+            return last
+        if time.monotonic() > deadline:
+            pytest.fail(f"timed out after {timeout} s waiting for {what} (last: {last!r})")
+        time.sleep(interval)
+
+
+def read_json(path):
+    try:
+        return json.loads(Path(path).read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def node_slug(request):
+    """The test's name without pytest-playwright's ``[chromium]`` parameter."""
+    return re.sub(r"[^\w-]+", "_", request.node.originalname)
+
+
+# ---------------------------------------------------------------------- page helpers
+def drag(page, start, end, steps=20):
+    """Press the mouse at ``start`` (viewport x, y), move to ``end`` in ``steps``, release."""
+    page.mouse.move(*start)
+    page.mouse.down()
+    page.mouse.move(*end, steps=steps)
+    page.mouse.up()
+
+
+def assert_visible(box, min_width=100, min_height=70):
+    """Fail unless a bounding box is at least ``min_width`` x ``min_height``."""
+    assert box is not None, "element not displayed"
+    assert box["width"] >= min_width, box
+    assert box["height"] >= min_height, box
+
+
+def at(box, fx, fy):
+    """The viewport point at fractions (fx, fy) of a bounding box."""
+    return (box["x"] + fx * box["width"], box["y"] + fy * box["height"])
+
+
+def to_image(box, point, shape):
+    """Viewport (x, y) over a displayed canvas -> image (row, col) of an (H, W) image.
+
+    The canvas may be displayed scaled: the box is what the user sees, and the
+    widget's convention puts the centre of the top-left pixel at (0, 0).
+    """
+    h, w = shape
+    x, y = point
+    return ((y - box["y"]) / box["height"] * h - 0.5, (x - box["x"]) / box["width"] * w - 0.5)
+
+
+def canvas_rgba(locator, points, radius=0):
+    """RGBA of a displayed ``<canvas>`` at viewport ``points`` (mapped to canvas pixels).
+
+    With ``radius`` > 0, each point gives the list of the RGBA values of the canvas
+    pixels in a square of that half-size around it.
+    """
+    return locator.evaluate(
+        """(el, [pts, rad]) => {
+          const r = el.getBoundingClientRect();
+          const g = el.getContext('2d');
+          return pts.map(([x, y]) => {
+            const cx = Math.floor((x - r.left) / r.width * el.width);
+            const cy = Math.floor((y - r.top) / r.height * el.height);
+            const x0 = Math.max(0, cx - rad), y0 = Math.max(0, cy - rad);
+            const w = Math.min(el.width, cx + rad + 1) - x0;
+            const h = Math.min(el.height, cy + rad + 1) - y0;
+            const d = Array.from(g.getImageData(x0, y0, w, h).data);
+            const px = [];
+            for (let i = 0; i < d.length; i += 4) px.push(d.slice(i, i + 4));
+            return rad ? px : px[0];
+          });
+        }""",
+        [[list(p) for p in points], radius],
+    )
+
+
+def img_rgba(locator, fx=0.5, fy=0.5):
+    """RGBA of an ``<img>``'s picture at fractions (fx, fy), or None before it loads."""
+    return locator.evaluate(
+        """(el, [fx, fy]) => {
+          if (!el.complete || !el.naturalWidth) return null;
+          const c = document.createElement('canvas');
+          c.width = el.naturalWidth; c.height = el.naturalHeight;
+          const g = c.getContext('2d');
+          g.drawImage(el, 0, 0);
+          const x = Math.min(c.width - 1, Math.floor(fx * c.width));
+          const y = Math.min(c.height - 1, Math.floor(fy * c.height));
+          return Array.from(g.getImageData(x, y, 1, 1).data);
+        }""",
+        [fx, fy],
+    )
+
+
+def contrast(locator):
+    """WCAG contrast ratio of an element's text colour against its effective background.
+
+    The background is the first opaque-enough one among the element and its
+    ancestors (the page's when none is set).
+    """
+    return locator.evaluate(
+        r"""el => {
+          const parse = s => (s.match(/[\d.]+/g) || []).map(Number);
+          const lum = ([r, g, b]) => {
+            const f = v => {
+              v /= 255;
+              return v <= 0.03928 ? v / 12.92 : ((v + 0.055) / 1.055) ** 2.4;
+            };
+            return 0.2126 * f(r) + 0.7152 * f(g) + 0.0722 * f(b);
+          };
+          let bg = [255, 255, 255];
+          for (let n = el; n; n = n.parentElement) {
+            const c = parse(getComputedStyle(n).backgroundColor);
+            if (c.length >= 3 && (c.length < 4 || c[3] > 0.5)) { bg = c.slice(0, 3); break; }
+          }
+          const fg = parse(getComputedStyle(el).color);
+          // Text colour with alpha (and the element's opacity) blends into the background.
+          let a = (fg.length > 3 ? fg[3] : 1);
+          for (let n = el; n; n = n.parentElement) a *= Number(getComputedStyle(n).opacity);
+          const mix = fg.slice(0, 3).map((v, i) => a * v + (1 - a) * bg[i]);
+          const [l1, l2] = [lum(mix), lum(bg)].sort((p, q) => q - p);
+          return {ratio: (l1 + 0.05) / (l2 + 0.05), fg: mix, bg};
+        }"""
+    )

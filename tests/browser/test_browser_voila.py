@@ -1,0 +1,108 @@
+"""Voila smoke test: a canvas's drawing set before display shows up in the page.
+
+In Voila, ipycanvas drawing commands sent while the notebook executes on the server
+are lost; DrawingCanvas redraws in ``on_client_ready``. This checks that the
+preloaded mask and stroke are really painted on the canvas the user sees.
+"""
+
+import subprocess
+import sys
+
+import nbformat
+import pytest
+
+from tests.browser.helpers import (
+    assert_visible,
+    canvas_rgba,
+    free_port,
+    isolated_env,
+    node_slug,
+    poll,
+    stop,
+    wait_http,
+)
+
+pytestmark = pytest.mark.browser
+
+NOTEBOOK = """\
+import numpy as np
+from fluidnb.widgets import DrawingCanvas
+
+c = DrawingCanvas(np.full((96, 128), 0.5), strokes=["flow"], masks=["region"])
+mask = np.zeros((96, 128), bool)
+mask[20:50, 70:110] = True
+c.set_mask(mask)
+c.set_strokes([[[70, 10], [70, 60]]])
+c
+"""
+
+
+@pytest.fixture
+def voila(tmp_path, request):
+    """Serve a notebook with Voila; yields a function ``serve(source) -> url``."""
+    procs = []
+
+    def serve(source):
+        nb = nbformat.v4.new_notebook()
+        nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3"}
+        nb.cells = [nbformat.v4.new_code_cell(source)]
+        path = tmp_path / f"{node_slug(request)}.ipynb"
+        nbformat.write(nb, path)
+        port = free_port()
+        log = tmp_path / "voila.log"
+        cmd = [
+            sys.executable, "-m", "voila", str(path),
+            "--no-browser", f"--port={port}", "--Voila.ip=127.0.0.1", "--Voila.port_retries=0",
+        ]  # fmt: skip
+        with log.open("w") as out:
+            proc = subprocess.Popen(
+                cmd,
+                env=isolated_env(tmp_path / "jupyter"),
+                cwd=tmp_path,
+                stdout=out,
+                stderr=subprocess.STDOUT,
+            )
+        procs.append(proc)
+        url = f"http://127.0.0.1:{port}/"
+        # Any answer means the server is up (the page itself starts a kernel).
+        wait_http(url + "favicon.ico", proc, log, any_status=True)
+        return url
+
+    yield serve
+    for proc in procs:
+        stop(proc)
+
+
+def test_voila_shows_the_preloaded_drawing(voila, page, shot):
+    url = voila(NOTEBOOK)
+    page.set_default_timeout(60_000)
+    page.goto(url)
+    canvas = page.locator(".fluidnb-canvas")
+    canvas.wait_for()
+    canvas.scroll_into_view_if_needed()
+    box = canvas.bounding_box()
+    assert_visible(box)
+
+    def point(row, col):  # image (row, col) -> viewport (x, y)
+        return (
+            box["x"] + (col + 0.5) / 128 * box["width"],
+            box["y"] + (row + 0.5) / 96 * box["height"],
+        )
+
+    probes = {"mask": point(35, 90), "stroke": point(70, 35), "image": point(10, 10)}
+
+    def drawn():
+        (mr, _, mb, ma), (sr, _, sb, sa), (ir, ig, ib, ia) = canvas_rgba(
+            canvas, list(probes.values())
+        )
+        ok = (
+            ma == 255 and mr - mb > 60  # orange paint over grey
+            and sa == 255 and sb - sr > 60  # cyan stroke
+            and ia == 255 and abs(ir - 128) < 8 and ir == ig == ib  # plain grey image
+        )  # fmt: skip
+        return ok or None
+
+    try:
+        poll("the preloaded drawing on the Voila canvas", drawn, timeout=30)
+    finally:
+        shot(page)
