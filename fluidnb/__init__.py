@@ -28,6 +28,7 @@ __all__ = [
     "as_mask",
     "data",
     "fields",
+    "flicker",
     "load_clip",
     "param",
     "rng",
@@ -37,7 +38,7 @@ __all__ = [
 
 # Subpackages load on first use so `import fluidnb` (and `fluidnb --version`) stays
 # quick; `fluidnb.fields` and `fluidnb.sketch` pull in scikit-image.
-_SUBPACKAGES = {"data", "fields", "sketch"}
+_SUBPACKAGES = {"data", "fields", "flicker", "sketch"}
 
 
 def __getattr__(name):

@@ -63,6 +63,7 @@ class App(W.VBox):
         self._preview_done = 0
         self._preview_thread = None
         self._closed = False
+        self._tasks_started = 0  # a preview begun before a task started is stale
 
         self._run_button = W.Button(description="Run", icon="play", button_style="primary")
         self._cancel_button = W.Button(description="Cancel", icon="stop", disabled=True)
@@ -140,13 +141,16 @@ class App(W.VBox):
                 # which reads the latest parameters and drawing: the latest state wins.
                 target = self._preview_requested
             started = time.monotonic()
+            generation = self._tasks_started
             try:
                 clip = self._preview_fn(self.panel.params)
                 if not isinstance(clip, Clip):
                     raise TypeError(
                         f"preview must return a fluidnb.Clip, got {type(clip).__name__}"
                     )
-                if not self.running:
+                # A run that started (or finished) meanwhile owns the player now:
+                # drop this preview rather than cover the run's result with it.
+                if not self.running and generation == self._tasks_started:
                     self.player.clip = clip
                     self.say(f"preview ({time.monotonic() - started:.2f} s)")
             except ValueError as exc:
@@ -155,7 +159,7 @@ class App(W.VBox):
                 self.say(f"preview failed: {type(exc).__name__}: {exc}", "error")
                 traceback.print_exc()
             with self._preview_lock:
-                self._preview_done = target
+                self._preview_done = max(self._preview_done, target)
                 self._preview_lock.notify_all()
             time.sleep(max(0.0, self.min_interval - (time.monotonic() - started)))
 
@@ -178,6 +182,32 @@ class App(W.VBox):
 
     def start(self):
         """Start the full run in a worker thread (what the Run button does)."""
+        return self.start_task(self._run_fn, self._show_clip)
+
+    def start_task(self, task, done=None, *, message="running…"):
+        """Run ``task(params, progress)`` in the worker thread, as the Run button does.
+
+        The generic part of :meth:`start`, for a method's other long actions (an
+        optimiser button, say): the same progress bar, Cancel button, status line and
+        error handling, and one task at a time (:attr:`running`, :meth:`wait`).
+
+        Parameters
+        ----------
+        task : callable
+            ``task(params, progress)`` with the panel's current parameters and the
+            cancellable progress callable; its ValueErrors are shown as plain messages.
+        done : callable, optional
+            ``done(result, seconds) -> str`` called in the worker with what ``task``
+            returned; its text is the status line's success message.
+        message : str
+            Status line while the task runs.
+
+        Returns
+        -------
+        bool
+            False (nothing started) while another task runs or the parameters are
+            invalid.
+        """
         if self.running:
             return False
         if not self.panel.valid:
@@ -189,28 +219,41 @@ class App(W.VBox):
         self._cancel_button.disabled = False
         self.progress.value = 0
         self.progress.bar_style = ""
-        self.say("running…")
+        self.say(message)
+        self._tasks_started += 1
+        with self._preview_lock:
+            # Previews asked for before this run are obsolete: its result will show.
+            self._preview_done = self._preview_requested
+            self._preview_lock.notify_all()
         self._thread = threading.Thread(
-            target=self._run_worker, args=(params, self._token), name="fluidnb-run", daemon=True
+            target=self._run_worker,
+            args=(task, done, params, self._token),
+            name="fluidnb-run",
+            daemon=True,
         )
         self._thread.start()
         return True
+
+    def _show_clip(self, clip, seconds):
+        if not isinstance(clip, Clip):
+            raise TypeError(f"run must return a fluidnb.Clip, got {type(clip).__name__}")
+        self.result = clip
+        self.player.clip = clip
+        return f"done in {seconds:.1f} s: {len(clip)} frames"
 
     def _report(self, fraction, message=""):
         self.progress.value = fraction
         self._progress_text.value = message
 
-    def _run_worker(self, params, token):
+    def _run_worker(self, task, done, params, token):
         started = time.monotonic()
         try:
-            clip = self._run_fn(params, token)
-            if not isinstance(clip, Clip):
-                raise TypeError(f"run must return a fluidnb.Clip, got {type(clip).__name__}")
-            self.result = clip
-            self.player.clip = clip
+            result = task(params, token)
+            seconds = time.monotonic() - started
+            text = done(result, seconds) if done is not None else f"done in {seconds:.1f} s"
             self.progress.value = 1
             self.progress.bar_style = "success"
-            self.say(f"done in {time.monotonic() - started:.1f} s: {len(clip)} frames", "ok")
+            self.say(text, "ok")
         except Cancelled:
             self.progress.bar_style = "warning"
             self.say("cancelled; your drawing and settings are unchanged")

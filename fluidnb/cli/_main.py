@@ -15,6 +15,7 @@ __all__ = ["build_parser", "main"]
 # subcommand by being listed. Modules import their heavy dependencies lazily.
 _COMMAND_MODULES = [
     "fluidnb.cli._info",
+    "fluidnb.cli._flicker",
 ]
 
 

@@ -160,3 +160,23 @@ def test_invalid_parameters_disable_run_and_explain():
     app.panel.controls["n"].value = 20
     assert not app._run_button.disabled
     app.close()
+
+
+def test_a_preview_finishing_after_a_run_does_not_replace_the_result():
+    release = threading.Event()
+    entered = threading.Event()
+
+    def slow_preview(params):
+        entered.set()
+        release.wait(5)
+        return Clip(np.zeros((2, 6, 6), np.float32), fps=4)
+
+    app, canvas = make_app(preview=slow_preview)
+    canvas.paint([[4, 4]], radius=2)
+    assert entered.wait(5)  # the preview is computing
+    result = app.run(timeout=10)
+    release.set()
+    app.wait_preview()
+    assert app.player.clip is result
+    assert "done" in app.status
+    app.close()

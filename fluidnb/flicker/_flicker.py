@@ -1,0 +1,708 @@
+r"""The flicker model: any frame of the loop on demand, or the whole clip at once.
+
+How the paper's 3-D inverse DFT (Eq. (5)) is evaluated here. The mapped spectrum with
+noise (Eq. (10)) is :math:`U(f_x, f_y, f_t) = F(f_x, f_y) N_{f_c(f_x, f_y)}(f_t)`,
+where the temporal spectrum :math:`N_c` depends only on the integer bin
+:math:`c = f_c` (the random phase :math:`\phi` depends on :math:`f_t` only). So
+
+.. math:: I_{out}(x, y, t) = \sum_c B_c(x, y) \, g_c(t), \qquad
+          B_c = \mathrm{IDFT}_2\big(F \cdot [f_c = c]\big), \quad
+          g_c(t) = \sum_{f_t} N_c(f_t) e^{j 2\pi f_t t / T}
+
+There are only K distinct bins (1 for the plane, ~T/2 for the curved surfaces), so the
+model makes K inverse 2-D DFTs once (real FFTs of :math:`\cos\alpha` and
+:math:`\sin\alpha`, whose spectra restricted to a bin stay Hermitian because
+:math:`f_c` is even in :math:`(f_x, f_y)`), and then each frame's height
+:math:`C + A \, \mathrm{Im}\, I_{out}` is a matrix product over the K bins. Frames
+are made in aligned blocks of ``_BLOCK``: a matrix product's rounding depends on how
+many rows it has, and computing a single frame through its block makes
+:meth:`FlickerModel.frame` bit-identical to the same frame of the whole clip. With
+noise, the normalisation needs the peak over the whole loop, so the heights of all
+frames are made at once (one product, the fastest way) and kept.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+from .._clip import Clip
+from .._image import as_image, as_mask
+from .._progress import Progress
+from .._random import rng
+from .._validation import check_int, check_range
+from ._params import FlickerParams
+from ._shading import _lambert_frame, _Relight, _Work, feather_weights, light_vector
+from ._spectrum import (
+    harmonic_height,
+    height_from_luminance,
+    initial_phase,
+    noise_spectrum,
+    phase_spectrum,
+    temporal_frequencies,
+    temporal_signals,
+)
+
+__all__ = ["FlickerModel", "base_method", "flicker", "preview"]
+
+_BLOCK = 16  # frames per matrix product (see the module docstring)
+_THREADS = max(1, min(4, os.cpu_count() or 1))  # threads for the per-pixel shading
+_BINS_PER_REPORT = 4  # inverse DFTs per progress report
+
+
+def _check_params(params):
+    if params is None:
+        return FlickerParams()
+    if not isinstance(params, FlickerParams):
+        raise ValueError(f"params must be a FlickerParams, got {type(params).__name__}")
+    return params
+
+
+def _resolve_seed(seed):
+    """(what to draw from, what to record): a None seed is drawn so the clip can be remade."""
+    if seed is None:
+        seed = int(np.random.SeedSequence().generate_state(1)[0])
+    if isinstance(seed, np.random.Generator):
+        return seed, None
+    rng(seed)  # validates
+    return int(seed), int(seed)
+
+
+def _window(mask, margin=1):
+    """Slices of the region's bounding box (+ margin), grown to a fast FFT size."""
+    from scipy.fft import next_fast_len
+
+    h, w = mask.shape
+    if mask.all():
+        return (slice(0, h), slice(0, w))
+    out = []
+    for axis, n in ((1, h), (0, w)):
+        idx = np.flatnonzero(mask.any(axis=axis))
+        lo, hi = max(int(idx[0]) - margin, 0), min(int(idx[-1]) + 1 + margin, n)
+        size = min(next_fast_len(hi - lo, real=True), n)
+        lo = min(max(lo - (size - (hi - lo)) // 2, 0), n - size)
+        out.append(slice(lo, lo + size))
+    return tuple(out)
+
+
+class _Scene:
+    """What both methods share: the photo, the region, the initial phases, the shading.
+
+    Heights are shaded relative to C and pre-multiplied by ``bump / (2 pixel_size)``
+    (the shading kernel's input): the constant C does not change a slope, and scaling
+    the few coefficients instead of every pixel saves a pass over each frame.
+    """
+
+    def __init__(self, image, mask, params, pixel_size):
+        self.params = params
+        self.image = as_image(image)
+        shape = self.image.shape[:2]
+        self.mask = np.ones(shape, bool) if mask is None else as_mask(mask, shape, name="mask")
+        self.pixel_size = check_range("pixel_size", pixel_size, 0, lo_open=True)
+        self.window = _window(self.mask)
+        self.luminance = height_from_luminance(self.image)
+        p = params
+        self.alpha = initial_phase(self.luminance[self.window], p.A, p.C, p.branch)
+        self.light = light_vector(p.azimuth, p.elevation)
+        #: Heights (relative to C) times this are what the shading kernel takes.
+        self.slope_scale = p.bump / (2.0 * self.pixel_size)
+        # Eq. (2): the rest height A sin(alpha) (+ C), equal to the luminance where it
+        # lies in [C - A, C + A]; its shading S_0 is what the photo already shows.
+        rest = (p.A * self.slope_scale * np.sin(self.alpha)).astype(np.float32)
+        self.reference = np.empty(rest.shape, np.float32)
+        _lambert_frame(rest, self.light, self.reference, _Work(rest.shape))
+        weight = feather_weights(self.mask[self.window], p.feather, pixel_size=pixel_size)
+        self.relighter = _Relight(self.image[self.window], self.reference, p.k * weight)
+
+    def render(self, slopes, out):
+        """Frames ``out`` (n, h, w[, 3]) of the window from pre-scaled heights (n, h, w)."""
+        work = _Work(slopes.shape[1:])
+        shading = np.empty(slopes.shape[1:], np.float32)
+        factor = np.empty(slopes.shape[1:], np.float32)
+        for i in range(slopes.shape[0]):
+            _lambert_frame(slopes[i], self.light, shading, work)
+            self.relighter.frame(shading, out[i], factor)
+        return out
+
+    def submit(self, slopes, out, pool):
+        """Start :meth:`render` split over the pool's threads; returns the futures.
+
+        numpy releases the GIL in its loops, so the threads run in parallel, and the
+        caller can compute the next block's heights meanwhile.
+        """
+        n = slopes.shape[0]
+        parts = min(_THREADS, n)
+        cuts = [round(i * n / parts) for i in range(parts + 1)]
+        return [
+            pool.submit(self.render, slopes[a:b], out[a:b])
+            for a, b in zip(cuts[:-1], cuts[1:])
+            if b > a
+        ]
+
+    def empty_clip(self, n):
+        """(n, H, W[, 3]) frames holding the photo outside the window."""
+        img = self.image
+        out = np.empty((n,) + img.shape, np.float32)
+        rows, cols = self.window
+        # Only the four slabs around the window: the window is overwritten anyway.
+        for r, c in (
+            (slice(0, rows.start), slice(None)),
+            (slice(rows.stop, None), slice(None)),
+            (rows, slice(0, cols.start)),
+            (rows, slice(cols.stop, None)),
+        ):
+            if img[r, c].size:
+                out[:, r, c] = img[r, c]
+        return out
+
+    def frame_from(self, slopes):
+        """One full frame (H, W[, 3]) from pre-scaled heights (h, w) of the window."""
+        out = self.image.copy()
+        sub = np.empty(slopes.shape + self.image.shape[2:], np.float32)
+        self.render(slopes[None], sub[None])
+        out[self.window] = sub
+        return out
+
+
+class FlickerModel:
+    r"""A precomputed flicker animation that can make any single frame alone.
+
+    Builds the expensive parts once: the initial phases (Eq. (3)), the spectrum
+    (Eq. (4)), the mapping (Eq. (7)-(9)), the noise (Eq. (10)) and one inverse 2-D DFT
+    per distinct temporal bin, so that each frame of Eq. (5) is then a small matrix
+    product plus the shading. Only the bounding box of the region (the *window*,
+    grown to a fast FFT size) is transformed; the photo's own phases fill it, so the
+    region's edge adds no artificial high frequencies.
+
+    Parameters
+    ----------
+    image : array_like, path or PIL image, shape (H, W) or (H, W, 3)
+        The photo (anything :func:`fluidnb.as_image` accepts).
+    mask : array_like of bool, shape (H, W), optional
+        The region to animate (painted; value > 0.5 is inside). Default: the whole
+        image. Pixels outside it are never changed.
+    params : FlickerParams, optional
+        The paper's values by default.
+    seed : None, int or numpy.random.Generator
+        For the noise phases :math:`\phi` of Eq. (10). ``None`` draws a seed and
+        records it in :attr:`seed`, so the clip can be made again.
+    pixel_size : float
+        Size of one pixel of ``image`` in pixels of the full-resolution photo the
+        parameters are meant for (a quarter-size preview passes 4): the mapping,
+        the slopes and the feather then mean the same at every size.
+    progress : callable, optional
+        ``progress(fraction, message)``; may raise :class:`fluidnb.Cancelled`.
+
+    Attributes
+    ----------
+    params : FlickerParams
+    seed : int or None
+        The seed used (None when a Generator was given).
+    n_frames : int
+        ``T``.
+    window : tuple of slice
+        The analysed rows and columns.
+    alpha : ndarray, shape (h, w), float64
+        :math:`\alpha` over the window (Eq. (3)).
+    bins : ndarray of int
+        The K distinct temporal bins :math:`f_c \bmod T` in use.
+    normalisation : float
+        With noise, the peak of :math:`|\mathrm{Im}\, I_{out}|` over the region and
+        the loop, by which the field is divided so that the heights span exactly
+        :math:`[C - A, C + A]`; 1 without noise (the heights are then Eq. (5) as it
+        is, so frame 0 is the photo).
+    timings : dict of str to float
+        Seconds per stage of the precomputation.
+
+    Notes
+    -----
+    The height is :math:`H(x, y, t) = C + A \, \mathrm{Im}\, I_{out}(x, y, t)`. With the
+    plane mapping and no noise, :math:`I_{out} = e^{j(\alpha + 2\pi f_0 t / T)}`
+    and this is Eq. (1) exactly. The curved mappings dephase the spatial frequencies,
+    so :math:`|I_{out}|` is no longer 1 at every pixel and, without noise, the height
+    can leave :math:`[C - A, C + A]` by some tenths of A where they add up; it is not
+    clipped (only its slopes are used, and clipping would flatten them into
+    plateaus). With noise the field is divided by its peak (:attr:`normalisation`),
+    which keeps every height in :math:`[C - A, C + A]`.
+
+    Examples
+    --------
+    >>> img = np.random.default_rng(0).random((32, 48))
+    >>> model = FlickerModel(img, params=FlickerParams(T=16), seed=1)
+    >>> model.frame(3).shape, model.n_frames
+    ((32, 48), 16)
+    >>> bool(np.array_equal(model.frame(3), model.frames()[3]))
+    True
+    """
+
+    def __init__(self, image, mask=None, params=None, *, seed=None, pixel_size=1.0, progress=None):
+        import scipy.fft  # imported here so that `import fluidnb.flicker` stays quick
+
+        report = Progress(progress)
+        params = _check_params(params)
+        draw, self.seed = _resolve_seed(seed)
+        self.params = params
+        self.timings = {}
+        clock = time.perf_counter()
+
+        report(0.0, "initial phase")
+        scene = _Scene(image, mask, params, pixel_size)
+        self._scene = scene
+        self.window = scene.window
+        self.alpha = scene.alpha
+        now = time.perf_counter()
+        self.timings["analyse"], clock = now - clock, now
+
+        # Eq. (4) in real-FFT form: e^{j alpha} = cos(alpha) + j sin(alpha), two real
+        # fields whose half spectra restricted to a bin stay Hermitian.
+        report(0.1, "spectrum")
+        h, w = self.alpha.shape
+        half = scipy.fft.rfft2(np.stack([np.cos(self.alpha), np.sin(self.alpha)]), workers=-1)
+        fc = temporal_frequencies((h, w), params, pixel_size=scene.pixel_size)[:, : w // 2 + 1]
+        index = np.mod(fc, params.T)
+        # The distinct bins in use, and each coefficient's position among them.
+        self.bins = np.flatnonzero(np.bincount(index.ravel(), minlength=params.T))
+        lookup = np.zeros(params.T, np.intp)
+        lookup[self.bins] = np.arange(len(self.bins))
+        inverse = lookup[index]
+        spectrum = noise_spectrum(params.T, params.beta, seed=draw)
+        # g_c(t) for the bins in use: (K, T) complex.
+        self._signals = temporal_signals(spectrum[self.bins])
+        now = time.perf_counter()
+        self.timings["spectrum"], clock = now - clock, now
+
+        # B_c = IDFT2(F [f_c = c]) for each bin, stored as rows (Re B_c, Im B_c). The
+        # inverse DFT is done as its two 1-D passes: a bin is an annulus of spatial
+        # frequencies, so the first pass (along y) only needs the columns the annulus
+        # crosses, about half of them on average.
+        k = len(self.bins)
+        basis = np.empty((2 * k, h * w), np.float32)
+        half = half.astype(np.complex64)
+        work = np.empty((2, h, w // 2 + 1), np.complex64)
+        for i in range(k):
+            if i % _BINS_PER_REPORT == 0:
+                report(0.15 + 0.6 * i / k, f"inverse DFT, bin {i + 1} of {k}")
+            select = inverse == i
+            cols = np.flatnonzero(select.any(axis=0))
+            c0, c1 = int(cols[0]), int(cols[-1]) + 1
+            work.fill(0)
+            work[:, :, c0:c1] = scipy.fft.ifft(
+                half[:, :, c0:c1] * select[:, c0:c1], axis=-2, workers=-1
+            )
+            basis[2 * i : 2 * i + 2] = scipy.fft.irfft(work, n=w, axis=-1, workers=-1).reshape(
+                2, h * w
+            )
+        self._basis = basis
+        now = time.perf_counter()
+        self.timings["synthesis"], clock = now - clock, now
+
+        self.normalisation = 1.0
+        self._table = None
+        self._cache = {}
+        self._rest = None
+        # Im(B g) = Re B Im g + Im B Re g, with A folded in.
+        self._coefficients = self._make_coefficients(params.A)
+        if params.beta > 0:
+            # The random phases can add up anywhere in the loop, so the peak needs every
+            # frame: one product for all of them (the fastest way to make them), kept,
+            # so the frames are not computed twice.
+            report(0.8, "noise normalisation")
+            table = self._coefficients @ self._basis  # (T, h * w): A Im I_out
+            inside = scene.mask[self.window].ravel()
+            if inside.all():
+                peak = max(float(table.max()), -float(table.min()))
+            else:
+                peak = np.maximum(table.max(axis=0), -table.min(axis=0))
+                peak = float(peak[inside].max())
+            self.normalisation = peak / params.A if peak > 0 else 1.0
+            self._table = table
+        # Heights relative to C are ``rows * height_scale``; the shading kernel's input
+        # (pre-scaled slopes) is ``rows * slope_scale``, or, without a table, a product
+        # with coefficients that have it folded in.
+        self._height_scale = np.float32(1.0 / self.normalisation)
+        self._slope_scale = np.float32(scene.slope_scale / self.normalisation)
+        self._slope_coefficients = self._make_coefficients(params.A * scene.slope_scale)
+        self.timings["normalise"] = time.perf_counter() - clock
+        report(1.0, "ready")
+
+    @classmethod
+    def reduced(cls, image, mask=None, params=None, *, size=128, seed=None, progress=None):
+        """A model of a reduced copy of the photo that behaves like the full-size one.
+
+        The photo and the region are resized so that the longest side is ``size``
+        pixels, and the model gets the matching ``pixel_size``, so the mapping, the
+        slopes and the feather keep their full-resolution meaning (a preview).
+
+        Parameters
+        ----------
+        image, mask, params, seed, progress
+            As for the constructor, at full resolution.
+        size : int
+            Longest side in pixels (>= 8). An image already that small is used as it
+            is.
+
+        Returns
+        -------
+        FlickerModel
+            With :attr:`pixel_size` = full-resolution pixels per pixel.
+
+        Examples
+        --------
+        >>> img = np.random.default_rng(0).random((100, 60, 3))
+        >>> m = FlickerModel.reduced(img, size=50, params=FlickerParams(T=8, f0=2))
+        >>> m.shape, m.pixel_size
+        ((50, 30), 2.0)
+        """
+        from ..fields import resize  # scikit-image: imported only when reducing
+
+        img = as_image(image)
+        size = check_int("size", size, 8)
+        h, w = img.shape[:2]
+        region = None if mask is None else as_mask(mask, (h, w), name="mask")
+        scale = max(h, w) / size
+        if scale <= 1:
+            return cls(img, region, params, seed=seed, progress=progress)
+        shape = (max(1, round(h / scale)), max(1, round(w / scale)))
+        small = np.clip(resize(img, shape), 0.0, 1.0)
+        small_mask = None
+        if region is not None:
+            cover = resize(region.astype(np.float32), shape)
+            # A reduced pixel moves when most of it is painted; a tiny region still shows.
+            small_mask = cover > 0.5 if (cover > 0.5).any() else cover > 0
+        pixel_size = max(h / shape[0], w / shape[1])
+        return cls(small, small_mask, params, seed=seed, pixel_size=pixel_size, progress=progress)
+
+    # ------------------------------------------------------------------ internals
+    @property
+    def _n_blocks(self):
+        return -(-self.params.T // _BLOCK)
+
+    def _make_coefficients(self, factor):
+        g = self._signals.T * factor  # (T, K) complex128
+        coef = np.empty((g.shape[0], 2 * g.shape[1]), np.float32)
+        coef[:, 0::2] = g.imag
+        coef[:, 1::2] = g.real
+        return coef
+
+    def _slopes(self, t0, t1):
+        """The shading kernel's input for frames t0..t1 of one aligned block, (n, h * w).
+
+        Without noise a product over the bins (its rounding depends on the number of
+        rows, hence whole aligned blocks); with noise a scaled copy of the table's rows.
+        """
+        if self._table is not None:
+            return self._table[t0:t1] * self._slope_scale
+        return self._slope_coefficients[t0:t1] @ self._basis
+
+    def _row(self, which, t):
+        """Frame ``t`` (any integer: period T), (h, w): heights relative to C or slopes."""
+        t = int(t) % self.params.T
+        if self._table is not None:
+            scale = self._height_scale if which == "height" else self._slope_scale
+            return (self._table[t] * scale).reshape(self.alpha.shape)
+        b = t // _BLOCK
+        key = (which, b)
+        if key not in self._cache:
+            t0, t1 = b * _BLOCK, (b + 1) * _BLOCK
+            # Keep one block of each kind: playing the frames in order reuses it.
+            self._cache = {k: v for k, v in self._cache.items() if k[0] != which}
+            if which == "height":
+                self._cache[key] = self._coefficients[t0:t1] @ self._basis
+            else:
+                self._cache[key] = self._slopes(t0, t1)
+        return self._cache[key][t - b * _BLOCK].reshape(self.alpha.shape)
+
+    def _check_t(self, t):
+        return check_int("t", t)
+
+    # ------------------------------------------------------------------ public API
+    @property
+    def n_frames(self):
+        """The number of frames in the loop, ``T``."""
+        return self.params.T
+
+    @property
+    def shape(self):
+        """(H, W) of the frames."""
+        return self._scene.image.shape[:2]
+
+    @property
+    def pixel_size(self):
+        """Size of one pixel in full-resolution pixels (1 unless :meth:`reduced`)."""
+        return self._scene.pixel_size
+
+    @property
+    def mask(self):
+        """The animated region, bool (H, W) (a copy)."""
+        return self._scene.mask.copy()
+
+    @property
+    def luminance(self):
+        """:math:`H_{xy}(0)`, the photo's luminance, float32 (H, W) (a copy)."""
+        return self._scene.luminance.copy()
+
+    @property
+    def spectrum(self):
+        """:math:`F(f_x, f_y)` of Eq. (4) over the window, complex128, fft2 order."""
+        return phase_spectrum(self.alpha)
+
+    @property
+    def frequencies(self):
+        """:math:`f_c` of every spatial frequency of the window (Eq. (7)-(9)), int, fft2 order."""
+        return temporal_frequencies(
+            self.alpha.shape, self.params, pixel_size=self._scene.pixel_size
+        )
+
+    def height(self, t):
+        r"""The height :math:`H(x, y, t) = C + A \, \mathrm{Im}\, I_{out}(x, y, t)` at frame ``t``.
+
+        Parameters
+        ----------
+        t : int
+            Any integer frame; the loop has period ``T``, so ``t + T`` is ``t``.
+
+        Returns
+        -------
+        ndarray, shape (H, W), float32
+            Inside the window the model's height; outside it the rest height of
+            Eq. (2), which never moves.
+        """
+        t = self._check_t(t)
+        if self._rest is None:
+            p = self.params
+            alpha = initial_phase(self._scene.luminance, p.A, p.C, p.branch)
+            self._rest = (p.A * np.sin(alpha)).astype(np.float32)
+        out = self._rest.copy()
+        out[self.window] = self._row("height", t)
+        out += np.float32(self.params.C)
+        return out
+
+    def field(self, t):
+        r""":math:`I_{out}(x, y, t)` of Eq. (5) over the window (divided by :attr:`normalisation`).
+
+        Parameters
+        ----------
+        t : int
+            Frame.
+
+        Returns
+        -------
+        ndarray, shape (h, w), complex128
+            ``height(t)[window] == C + A * field(t).imag`` up to float32 rounding.
+        """
+        t = self._check_t(t) % self.params.T
+        g = self._signals[:, t] / self.normalisation
+        re, im = self._basis[0::2].astype(np.float64), self._basis[1::2].astype(np.float64)
+        return ((g @ re) + 1j * (g @ im)).reshape(self.alpha.shape)
+
+    def frame(self, t):
+        """Frame ``t`` of the clip, computed alone (bit-identical to ``frames()[t]``).
+
+        Parameters
+        ----------
+        t : int
+            Any integer frame (period ``T``).
+
+        Returns
+        -------
+        ndarray, shape (H, W) or (H, W, 3), float32 in [0, 1]
+        """
+        t = self._check_t(t)
+        return self._scene.frame_from(self._row("slope", t))
+
+    def frames(self, progress=None):
+        """All ``T`` frames, shape (T, H, W[, 3]), float32 in [0, 1]."""
+        report = Progress(progress)
+        scene = self._scene
+        T = self.params.T
+        out = scene.empty_clip(T)
+        h, w = self.alpha.shape
+        blocks = self._n_blocks
+        with ThreadPoolExecutor(_THREADS, thread_name_prefix="fluidnb-flicker") as pool:
+            rows = self._slopes(0, min(_BLOCK, T))
+            for b in range(blocks):
+                t0, t1 = b * _BLOCK, min((b + 1) * _BLOCK, T)
+                report(b / blocks, f"frames {t0 + 1}-{t1}")
+                # Written straight into the clip (a strided view when the window is a
+                # box inside the image).
+                target = out[(slice(t0, t1), *self.window)]
+                running = scene.submit(rows.reshape(t1 - t0, h, w), target, pool)
+                if b + 1 < blocks:  # the next block's heights while this one is shaded
+                    rows = self._slopes(t1, min(t1 + _BLOCK, T))
+                for f in running:
+                    f.result()
+        report(1.0, "done")
+        return out
+
+    def clip(self, progress=None):
+        """The whole loop as a :class:`fluidnb.Clip` with method, params, seed and timings."""
+        started = time.perf_counter()
+        frames = self.frames(progress)
+        timings = {**self.timings, "render": time.perf_counter() - started}
+        return Clip._trusted(frames, float(self.params.fps), {}).with_metadata(
+            method="flicker",
+            params=self.params.to_dict(),
+            seed=self.seed,
+            timings=timings,
+            bins=len(self.bins),
+            normalisation=self.normalisation,
+            pixel_size=self._scene.pixel_size,
+        )
+
+
+def flicker(image, mask=None, params=None, *, seed=None, progress=None):
+    r"""Animate a photo with flicker ("yuragi") from its spatio-temporal spectrum.
+
+    The method of Yamamoto & Sakamoto [1]_: the luminance is a pseudo-height whose
+    initial phases (Eq. (3)) are transformed to a 2-D spectrum (Eq. (4)), each
+    spatial frequency is given a temporal frequency on a plane or a curved surface
+    (Eq. (7)-(9)), spread with 1/f^β noise (Eq. (10)), and the 3-D inverse DFT
+    (Eq. (5)) gives the height of every frame; a bump-mapped Lambert shading of that
+    height changes the photo's brightness (the base method [4] of Sec. 2.1).
+
+    Parameters
+    ----------
+    image : array_like, path or PIL image, shape (H, W) or (H, W, 3)
+        The photo.
+    mask : array_like of bool, shape (H, W), optional
+        The region to animate; default the whole image. Pixels outside stay exactly
+        as in the photo in every frame.
+    params : FlickerParams, optional
+        The paper's values by default (T = 64 frames at 8 fps, f0 = 4, convex
+        mapping, β = 2).
+    seed : None, int or numpy.random.Generator
+        For the noise; same seed, same frames. ``None`` draws one and records it in
+        the clip's metadata.
+    progress : callable, optional
+        ``progress(fraction, message)``; raising :class:`fluidnb.Cancelled` stops it.
+
+    Returns
+    -------
+    Clip
+        ``T`` frames that loop seamlessly; metadata ``method="flicker"``, ``params``,
+        ``seed``, ``timings`` (seconds per stage), ``bins`` (the number of distinct
+        temporal frequencies) and ``normalisation``.
+
+    Raises
+    ------
+    ValueError
+        For an unreadable image, NaN values, a mask of another size or an empty
+        mask, or parameters that are not a :class:`FlickerParams`.
+
+    See Also
+    --------
+    FlickerModel : The same computation, one frame at a time.
+    base_method : Eq. (1) alone (the paper's Sec. 2.1).
+
+    References
+    ----------
+    .. [1] Yamamoto K., Sakamoto Y., "一枚の画像からの時空間周波数を用いた揺らめき動画生成法"
+       ("A method of generating flicker animation from a single image using
+       spatio-temporal frequencies"), Graduate School of Information Science and
+       Technology, Hokkaido University.
+    .. [4] Mori T., Sakamoto Y., "写真に揺らめき表現を付加した動画生成に関する研究"
+       ("Generating animation with flicker added to photographs"), ITE Technical
+       Report 32(46), pp. 39-42 (2008).
+
+    Examples
+    --------
+    >>> from fluidnb import data
+    >>> photo = data.sample("ripples", size=48)
+    >>> clip = flicker(photo, params=FlickerParams(T=16), seed=0)
+    >>> clip
+    Clip(16 frames, 48x48 RGB, 8 fps, method='flicker')
+    >>> clip.metadata["seed"], sorted(clip.metadata["timings"])
+    (0, ['analyse', 'normalise', 'render', 'spectrum', 'synthesis'])
+    """
+    first, second = Progress(progress).split(0.4)
+    model = FlickerModel(image, mask, params, seed=seed, progress=first)
+    return model.clip(progress=second)
+
+
+def preview(image, mask=None, params=None, *, size=128, seed=None, progress=None):
+    """A reduced-size flicker clip that looks like the full one, fast enough to follow a slider.
+
+    The photo and the region are resized so the longest side is ``size`` pixels;
+    the model gets the matching ``pixel_size``, so the mapping, the slopes and the
+    feather keep their full-resolution meaning.
+
+    Parameters
+    ----------
+    image, mask, params, seed, progress
+        As for :func:`flicker`.
+    size : int
+        Longest side of the preview in pixels (>= 8). An image already that small
+        is used as it is.
+
+    Returns
+    -------
+    Clip
+        All ``T`` frames at the reduced size; metadata as :func:`flicker`, with
+        ``pixel_size``.
+
+    See Also
+    --------
+    FlickerModel.reduced : The model behind it.
+
+    Examples
+    --------
+    >>> from fluidnb import data
+    >>> photo = data.sample("stream", size=256)
+    >>> preview(photo, params=FlickerParams(T=16), size=64, seed=0).shape
+    (50, 64)
+    """
+    first, second = Progress(progress).split(0.4)
+    model = FlickerModel.reduced(image, mask, params, size=size, seed=seed, progress=first)
+    return model.clip(progress=second)
+
+
+def base_method(image, mask=None, params=None, *, progress=None):
+    r"""The base method [4] of Sec. 2.1: every pixel's height a simple harmonic motion.
+
+    .. math:: H_{xy}(t) = A \sin(\omega t + \alpha_{xy}) + C, \qquad
+              \omega = 2\pi f_0 / T  \quad (1)
+
+    with the initial phases of Eq. (3), shaded as in :func:`flicker`. This equals the
+    plane mapping (Eq. (7)) without noise; it is here for comparison.
+
+    Parameters
+    ----------
+    image, mask, params, progress
+        As for :func:`flicker` (``mapping``, ``kappa`` and ``beta`` are not used).
+
+    Returns
+    -------
+    Clip
+        ``T`` frames, metadata ``method="flicker-base"``.
+
+    Examples
+    --------
+    >>> img = np.random.default_rng(0).random((16, 16))
+    >>> base_method(img, params=FlickerParams(T=8, f0=2)).n_frames
+    8
+    """
+    report = Progress(progress)
+    params = _check_params(params)
+    started = time.perf_counter()
+    scene = _Scene(image, mask, params, 1.0)
+    T = params.T
+    out = scene.empty_clip(T)
+    with ThreadPoolExecutor(_THREADS, thread_name_prefix="fluidnb-flicker") as pool:
+        for t0 in range(0, T, _BLOCK):
+            t1 = min(t0 + _BLOCK, T)
+            report(t0 / T, f"frames {t0 + 1}-{t1}")
+            heights = harmonic_height(
+                scene.alpha, np.arange(t0, t1), A=params.A, C=0.0, f0=params.f0, T=T
+            )
+            slopes = (heights * scene.slope_scale).astype(np.float32)
+            for f in scene.submit(slopes, out[(slice(t0, t1), *scene.window)], pool):
+                f.result()
+    report(1.0, "done")
+    return Clip._trusted(out, float(params.fps), {}).with_metadata(
+        method="flicker-base",
+        params=params.to_dict(),
+        timings={"render": time.perf_counter() - started},
+    )

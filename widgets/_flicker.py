@@ -1,0 +1,175 @@
+"""The flicker ("yuragi") app: paint a region, move sliders, watch the photo flicker."""
+
+from __future__ import annotations
+
+import io
+import threading
+
+import ipywidgets as W
+from traitlets import Int
+
+from fluidnb import as_image
+from fluidnb.flicker import FlickerModel, FlickerParams, analysis_figure, flicker, preview
+
+from ._app import App
+from ._canvas import DrawingCanvas
+from ._panel import ParamPanel
+
+__all__ = ["FlickerApp"]
+
+
+class FlickerApp(App):
+    """Flicker animation of one photo (Yamamoto & Sakamoto), interactively.
+
+    Paint the region to animate with the brush (eraser and fill too; nothing painted
+    means the whole image), choose the mapping and move the sliders: a low-resolution
+    preview of the whole loop follows. **Run** renders the full-resolution clip (with
+    progress and Cancel); the player plays it and exports GIF or MP4. **Analyse**
+    shows the 2-D spectrum, the mapping surface, the temporal spectrum of the probe
+    pixel (click with the points tool) and the paper's Fig. 8-11 difference images.
+
+    Parameters
+    ----------
+    image : array_like, path or PIL image, optional
+        The photo; by default the ``"stream"`` sample.
+    display_size : int
+        Longest side of the canvas on screen, in pixels.
+    quick : bool
+        Small sizes for a quick look or a headless run: a 96-pixel sample photo, a
+        16-frame loop and a 64-pixel preview.
+    params : FlickerParams, optional
+        Starting parameters (the paper's by default; ``T = 16`` with ``quick``).
+    seed : int
+        Noise seed (also a control in the app).
+    preview_size : int, optional
+        Longest side of the live preview (default 128, 64 with ``quick``).
+
+    Examples
+    --------
+    >>> app = FlickerApp(quick=True)
+    >>> app.canvas.paint([[30, 20], [30, 70]], radius=8)
+    >>> app.panel.set("mapping", "plane")
+    >>> clip = app.run(timeout=60)
+    >>> clip.n_frames, clip.shape == app.image.shape[:2]
+    (16, True)
+    >>> app.close()
+    """
+
+    #: The noise seed used by the preview and the run.
+    seed = Int(0)
+
+    def __init__(
+        self,
+        image=None,
+        *,
+        display_size=480,
+        quick=False,
+        params=None,
+        seed=0,
+        preview_size=None,
+    ):
+        if image is None:
+            from fluidnb import data
+
+            image = data.sample("stream", size=96 if quick else 480)
+        self.image = as_image(image)
+        if params is None:
+            params = FlickerParams(T=16) if quick else FlickerParams()
+        self.preview_size = int(preview_size or (64 if quick else 128))
+        self._model_lock = threading.Lock()
+        canvas = DrawingCanvas(
+            self.image, masks=["region"], points=["probe"], display_size=display_size
+        )
+        canvas.select("brush", "region")
+        canvas.brush_radius = max(2.0, max(self.image.shape[:2]) / 24)
+        panel = ParamPanel(params)
+
+        self._seed = W.BoundedIntText(
+            value=seed,
+            min=0,
+            max=2**31 - 1,
+            description="noise seed",
+            layout=W.Layout(width="200px"),
+        )
+        self._seed.add_class("fluidnb-seed")
+        self._new_noise = W.Button(
+            description="New noise", icon="random", layout=W.Layout(width="110px")
+        )
+        self._new_noise.add_class("fluidnb-new-noise")
+        self._new_noise.on_click(
+            lambda _: setattr(self._seed, "value", (self._seed.value + 1) % 2**31)
+        )
+        W.link((self._seed, "value"), (self, "seed"))
+        self._analyse = W.Button(
+            description="Analyse", icon="bar-chart", layout=W.Layout(width="110px")
+        )
+        self._analyse.add_class("fluidnb-analyse")
+        self._analyse.on_click(lambda _: self.show_analysis())
+        self.analysis = W.Image(format="png", layout=W.Layout(max_width="100%"))
+        self.analysis.add_class("fluidnb-analysis")
+        hint = W.HTML(
+            "<span style='opacity:0.7'>Paint the region to animate (nothing painted: the "
+            "whole photo). Points tool: pick the pixel whose spectrum Analyse shows.</span>"
+        )
+        super().__init__(
+            panel=panel,
+            run=self._run,
+            preview=self._preview,
+            canvas=canvas,
+            title="Flicker (yuragi) — Yamamoto & Sakamoto",
+            extra=[W.HBox([self._seed, self._new_noise, self._analyse]), hint],
+        )
+        self.children = (*self.children, self.analysis)
+        self.observe(lambda _: self.request_preview(), "seed")
+
+    # ------------------------------------------------------------------ inputs
+    def region(self):
+        """The painted region as bool (H, W), or None when nothing is painted (whole image)."""
+        mask = self.canvas.get_mask("region")
+        return mask if mask.any() else None
+
+    def probe(self):
+        """The last point placed with the points tool (row, col), or None."""
+        points = self.canvas.get_points("probe")
+        return None if len(points) == 0 else tuple(points[-1])
+
+    # ------------------------------------------------------------------ library calls
+    def _preview(self, params):
+        return preview(self.image, self.region(), params, size=self.preview_size, seed=self.seed)
+
+    def _run(self, params, progress):
+        return flicker(self.image, self.region(), params, seed=self.seed, progress=progress)
+
+    def show_analysis(self, pixel=None):
+        """Draw the analysis figure for the current settings (at preview resolution).
+
+        Parameters
+        ----------
+        pixel : (row, col), optional
+            Image pixel whose temporal spectrum is shown; default the probe point, or
+            the centre of the region.
+
+        Returns
+        -------
+        bytes
+            The PNG shown.
+        """
+        params = self.panel.params
+        try:
+            with self._model_lock:  # one analysis at a time (a double click)
+                model = FlickerModel.reduced(
+                    self.image, self.region(), params, size=2 * self.preview_size, seed=self.seed
+                )
+                pixel = pixel if pixel is not None else self.probe()
+                if pixel is not None:
+                    h, w = model.shape
+                    s = model.pixel_size
+                    pixel = (min(pixel[0] / s, h - 1), min(pixel[1] / s, w - 1))
+                fig = analysis_figure(model, pixel=pixel)
+                buf = io.BytesIO()
+                fig.savefig(buf, format="png", dpi=80)
+        except ValueError as exc:
+            self.say(str(exc), "error")
+            return b""
+        self.analysis.value = buf.getvalue()
+        return self.analysis.value
