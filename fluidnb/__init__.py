@@ -29,6 +29,7 @@ __all__ = [
     "data",
     "fields",
     "flicker",
+    "frost",
     "load_clip",
     "param",
     "rng",
@@ -38,7 +39,7 @@ __all__ = [
 
 # Subpackages load on first use so `import fluidnb` (and `fluidnb --version`) stays
 # quick; `fluidnb.fields` and `fluidnb.sketch` pull in scikit-image.
-_SUBPACKAGES = {"data", "fields", "flicker", "sketch"}
+_SUBPACKAGES = {"data", "fields", "flicker", "frost", "sketch"}
 
 
 def __getattr__(name):

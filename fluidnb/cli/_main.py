@@ -16,6 +16,7 @@ __all__ = ["build_parser", "main"]
 _COMMAND_MODULES = [
     "fluidnb.cli._info",
     "fluidnb.cli._flicker",
+    "fluidnb.cli._frost",
 ]
 
 

@@ -1,0 +1,156 @@
+"""``fluidnb frost``: frost growing over a painted region of an image."""
+
+from __future__ import annotations
+
+import argparse
+
+from ._common import add_output_option, add_params_options, add_seed_option, params_from_args
+
+
+def _seed_point(text):
+    """Parse ``X,Y`` (column, row in pixels) into (row, col)."""
+    try:
+        x, y = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"seed point must be X,Y (column,row in pixels), got {text!r}"
+        ) from None
+    return (y, x)
+
+
+def register(sub):
+    """Add the ``frost`` subcommand."""
+    from ..frost import FrostParams
+
+    p = sub.add_parser(
+        "frost",
+        help="frost growing over a painted region (Amano, Sato & Itoh; Reiter 2005)",
+        description=(
+            "Grow frost over the white part of MASK on IMAGE from one or more seed "
+            "points, with Reiter's hexagonal automaton and the paper's random threshold "
+            "rth; with --target, first optimise beta so that 90% of the region is ice "
+            "at that frame. Defaults are the paper's (beta 0.35, gamma 0.005, rth 0, "
+            "24 fps) and Reiter's alpha = 1."
+        ),
+        epilog=(
+            "Seed points are X,Y = column,row in image pixels (as image editors show "
+            "them), counted from the top-left pixel; they must lie in the region. "
+            "Example: fluidnb frost leaf.png --region mask.png --seed-point 240,180 "
+            "--target 130 -o frost.mp4"
+        ),
+    )
+    p.add_argument("image", help="the picture (any format Pillow reads)")
+    p.add_argument(
+        "--region",
+        default=None,
+        metavar="MASK",
+        help="where frost may grow: an image of the same size, white = frost "
+        "(default: the whole image)",
+    )
+    p.add_argument(
+        "--seed-point",
+        dest="seed_points",
+        action="append",
+        type=_seed_point,
+        required=True,
+        metavar="X,Y",
+        help="a start point, X,Y = column,row in pixels (repeat for several)",
+    )
+    add_params_options(p, FrostParams)
+    p.add_argument(
+        "--solver",
+        choices=("secant", "steepest"),
+        default="secant",
+        help="how --target optimises beta: 'secant' (bracketing + secant, robust) or "
+        "'steepest' (the paper's steepest descent, Eq. (3)); default secant",
+    )
+    p.add_argument(
+        "--eta",
+        type=float,
+        default=1e-6,
+        help="eta of the steepest descent (the paper: 1e-6)",
+    )
+    p.add_argument(
+        "--fd-step",
+        type=float,
+        default=0.01,
+        help="finite-difference step h of the steepest descent (default 0.01)",
+    )
+    p.add_argument("--every", type=int, default=1, help="draw every k-th step (default 1)")
+    p.add_argument("--size", type=int, default=None, help="longest side of the output in pixels")
+    p.add_argument(
+        "--freeze-times",
+        default=None,
+        metavar="NPZ",
+        help="also save each cell's freeze frame and pixel position to this .npz",
+    )
+    add_seed_option(p)
+    add_output_option(p)
+    p.set_defaults(func=_frost)
+
+
+def _frost(args):
+    import numpy as np
+
+    from .._image import as_image, as_mask
+    from .._progress import TextProgress
+    from .._random import rng
+    from ..frost import FrostParams, HexLattice, grow, optimise_beta, render
+
+    params = params_from_args(FrostParams, args)
+    image = as_image(args.image, name="IMAGE", mode="rgb")
+    if args.region is None:
+        region = np.ones(image.shape[:2], bool)
+    else:
+        region = as_mask(args.region, image.shape[:2], name="--region")
+    lattice = HexLattice.from_mask(region, params.spacing)
+    for row, col in args.seed_points:
+        try:
+            lattice.snap([row, col])
+        except ValueError:
+            raise ValueError(
+                f"--seed-point {col:g},{row:g} (X,Y = column,row) is outside the region; "
+                "place seeds on the white part of --region"
+            ) from None
+    seeds = lattice.snap(np.array(args.seed_points, float))
+    # One seed for the optimiser and the clip (common random numbers), printed so the
+    # clip can be made again.
+    seed = int(rng(None).integers(2**31)) if args.seed is None else args.seed
+    print(f"lattice: {lattice.n_cells} cells, spacing {params.spacing:g} px")
+    optimise = None
+    if args.target is not None:
+        result = optimise_beta(
+            lattice,
+            seeds,
+            params.target,
+            params,
+            method=args.solver,
+            eta=args.eta,
+            h=args.fd_step,
+            seed=seed,
+            progress=TextProgress(),
+        )
+        print(f"optimising beta for end frame {result.target} ({args.solver}):")
+        print(result.table())
+        print(result.message)
+        params = params.replace(beta=result.beta)
+        optimise = result.to_dict()
+    grown = grow(lattice, seeds, params, seed=seed, progress=TextProgress())
+    print(f"beta = {params.beta:.6g}: {grown.message}")
+    clip = render(image, lattice, grown, every=args.every, size=args.size, progress=TextProgress())
+    extra = {"seed": seed, "n_cells": lattice.n_cells}
+    if optimise is not None:
+        extra["optimise"] = optimise
+    clip = clip.with_metadata(**extra)
+    out = clip.save(args.output)
+    print(f"wrote {out} ({len(clip)} frames, {clip.fps:g} fps, seed {seed})")
+    if args.freeze_times is not None:
+        np.savez_compressed(
+            args.freeze_times,
+            freeze_frame=grown.freeze_frame,
+            points_rc=lattice.points,
+            end_frame=-1 if grown.end_frame is None else grown.end_frame,
+            spacing=lattice.spacing,
+        )
+        print(f"wrote {args.freeze_times} (freeze frame of {lattice.n_cells} cells)")
+    return 0

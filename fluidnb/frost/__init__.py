@@ -1,0 +1,39 @@
+"""Frost growth on a hexagonal lattice (Amano, Sato, Itoh; Reiter 2005).
+
+Paint a region, pick seed points, and frost grows over it by Reiter's cellular
+automaton for snow crystals with the seed paper's random threshold ``rth``; the
+initial vapour ``beta`` can be optimised so the growth ends at a chosen frame.
+
+- :class:`HexLattice` -- lattice points in the region and the boundary ring around it.
+- :func:`grow` / :func:`step` -- the automaton (vectorised), per-cell freeze frames.
+- :func:`optimise_beta` -- steepest descent (the paper) or bracketing + secant.
+- :func:`direction_beta` -- a beta that varies with direction (the paper's future work).
+- :func:`render` / :func:`frost` -- draw the frost over an image as a :class:`fluidnb.Clip`.
+"""
+
+from ._direction import DirectionBeta, direction_beta
+from ._lattice import DIRECTIONS, HexLattice
+from ._optimise import OptimiseResult, OptimiseStep, optimise_beta
+from ._params import FrostParams
+from ._pipeline import frost
+from ._reference import reference_setup
+from ._reiter import FrostResult, grow, step
+from ._render import FrostLook, render
+
+__all__ = [
+    "DIRECTIONS",
+    "DirectionBeta",
+    "FrostLook",
+    "FrostParams",
+    "FrostResult",
+    "HexLattice",
+    "OptimiseResult",
+    "OptimiseStep",
+    "direction_beta",
+    "frost",
+    "grow",
+    "optimise_beta",
+    "reference_setup",
+    "render",
+    "step",
+]

@@ -1,0 +1,130 @@
+"""The frost app driven from Python, with the same calls the front end makes."""
+
+import numpy as np
+import pytest
+
+from fluidnb import data
+from fluidnb.frost import FrostParams
+from fluidnb.widgets import FrostApp
+from tests.support.frontend import mouse_drag
+
+SEED_RC = (48.0, 45.0)
+
+
+@pytest.fixture
+def app():
+    image = data.sample("leaf", size=128)  # 96 x 128
+    a = FrostApp(image, params=FrostParams(beta=0.6, spacing=3.0), seed=1)
+    a.min_interval = 0.0
+    yield a
+    a.close()
+
+
+def paint_and_seed(app):
+    """Paint a band with the brush through the canvas's mouse handlers; click a seed."""
+    c = app.canvas
+    c.select("brush", "region")
+    c.brush_radius = 22
+    mouse_drag(c, [c.to_canvas(48, 25), c.to_canvas(48, 100)])
+    c.select("points", "seeds")
+    mouse_drag(c, [c.to_canvas(*SEED_RC)])
+    app.wait_preview()
+    return c.get_mask("region")
+
+
+def ice_area(clip, base, region):
+    changed = np.abs(clip.frames - base).sum(axis=-1) > 0.05
+    return changed[:, region].mean(axis=1)
+
+
+def test_nothing_drawn_says_what_to_do(app):
+    app.wait_preview()
+    assert "region is empty" in app.status
+    app.canvas.paint([[48, 60]], radius=20, layer="region")
+    app.wait_preview()
+    assert "no seed point" in app.status
+    assert "points tool" in app.status
+    assert app.player.clip is None
+
+
+def test_paint_seed_preview_follows_rth_and_run_grows_frost_from_the_seed(app):
+    region = paint_and_seed(app)
+    assert region.sum() > 2000
+    assert app.canvas.get_points("seeds").shape == (1, 2)
+    first = app.player.clip
+    assert first is not None
+    assert first.metadata["preview"] is True
+    app.panel.set("rth", 0.8)
+    app.wait_preview()
+    assert app.player.clip is not first
+    assert app.player.clip.metadata["params"]["rth"] == 0.8
+
+    clip = app.run(timeout=120)
+    assert "done" in app.status, app.status
+    assert clip.shape == app.image.shape[:2]
+    meta = clip.metadata
+    assert meta["method"] == "frost"
+    assert meta["params"]["rth"] == 0.8
+    assert meta["seed"] == 1
+    area = ice_area(clip, app.image, region)
+    assert area[0] < 0.02
+    assert area[-1] > 0.5
+    assert np.all(np.diff(area) >= -0.02)  # it grows
+    # The first visible frost is around the seed.
+    k = next(i for i, a in enumerate(area) if a > 0.01)
+    changed = np.abs(clip.frames[k] - app.image).sum(-1) > 0.05
+    rows, cols = np.nonzero(changed & region)
+    assert np.hypot(rows.mean() - SEED_RC[0], cols.mean() - SEED_RC[1]) < 10
+    assert app.frost_result.end_frame == meta["end_frame"]
+
+
+def test_optimise_button_fills_the_table_live_and_sets_beta(app):
+    paint_and_seed(app)
+    app.panel.set("target", 150)
+    seen = []
+    app.table.observe(lambda change: seen.append(change["new"]), "value")
+    assert app.optimise()
+    assert not app.optimise()  # one computation at a time
+    app.wait(120)
+    result = app.optimised
+    assert result is not None
+    assert result.target == 150
+    assert app.panel.params.beta == pytest.approx(result.beta)
+    # The table grew one row at a time while the optimiser ran.
+    rows_seen = [v.count("<tr>") - 1 for v in seen]
+    assert rows_seen[-1] == len(result.steps)
+    assert sorted(set(rows_seen)) == list(range(1, len(result.steps) + 1))
+    assert "end frame" in app.table.value
+    assert f"{result.steps[0].beta:.6f}" in app.table.value
+    word = "converged" if result.converged else "not converged"
+    assert app.status.startswith(word)
+    assert not app._optimise_button.disabled or app.running
+
+
+def test_optimise_with_steepest_and_cancel(app):
+    paint_and_seed(app)
+    app._solver.value = "steepest"
+    app._eta.value = 3e-6
+    app.panel.set("target", 150)
+    assert app.optimise()
+    app.cancel()
+    app.wait(120)
+    assert "cancel" in app.status or app.optimised is not None
+    # The drawing is untouched either way.
+    assert app.canvas.get_points("seeds").tolist() == [list(SEED_RC)]
+
+
+def test_setters_preload_a_region_and_seeds():
+    image = data.sample("leaf", size=128)
+    region = np.zeros(image.shape[:2], bool)
+    region[20:76, 30:100] = True
+    a = FrostApp(image, region=region, seeds=[[48, 60]], params=FrostParams(beta=0.6, spacing=3))
+    try:
+        a.min_interval = 0.0
+        a.wait_preview()
+        assert a.player.clip is not None, a.status
+        assert np.array_equal(a.canvas.get_mask("region"), region)
+        with pytest.raises(ValueError, match="same height and width"):
+            a.set_region(region[:10])
+    finally:
+        a.close()

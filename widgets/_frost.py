@@ -1,0 +1,289 @@
+"""The frost app: paint a region, click seed points, tune beta/gamma/alpha/rth, optimise beta."""
+
+from __future__ import annotations
+
+import html
+import math
+import threading
+
+import ipywidgets as W
+import numpy as np
+from traitlets import Int
+
+from fluidnb import Progress, as_image, as_mask
+from fluidnb.frost import FrostParams, HexLattice, grow, optimise_beta, render
+
+from ._app import App
+from ._canvas import DrawingCanvas
+from ._panel import ParamPanel
+
+__all__ = ["FrostApp"]
+
+# The live preview runs on a lattice at most this many points across the region, a
+# few hundred frames at most, drawn this small: cheap enough to follow a slider.
+_PREVIEW_CELLS = 36
+_PREVIEW_FRAMES = 600
+_PREVIEW_SIZE = 240
+_PREVIEW_CLIP_FRAMES = 24
+# A full run keeps at most this many frames (every k-th step beyond): a clip of
+# 480 x 360 RGB float32 frames costs 2 MB a frame.
+_RUN_CLIP_FRAMES = 120
+
+
+class FrostApp(App):
+    """Frost growing over a painted region (Amano, Sato & Itoh; Reiter 2005), interactively.
+
+    Paint the region with the brush (eraser and fill too), click one or more seed
+    points with the points tool, and move the sliders: a coarse live preview follows.
+    **Optimise β** runs the optimiser for the target end frame in the background and
+    fills its table (step, β, end frame) as it goes, then sets the β slider.
+    **Run** grows the frost on the full lattice and draws it over the image (with
+    progress and Cancel); the player plays it and exports GIF or MP4.
+
+    Parameters
+    ----------
+    image : array_like, path or PIL image, optional
+        The picture; by default the ``"leaf"`` sample.
+    region : array_like of bool, optional
+        A region to start with (the image's size).
+    seeds : array_like, shape (n, 2), optional
+        Seed points to start with, (row, col) in image pixels.
+    params : FrostParams, optional
+        Starting parameters (the paper's by default).
+    seed : int
+        Random seed of :math:`r_t(p)` for the preview, the optimiser and the run.
+    quick : bool
+        Small sizes for a quick look or a headless run (a 128-pixel sample image).
+    display_size : int
+        Longest side of the canvas on screen, in pixels.
+
+    Examples
+    --------
+    >>> app = FrostApp(quick=True)
+    >>> app.canvas.paint([[48, 30], [48, 90]], radius=20)
+    >>> app.canvas.click([48, 60], layer="seeds")
+    >>> app.panel.set("beta", 0.6)
+    >>> clip = app.run(timeout=120)
+    >>> clip.metadata["method"]
+    'frost'
+    >>> app.close()
+    """
+
+    #: Random seed of r_t(p) used by the preview, the optimiser and the run.
+    seed = Int(0)
+
+    def __init__(
+        self,
+        image=None,
+        *,
+        region=None,
+        seeds=None,
+        params=None,
+        seed=0,
+        quick=False,
+        display_size=480,
+    ):
+        if image is None:
+            from fluidnb import data
+
+            image = data.sample("leaf", size=128 if quick else 480)
+        self.image = as_image(image, mode="rgb")
+        if params is None:
+            params = FrostParams(spacing=3.0) if quick else FrostParams()
+        self.optimised = None  #: The last OptimiseResult.
+        self.frost_result = None  #: The last full run's FrostResult (freeze frames).
+        self._rows = []
+        self._rows_lock = threading.Lock()
+        canvas = DrawingCanvas(
+            self.image, masks=["region"], points=["seeds"], display_size=display_size
+        )
+        canvas.brush_radius = max(2.0, max(self.image.shape[:2]) / 16)
+        panel = ParamPanel(params)
+
+        self._seed = W.BoundedIntText(
+            value=seed, min=0, max=2**31 - 1, description="seed", layout=W.Layout(width="200px")
+        )
+        self._seed.add_class("fluidnb-seed")
+        W.link((self._seed, "value"), (self, "seed"))
+        self._solver = W.Dropdown(
+            options=[("secant (robust)", "secant"), ("steepest descent (paper)", "steepest")],
+            value="secant",
+            description="solver",
+            layout=W.Layout(width="300px"),
+        )
+        self._solver.add_class("fluidnb-solver")
+        self._eta = W.FloatLogSlider(
+            value=1e-6,
+            base=10,
+            min=-8,
+            max=-3,
+            step=0.1,
+            description="η (steepest)",
+            readout_format=".1e",
+            layout=W.Layout(width="320px"),
+            style={"description_width": "90px"},
+        )
+        self._eta.add_class("fluidnb-eta")
+        self._optimise_button = W.Button(
+            description="Optimise β", icon="bullseye", tooltip="fit beta to the target end frame"
+        )
+        self._optimise_button.add_class("fluidnb-optimise")
+        self._optimise_button.on_click(lambda _: self.optimise())
+        self.table = W.HTML()
+        self.table.add_class("fluidnb-optimise-table")
+        hint = W.HTML(
+            "<span style='opacity:0.7'>Brush: paint where frost may grow. Points tool "
+            "(layer <b>seeds</b>): click start points. The preview runs on a coarse "
+            "lattice; Run uses the spacing you set.</span>"
+        )
+        super().__init__(
+            panel=panel,
+            run=self._run,
+            preview=self._preview,
+            canvas=canvas,
+            title="Frost — Amano, Sato & Itoh (Reiter's automaton)",
+            extra=[
+                self._seed,
+                W.HBox([self._solver, self._optimise_button]),
+                self._eta,
+                self.table,
+                hint,
+            ],
+        )
+        canvas.select("brush", "region")
+        if region is not None:
+            self.set_region(region)
+        if seeds is not None:
+            self.set_seeds(seeds)
+        self.observe(lambda _: self.request_preview(), "seed")
+        self._show_table()
+
+    # ------------------------------------------------------------------ inputs
+    def set_region(self, mask):
+        """Replace the painted region (undoable on the canvas)."""
+        self.canvas.set_mask(as_mask(mask, self.image.shape[:2], name="region"), "region")
+
+    def set_seeds(self, points):
+        """Replace the seed points, (n, 2) (row, col) in image pixels."""
+        self.canvas.set_points(np.asarray(points, float).reshape(-1, 2), "seeds")
+
+    def region(self):
+        """The painted region as bool (H, W); ValueError if nothing is painted."""
+        mask = self.canvas.get_mask("region")
+        if not mask.any():
+            raise ValueError("region is empty: paint where frost may grow with the brush")
+        return mask
+
+    def seed_points(self):
+        """The seed points (n, 2) (row, col); ValueError if there are none."""
+        points = self.canvas.get_points("seeds")
+        if len(points) == 0:
+            raise ValueError(
+                "no seed point: choose the points tool, layer 'seeds', and click in the region"
+            )
+        return points
+
+    def _lattice(self, spacing):
+        lattice = HexLattice.from_mask(self.region(), spacing)
+        return lattice, lattice.snap(self.seed_points())
+
+    # ------------------------------------------------------------------ library calls
+    def _preview(self, params):
+        region = self.region()
+        rows, cols = np.nonzero(region)
+        extent = max(rows.max() - rows.min(), cols.max() - cols.min()) + 1
+        spacing = max(params.spacing, extent / _PREVIEW_CELLS)
+        lattice = HexLattice.from_mask(region, spacing)
+        cells = lattice.snap(self.seed_points())
+        coarse = params.replace(
+            spacing=spacing,
+            max_frames=min(params.max_frames, _PREVIEW_FRAMES),
+            target=min(params.target, _PREVIEW_FRAMES),
+        )
+        result = grow(lattice, cells, coarse, seed=self.seed)
+        every = max(1, math.ceil(result.n_frames / _PREVIEW_CLIP_FRAMES))
+        size = min(_PREVIEW_SIZE, max(self.image.shape[:2]))
+        # Played at a fixed 8 fps: the coarse lattice shows the pattern, not the timing.
+        clip = render(self.image, lattice, result, every=every, fps=8.0 * every, size=size)
+        return clip.with_metadata(preview=True, preview_spacing=spacing)
+
+    def _run(self, params, progress):
+        lattice, cells = self._lattice(params.spacing)
+        grow_report, draw_report = Progress(progress).split(0.6)
+        result = grow(lattice, cells, params, seed=self.seed, progress=grow_report)
+        self.frost_result = result
+        every = max(1, math.ceil((result.n_frames + 1) / _RUN_CLIP_FRAMES))
+        size = min(480, max(self.image.shape[:2]))
+        clip = render(self.image, lattice, result, every=every, size=size, progress=draw_report)
+        return clip.with_metadata(seed=self.seed, n_cells=lattice.n_cells)
+
+    # ------------------------------------------------------------------ optimiser
+    def optimise(self):
+        """Run the optimiser in the background (what **Optimise β** does).
+
+        Returns False if another computation is running or the inputs are not ready.
+        """
+        with self._rows_lock:
+            self._rows = []
+        self._show_table()
+        solver, eta, seed = self._solver.value, self._eta.value, self.seed
+
+        def task(params, progress):
+            lattice, cells = self._lattice(params.spacing)
+            return optimise_beta(
+                lattice,
+                cells,
+                params.target,
+                params,
+                method=solver,
+                eta=eta,
+                seed=seed,
+                progress=progress,
+                on_step=self._add_row,
+            )
+
+        started = self.start_task(task, self._optimised, message=f"optimising β ({solver})…")
+        if started:
+            self._optimise_button.disabled = True
+            worker = self._thread
+            threading.Thread(target=self._enable_after, args=(worker,), daemon=True).start()
+        return started
+
+    def _enable_after(self, worker):
+        worker.join()
+        self._optimise_button.disabled = False
+
+    def _add_row(self, row):
+        with self._rows_lock:
+            self._rows.append(row)
+        self._show_table()
+
+    def _optimised(self, result, seconds):
+        self.optimised = result
+        self._show_table(result)
+        self.panel.set("beta", result.beta)
+        end = "never" if result.end_frame is None else result.end_frame
+        verdict = "converged" if result.converged else "not converged"
+        return (
+            f"{verdict} in {seconds:.1f} s ({result.evaluations} runs): β = {result.beta:.4f} "
+            f"ends at frame {end}, target {result.target} ± {result.tolerance:g}"
+        )
+
+    def _show_table(self, result=None):
+        with self._rows_lock:
+            rows = list(self._rows)
+        body = "".join(
+            f"<tr><td>{r.step}</td><td>{r.beta:.6f}</td>"
+            f"<td>{'never' if r.end_frame is None else r.end_frame}</td>"
+            f"<td>{html.escape(r.note)}</td></tr>"
+            for r in rows
+        )
+        caption = "Optimiser: step, β, end frame"
+        if result is not None:
+            caption += f" — {html.escape(result.message)}"
+        self.table.value = (
+            "<table style='border-collapse:collapse;font-family:monospace'>"
+            f"<caption style='text-align:left'>{caption}</caption>"
+            "<tr><th>step</th><th>β</th><th>end frame</th><th>note</th></tr>"
+            f"{body}</table>"
+        )
