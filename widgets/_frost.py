@@ -281,9 +281,14 @@ class FrostApp(App):
         caption = "Optimiser: step, β, end frame"
         if result is not None:
             caption += f" — {html.escape(result.message)}"
+        # JupyterLab's rendered tables have no cell padding of their own.
+        cell = "padding:2px 10px;text-align:right"
         self.table.value = (
             "<table style='border-collapse:collapse;font-family:monospace'>"
-            f"<caption style='text-align:left'>{caption}</caption>"
-            "<tr><th>step</th><th>β</th><th>end frame</th><th>note</th></tr>"
-            f"{body}</table>"
+            f"<caption style='text-align:left;white-space:nowrap'>{caption}</caption>"
+            + "<tr>"
+            + "".join(f"<th style='{cell}'>{h}</th>" for h in ("step", "β", "end frame", "note"))
+            + "</tr>"
+            + body.replace("<td>", f"<td style='{cell}'>")
+            + "</table>"
         )

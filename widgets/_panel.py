@@ -173,6 +173,7 @@ def _control(spec, value, continuous_update):
     lo, hi = _bounds(spec, spec.default)
     if kind == "int":
         step = int(spec.step or 1)
+        lo, hi = _on_grid(int(spec.default), int(lo), int(hi), step)
         return W.IntSlider(
             value=value,
             min=int(lo),
@@ -183,17 +184,20 @@ def _control(spec, value, continuous_update):
         )
     if spec.log:
         lo = lo if lo > 0 else (spec.default / 100 if spec.default > 0 else 1e-3)
+        step = spec.step or 0.01
+        emin, emax = _on_grid(math.log10(spec.default), math.log10(lo), math.log10(hi), step)
         return W.FloatLogSlider(
             value=value,
             base=10,
-            min=math.log10(lo),
-            max=math.log10(hi),
-            step=spec.step or 0.01,
+            min=emin,
+            max=emax,
+            step=step,
             readout_format=".3g",
             continuous_update=continuous_update,
             **common,
         )
     step = spec.step or _nice_step(hi - lo)
+    lo, hi = _on_grid(spec.default, lo, hi, step)
     return W.FloatSlider(
         value=value,
         min=lo,
@@ -203,6 +207,18 @@ def _control(spec, value, continuous_update):
         continuous_update=continuous_update,
         **common,
     )
+
+
+def _on_grid(default, lo, hi, step):
+    """Slider ends inside [lo, hi] whose grid (min + n * step) passes through ``default``.
+
+    The browser's slider snaps values to that grid: were the paper's default off it,
+    merely showing the panel would change the parameter (gamma = 0.005 would read
+    0.00501 on a log slider).
+    """
+    below = math.floor((default - lo) / step + 1e-9)
+    above = math.floor((hi - default) / step + 1e-9)
+    return default - below * step, default + above * step
 
 
 def _nice_step(span):

@@ -1,6 +1,7 @@
 from dataclasses import dataclass
 
 import ipywidgets as W
+import numpy as np
 import pytest
 
 from fluidnb import Params, param
@@ -36,8 +37,9 @@ def test_one_control_per_field_with_paper_defaults_and_tooltips():
         assert control.value == getattr(Demo(), name)
     assert "Eq. (6)" in panel.controls["sigma"].tooltip
     assert r"$\sigma$" in panel.controls["sigma"].description
-    assert panel.controls["sigma"].min == pytest.approx(-1)
-    assert panel.controls["sigma"].max == pytest.approx(2)
+    # Within the ui_range (0.1, 100) and as wide as the grid through the default allows.
+    assert -1 <= panel.controls["sigma"].min < -1 + 0.01
+    assert 2 - 0.01 < panel.controls["sigma"].max <= 2
     assert panel.controls["rth"].max == 1
 
 
@@ -109,3 +111,28 @@ def test_exclude_and_bad_arguments():
         panel.set("nope", 1)
     with pytest.raises(ValueError, match=r"params must be a fluidnb\.Params"):
         ParamPanel(dict)
+
+
+@pytest.mark.parametrize("name", list(Demo.specs()))
+def test_paper_defaults_lie_on_the_slider_grid(name):
+    # The browser snaps a slider's value to min + n * step: a default off that grid
+    # would be changed just by showing the panel.
+    control = ParamPanel(Demo).controls[name]
+    if not hasattr(control, "step"):
+        return
+    default = getattr(Demo(), name)
+    position = np.log10(default) if isinstance(control, W.FloatLogSlider) else default
+    n = (position - control.min) / control.step
+    assert n == pytest.approx(round(n), abs=1e-6)
+    assert control.min <= position <= control.max
+
+
+def test_log_slider_keeps_an_awkward_default_exactly():
+    @dataclass(frozen=True)
+    class G(Params):
+        gamma: float = param(0.005, lo=1e-4, hi=0.5, log=True)
+
+    control = ParamPanel(G).controls["gamma"]
+    assert 10 ** (
+        control.min + round((np.log10(0.005) - control.min) / control.step) * control.step
+    ) == pytest.approx(0.005, rel=1e-9)

@@ -1,0 +1,98 @@
+"""The frost app in JupyterLab: paint a region, click a seed, move rth, run."""
+
+import numpy as np
+import pytest
+
+from tests.browser.helpers import assert_visible, at, to_image
+
+pytestmark = pytest.mark.browser
+
+APP = """\
+from fluidnb.widgets import FrostApp
+
+app = FrostApp(quick=True, display_size=384)
+app.panel.set("beta", 0.6)  # quick growth, so the full run stays short
+
+def report_inputs(_=None):
+    dump("inputs.json", {
+        "region": int(app.canvas.get_mask("region").sum()),
+        "seeds": app.canvas.get_points("seeds").tolist(),
+        "tool": app.canvas.tool,
+        "shape": list(app.image.shape[:2]),
+    })
+
+def report_clip(change):
+    clip = change["new"]
+    if clip is None or clip.metadata.get("preview"):
+        return
+    image = app.image
+    if clip.shape != image.shape[:2]:
+        return
+    changed = np.abs(clip.frames - image[None]).max(axis=-1) > 0.05
+    region = app.canvas.get_mask("region")
+    first = next(i for i, f in enumerate(changed) if f.any())
+    rows, cols = np.nonzero(changed[first])
+    dump("clip.json", {
+        "rth": clip.metadata["params"]["rth"],
+        "area": changed.reshape(len(clip), -1).sum(axis=1).tolist(),
+        "outside": int(changed[:, ~region].sum()),
+        "first_centre": [float(rows.mean()), float(cols.mean())],
+    })
+
+app.canvas.observe(report_inputs, "version")
+app.canvas.observe(report_inputs, "tool")
+app.player.observe(report_clip, "clip")
+report_inputs()
+app
+"""
+
+
+def test_paint_seed_rth_run_frost_grows_from_the_seed(notebook, page, shot):
+    nb = notebook([APP])
+    app = page.locator(".fluidnb-app")
+    app.wait_for()
+    canvas = page.locator(".fluidnb-app .fluidnb-canvas")
+    canvas.scroll_into_view_if_needed()
+    box = canvas.bounding_box()
+    assert_visible(box)
+
+    # Paint the region (the brush is the first tool), twice for a wide band.
+    for fy in (0.42, 0.58):
+        page.mouse.move(*at(box, 0.15, fy))
+        page.mouse.down()
+        page.mouse.move(*at(box, 0.85, fy), steps=12)
+        page.mouse.up()
+    nb.state("inputs.json", lambda s: s["region"] > 500)
+
+    # Click a seed with the points tool.
+    page.locator(".fluidnb-app .fluidnb-tools button", has_text="points").click()
+    nb.state("inputs.json", lambda s: s["tool"] == "points")
+    seed_xy = at(box, 0.5, 0.5)
+    page.mouse.click(*seed_xy)
+    inputs = nb.state("inputs.json", lambda s: len(s["seeds"]) == 1)
+    seed_rc = np.array(to_image(box, seed_xy, inputs["shape"]))
+    np.testing.assert_allclose(inputs["seeds"][0], seed_rc, atol=1.5)
+
+    # Move rth to about 0.4.
+    slider = page.locator(".fluidnb-param-rth")
+    slider.scroll_into_view_if_needed()
+    handle = slider.locator(".noUi-handle").bounding_box()
+    track = slider.locator(".noUi-base").bounding_box()
+    page.mouse.move(handle["x"] + handle["width"] / 2, handle["y"] + handle["height"] / 2)
+    page.mouse.down()
+    page.mouse.move(track["x"] + 0.4 * track["width"], track["y"] + track["height"] / 2, steps=6)
+    page.mouse.up()
+    rth = float(slider.locator(".widget-readout").inner_text())
+    assert 0.2 < rth < 0.6
+
+    page.locator(".fluidnb-app .fluidnb-run").click()
+    result = nb.state("clip.json", lambda s: abs(s["rth"] - rth) < 1e-3, timeout=90)
+    area = np.array(result["area"])
+    assert area[0] == 0 or area[0] < 0.05 * area[-1]
+    assert np.all(np.diff(area) >= 0), "frost shrank between frames"
+    assert area[-1] > 400, "frost did not spread"
+    assert result["outside"] == 0, "frost appeared outside the painted region"
+    # The first frost appears at the seed.
+    assert np.linalg.norm(np.array(result["first_centre"]) - seed_rc) < 6
+    page.locator(".fluidnb-app .fluidnb-status", has_text="done").wait_for(timeout=30_000)
+    shot(app)
