@@ -11,23 +11,13 @@ scipy's ``ndimage.map_coordinates`` called per channel, for the same warp; sciki
 from __future__ import annotations
 
 import platform
-import time
 
 import numpy as np
+from _timing import best  # benchmarks/ is on sys.path when run as a script
 from scipy import ndimage
 from skimage import transform
 
 from fluidnb import fields
-
-
-def best(fn, repeat=7):
-    fn()  # warm caches
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def warp_cases():

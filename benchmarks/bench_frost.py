@@ -17,24 +17,14 @@ from __future__ import annotations
 
 import math
 import platform
-import time
 
 import numpy as np
+from _timing import best  # benchmarks/ is on sys.path when run as a script
 from scipy import ndimage
 
 from fluidnb import data
 from fluidnb.frost import FrostParams, HexLattice, grow, optimise_beta, reference_setup
 from fluidnb.frost._reference import grow_reference
-
-
-def best(fn, repeat=5):
-    fn()  # warm caches
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def square_lattice(n):

@@ -205,3 +205,33 @@ def contrast(locator):
           return {ratio: (l1 + 0.05) / (l2 + 0.05), fg: mix, bg};
         }"""
     )
+
+
+def open_app(notebook, page, cells):
+    """Run ``cells`` (ending with an App) and return (nb, app, canvas locator, canvas box)."""
+    nb = notebook(cells)
+    app = page.locator(".fluidnb-app")
+    app.wait_for()
+    canvas = page.locator(".fluidnb-app .fluidnb-canvas")
+    canvas.scroll_into_view_if_needed()
+    box = canvas.bounding_box()
+    assert_visible(box)
+    return nb, app, canvas, box
+
+
+def drag_slider(page, slider, fraction, steps=8):
+    """Drag a slider's handle to ``fraction`` of its track; return the readout's value.
+
+    The kernel receives intermediate values too (continuous_update): assert on the
+    returned final one.
+    """
+    slider.scroll_into_view_if_needed()
+    handle = slider.locator(".noUi-handle").bounding_box()
+    track = slider.locator(".noUi-base").bounding_box()
+    page.mouse.move(handle["x"] + handle["width"] / 2, handle["y"] + handle["height"] / 2)
+    page.mouse.down()
+    page.mouse.move(
+        track["x"] + fraction * track["width"], track["y"] + track["height"] / 2, steps=steps
+    )
+    page.mouse.up()
+    return float(slider.locator(".widget-readout").inner_text())

@@ -2,7 +2,7 @@
 
 import pytest
 
-from tests.browser.helpers import assert_visible, contrast, img_rgba, poll
+from tests.browser.helpers import assert_visible, contrast, drag_slider, img_rgba, poll
 
 pytestmark = pytest.mark.browser
 
@@ -60,18 +60,9 @@ def test_slider_changes_the_previewed_frame(notebook, page, shot):
     src0 = page.locator(".fluidnb-app .fluidnb-frame").get_attribute("src")
 
     slider = page.locator(".fluidnb-param-level")
-    slider.scroll_into_view_if_needed()
-    handle = slider.locator(".noUi-handle").bounding_box()
-    track = slider.locator(".noUi-base").bounding_box()
-    y = track["y"] + track["height"] / 2
-    page.mouse.move(handle["x"] + handle["width"] / 2, handle["y"] + handle["height"] / 2)
-    page.mouse.down()
-    page.mouse.move(track["x"] + 0.8 * track["width"], y, steps=10)
-    page.mouse.up()
-
+    shown = drag_slider(page, slider, 0.8, steps=10)
     # continuous_update sends intermediate values: wait for the slider's final one.
     # (The readout shows 3 significant digits; the handle's aria-valuenow only 1 decimal.)
-    shown = float(slider.locator(".widget-readout").inner_text())
     assert 0.7 < shown < 0.9, shown
     final = nb.state("params.json", lambda s: abs(s["level"] - shown) < 5e-4)["level"]
     nb.state("player.json", lambda s: abs(s["level"] - final) < 1e-6)

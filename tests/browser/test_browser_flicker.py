@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from tests.browser.helpers import assert_visible, at, drag, to_image
+from tests.browser.helpers import at, drag, drag_slider, open_app, to_image
 
 pytestmark = pytest.mark.browser
 
@@ -42,13 +42,7 @@ app
 
 
 def test_paint_region_move_slider_frames_change_only_inside(notebook, page, shot):
-    nb = notebook([APP])
-    app = page.locator(".fluidnb-app")
-    app.wait_for()
-    canvas = page.locator(".fluidnb-app .fluidnb-canvas")
-    canvas.scroll_into_view_if_needed()
-    box = canvas.bounding_box()
-    assert_visible(box)
+    nb, app, _, box = open_app(notebook, page, [APP])
     first = nb.state("clip.json", lambda s: s["n"] > 1)  # the first live preview
 
     # The app opens with the brush on the "region" layer: paint a band on the left.
@@ -65,15 +59,7 @@ def test_paint_region_move_slider_frames_change_only_inside(notebook, page, shot
     src0 = page.locator(".fluidnb-app .fluidnb-frame").get_attribute("src")
 
     # Move the light's azimuth: the live preview follows.
-    slider = page.locator(".fluidnb-param-azimuth")
-    slider.scroll_into_view_if_needed()
-    handle = slider.locator(".noUi-handle").bounding_box()
-    track = slider.locator(".noUi-base").bounding_box()
-    page.mouse.move(handle["x"] + handle["width"] / 2, handle["y"] + handle["height"] / 2)
-    page.mouse.down()
-    page.mouse.move(track["x"] + 0.9 * track["width"], track["y"] + track["height"] / 2, steps=8)
-    page.mouse.up()
-    shown = float(slider.locator(".widget-readout").inner_text())
+    shown = drag_slider(page, page.locator(".fluidnb-param-azimuth"), 0.9)
     assert shown != first["azimuth"]
     nb.state("clip.json", lambda s: abs(s["azimuth"] - shown) < 0.5 and not s["full"])
     page.wait_for_function(

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from tests.browser.helpers import assert_visible, at, to_image
+from tests.browser.helpers import at, drag_slider, open_app, to_image
 
 pytestmark = pytest.mark.browser
 
@@ -48,13 +48,7 @@ app
 
 
 def test_paint_seed_rth_run_frost_grows_from_the_seed(notebook, page, shot):
-    nb = notebook([APP])
-    app = page.locator(".fluidnb-app")
-    app.wait_for()
-    canvas = page.locator(".fluidnb-app .fluidnb-canvas")
-    canvas.scroll_into_view_if_needed()
-    box = canvas.bounding_box()
-    assert_visible(box)
+    nb, app, _, box = open_app(notebook, page, [APP])
 
     # Paint the region (the brush is the first tool), twice for a wide band.
     for fy in (0.42, 0.58):
@@ -74,15 +68,7 @@ def test_paint_seed_rth_run_frost_grows_from_the_seed(notebook, page, shot):
     np.testing.assert_allclose(inputs["seeds"][0], seed_rc, atol=1.5)
 
     # Move rth to about 0.4.
-    slider = page.locator(".fluidnb-param-rth")
-    slider.scroll_into_view_if_needed()
-    handle = slider.locator(".noUi-handle").bounding_box()
-    track = slider.locator(".noUi-base").bounding_box()
-    page.mouse.move(handle["x"] + handle["width"] / 2, handle["y"] + handle["height"] / 2)
-    page.mouse.down()
-    page.mouse.move(track["x"] + 0.4 * track["width"], track["y"] + track["height"] / 2, steps=6)
-    page.mouse.up()
-    rth = float(slider.locator(".widget-readout").inner_text())
+    rth = drag_slider(page, page.locator(".fluidnb-param-rth"), 0.4, steps=6)
     assert 0.2 < rth < 0.6
 
     page.locator(".fluidnb-app .fluidnb-run").click()
