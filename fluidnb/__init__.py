@@ -29,6 +29,7 @@ __all__ = [
     "data",
     "fields",
     "flicker",
+    "fluid",
     "frost",
     "load_clip",
     "param",
@@ -39,7 +40,7 @@ __all__ = [
 
 # Subpackages load on first use so `import fluidnb` (and `fluidnb --version`) stays
 # quick; `fluidnb.fields` and `fluidnb.sketch` pull in scikit-image.
-_SUBPACKAGES = {"data", "fields", "flicker", "frost", "sketch"}
+_SUBPACKAGES = {"data", "fields", "flicker", "fluid", "frost", "sketch"}
 
 
 def __getattr__(name):

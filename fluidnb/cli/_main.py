@@ -17,6 +17,7 @@ _COMMAND_MODULES = [
     "fluidnb.cli._info",
     "fluidnb.cli._flicker",
     "fluidnb.cli._frost",
+    "fluidnb.cli._fluid",
 ]
 
 

@@ -1,0 +1,166 @@
+"""simulate(), Simulation save/load, presets and the colour map."""
+
+import numpy as np
+import pytest
+
+from fluidnb import Cancelled, CancelToken, Clip
+from fluidnb.fluid import (
+    FluidParams,
+    FluidState,
+    Simulation,
+    divergence,
+    flame_preset,
+    simulate,
+    smoke_preset,
+    step,
+    temperature_to_rgb,
+)
+
+
+def test_simulate_returns_every_frame_and_matches_step():
+    params = FluidParams()
+    sim = simulate(params, 5, shape=(24, 20), seed=3)
+    assert sim.velocity.shape == (5, 24, 20, 2)
+    assert sim.temperature.shape == sim.density.shape == (5, 24, 20)
+    assert sim.shape == (24, 20)
+    assert len(sim) == 5
+    assert sim.seed == 3
+    g = np.random.default_rng(3)
+    s = FluidState.zeros((24, 20), params)
+    for k in range(5):
+        s = step(s, params, rng=g)
+        np.testing.assert_array_equal(sim.temperature[k], s.temperature.astype(np.float32))
+    assert sim.timings["steps_per_second"] > 0
+
+
+def test_same_seed_same_frames_other_seed_other_frames():
+    params = FluidParams(source_flicker=0.8)
+    a = simulate(params, 6, shape=(20, 20), seed=1)
+    b = simulate(params, 6, shape=(20, 20), seed=1)
+    c = simulate(params, 6, shape=(20, 20), seed=2)
+    for name in ("velocity", "temperature", "density"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    assert not np.array_equal(a.temperature, c.temperature)
+
+
+def test_substeps_split_the_frame():
+    params = FluidParams(source_flicker=0)
+    sim = simulate(params, 3, shape=(16, 16), substeps=4)
+    sub = params.replace(dt=0.25)
+    s = FluidState.zeros((16, 16), params)
+    for _ in range(12):
+        s = step(s, sub)
+    np.testing.assert_array_equal(sim.temperature[-1], s.temperature.astype(np.float32))
+
+
+def test_progress_every_frame_and_cancellation():
+    seen = []
+    simulate(FluidParams(), 4, shape=(12, 12), seed=0, progress=lambda f, m: seen.append(f))
+    assert seen == [0.0, 0.25, 0.5, 0.75, 1.0]
+    token = CancelToken()
+
+    def cancel_at_half(f, m):
+        if f >= 0.5:
+            token.cancel()
+        token(f, m)
+
+    with pytest.raises(Cancelled):
+        simulate(FluidParams(), 10, shape=(12, 12), seed=0, progress=cancel_at_half)
+
+
+def test_save_and_load_round_trip(tmp_path):
+    sim = simulate(FluidParams(epsilon=0.1, boundary="closed"), 3, shape=(10, 14), seed=5)
+    path = sim.save(tmp_path / "run.npz")
+    back = Simulation.load(path)
+    for name in ("velocity", "temperature", "density"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(sim, name))
+    assert back.params == sim.params
+    assert back.seed == 5
+    assert back.substeps == 1
+    with np.load(path, allow_pickle=False) as z:  # plain arrays, no pickle
+        assert set(z.files) == {"velocity", "temperature", "density", "metadata"}
+    with pytest.raises(ValueError, match="npz"):
+        sim.save(tmp_path / "run.gif")
+    (tmp_path / "bad.npz").write_bytes(b"not a zip")
+    with pytest.raises(ValueError, match="not a saved Simulation"):
+        Simulation.load(tmp_path / "bad.npz")
+
+
+def test_state_resumes_a_run():
+    sim = simulate(FluidParams(), 3, shape=(12, 12), seed=0)
+    s = sim.state(-1)
+    assert s.frame == 3
+    assert s.shape == (12, 12)
+    assert np.abs(divergence(s.velocity)).max() < 1e-5  # float32 storage
+    more = simulate(FluidParams(), 2, seed=1, initial=s)
+    assert more.shape == (12, 12)
+
+
+def test_flame_preset_makes_a_rising_flame():
+    pre = flame_preset()
+    assert pre.shape == (128, 128)
+    assert pre.params.boundary == "open_top"
+    sim = flame_preset().simulate(40, seed=0)
+    hot = sim.temperature[-1] > 0.3
+    rows = np.nonzero(hot.any(axis=1))[0]
+    assert rows.min() < 100  # the flame has left the source (at row ~118)
+    assert flame_preset(epsilon=0).params.epsilon == 0
+
+
+@pytest.mark.parametrize("shape", [(16, 24), (128, 192)])
+def test_smoke_preset_sizes_and_variants(shape):
+    a = smoke_preset(shape)
+    assert a.shape == shape
+    assert a.params.boundary == "closed"
+    b = smoke_preset(shape, source_x=0.3, wind=0.02)
+    assert b.params.source_x == 0.3
+    assert b.params.wind != 0
+    assert b.params != a.params
+
+
+def test_smoke_plumes_differ_and_rise_at_the_coarse_size():
+    a = smoke_preset((16, 24)).simulate(60, seed=0)
+    b = smoke_preset((16, 24), source_x=0.3, wind=0.03).simulate(60, seed=0)
+    assert not np.allclose(a.density[-1], b.density[-1])
+    yy = np.arange(16)[:, None]
+    d = a.density[-1]
+    assert (d * yy).sum() / d.sum() < 13  # above the source row (~14)
+
+
+def test_to_clip_and_colour_map():
+    sim = simulate(FluidParams(density_rate=0.3), 3, shape=(12, 16), seed=0)
+    clip = sim.to_clip()
+    assert isinstance(clip, Clip)
+    assert clip.is_color
+    assert clip.n_frames == 3
+    assert clip.metadata["method"] == "fluid"
+    grey = sim.to_clip("density")
+    assert not grey.is_color
+    rgb = temperature_to_rgb(np.linspace(-1, 2, 7).reshape(1, 7))
+    assert rgb.dtype == np.float32
+    assert rgb.min() >= 0
+    assert rgb.max() <= 1
+    np.testing.assert_array_equal(rgb[0, 0], 0)
+    lum = rgb.sum(axis=-1)[0]
+    assert np.all(np.diff(lum) >= 0)
+    with pytest.raises(ValueError, match="T_max"):
+        temperature_to_rgb(np.zeros((2, 2)), T_amb=1.0, T_max=1.0)
+    with pytest.raises(ValueError, match="field"):
+        sim.to_clip("pressure")
+
+
+def test_bad_inputs_name_the_parameter():
+    with pytest.raises(ValueError, match="n_frames"):
+        simulate(FluidParams(), 0)
+    with pytest.raises(ValueError, match="params"):
+        simulate({"dt": 1}, 3)
+    with pytest.raises(ValueError, match="substeps"):
+        simulate(FluidParams(), 3, substeps=0)
+    with pytest.raises(ValueError, match="shape"):
+        simulate(FluidParams(), 3, shape=(8, 8, 8))
+    with pytest.raises(ValueError, match="initial"):
+        simulate(FluidParams(), 3, initial=np.zeros((8, 8)))
+    with pytest.raises(ValueError, match="source_x"):
+        smoke_preset((16, 24), source_x=1.5)
+    with pytest.raises(ValueError, match="progress"):
+        simulate(FluidParams(), 3, shape=(8, 8), progress="bar")
