@@ -28,6 +28,7 @@ __all__ = [
     "as_mask",
     "data",
     "fields",
+    "fire",
     "flicker",
     "fluid",
     "frost",
@@ -40,7 +41,7 @@ __all__ = [
 
 # Subpackages load on first use so `import fluidnb` (and `fluidnb --version`) stays
 # quick; `fluidnb.fields` and `fluidnb.sketch` pull in scikit-image.
-_SUBPACKAGES = {"data", "fields", "flicker", "fluid", "frost", "sketch"}
+_SUBPACKAGES = {"data", "fields", "fire", "flicker", "fluid", "frost", "sketch"}
 
 
 def __getattr__(name):

@@ -4,15 +4,16 @@ Reusable pieces every method's app is made of: :class:`DrawingCanvas` (strokes, 
 points over an image), :class:`FramePlayer` (play and export a clip),
 :class:`ParamPanel` (sliders from a parameter dataclass) and :class:`App` (all of them
 with a run button, progress, cancel and a live preview), and one app per method
-(:class:`FlickerApp`, :class:`FrostApp`). No algorithm lives here:
+(:class:`FlickerApp`, :class:`FrostApp`, :class:`FireApp`). No algorithm lives here:
 everything calls :mod:`fluidnb`.
 """
 
 from ._app import App
 from ._canvas import DrawingCanvas
+from ._fire import FireApp
 from ._flicker import FlickerApp
 from ._frost import FrostApp
 from ._panel import ParamPanel
 from ._player import FramePlayer
 
-__all__ = ["App", "DrawingCanvas", "FlickerApp", "FramePlayer", "FrostApp", "ParamPanel"]
+__all__ = ["App", "DrawingCanvas", "FireApp", "FlickerApp", "FramePlayer", "FrostApp", "ParamPanel"]

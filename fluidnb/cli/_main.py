@@ -18,6 +18,7 @@ _COMMAND_MODULES = [
     "fluidnb.cli._flicker",
     "fluidnb.cli._frost",
     "fluidnb.cli._fluid",
+    "fluidnb.cli._fire",
 ]
 
 

@@ -1,0 +1,114 @@
+"""``fluidnb fire``: fire that looks like a photo and moves like a simulation."""
+
+from __future__ import annotations
+
+from ._common import add_output_option, add_params_options, add_seed_option, params_from_args
+
+
+def register(sub):
+    """Add the ``fire`` subcommand."""
+    from ..fire import FireParams
+
+    p = sub.add_parser(
+        "fire",
+        help="fire from a photo on a fluid simulation (Kogawa, Dobashi & Yamamoto)",
+        description=(
+            "Texture-synthesise PHOTO onto the temperature of a 2-D fluid simulation at "
+            "keyframes (Ashikhmin's method with user control), advect the result with "
+            "the simulation's velocity between keyframes and cross-dissolve "
+            "overlapping segments. The simulation is read from --sim (an .npz written "
+            "by `fluidnb simulate` or Simulation.save, or any .npz with 'temperature' "
+            "(T, H, W) and 'velocity' (T, H, W, 2) arrays) or, without --sim, the "
+            "flame preset is simulated."
+        ),
+    )
+    p.add_argument("photo", metavar="PHOTO", help="a photo of fire on a dark background")
+    p.add_argument(
+        "--matte",
+        default=None,
+        metavar="MATTE",
+        help="the photo's alpha matte, same size (default: its normalised luminance)",
+    )
+    p.add_argument(
+        "--sim",
+        default=None,
+        metavar="SIM.npz",
+        help="the fluid simulation (default: run the flame preset)",
+    )
+    p.add_argument(
+        "--frames",
+        type=int,
+        default=None,
+        metavar="N",
+        help="number of frames (default: all of --sim, or the preset's length)",
+    )
+    p.add_argument(
+        "--temperature-output",
+        default=None,
+        metavar="OUT",
+        help="also write the colour-mapped temperature clip here",
+    )
+    add_params_options(p, FireParams)
+    add_seed_option(p)
+    add_output_option(p)
+    p.set_defaults(func=_fire)
+
+
+def _fire(args):
+    from .._image import as_image
+    from .._progress import TextProgress
+    from .._validation import check_int
+    from ..fire import FireParams, fire, fire_flame
+
+    params = params_from_args(FireParams, args)
+    photo, alpha = as_image(args.photo, mode="rgb", name="PHOTO", return_alpha=True)
+    # Without --matte, an RGBA photo's own alpha channel is its matte.
+    matte = alpha if args.matte is None else as_image(args.matte, mode="grey", name="--matte")
+    frames = None if args.frames is None else check_int("--frames", args.frames, 1)
+    progress = TextProgress()
+    if args.sim is None:
+        result = fire_flame(
+            photo, params, n_frames=frames, matte=matte, seed=args.seed, progress=progress
+        )
+    else:
+        temperature, velocity = _load_simulation(args.sim)
+        if frames is not None:
+            if frames > len(temperature):
+                raise ValueError(
+                    f"--frames must be <= the simulation's {len(temperature)} frames, got {frames}"
+                )
+            temperature, velocity = temperature[:frames], velocity[:frames]
+        result = fire(
+            photo, temperature, velocity, params, matte=matte, seed=args.seed, progress=progress
+        )
+    clip = result.clip
+    out = clip.save(args.output)
+    print(f"wrote {out} ({len(clip)} frames, {clip.fps:g} fps, seed {clip.metadata['seed']})")
+    if args.temperature_output is not None:
+        tout = result.temperature_clip.save(args.temperature_output)
+        print(f"wrote {tout} (temperature)")
+    return 0
+
+
+def _load_simulation(path):
+    """(temperature, velocity at the pixels) from a saved simulation or a plain npz."""
+    import numpy as np
+
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            keys = set(z.files)
+            plain = {k: np.array(z[k]) for k in ("temperature", "velocity") if k in keys}
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"--sim {path!r} is not a readable .npz: {exc}") from None
+    if "metadata" in keys:
+        from ..fluid import Simulation
+
+        sim = Simulation.load(path)
+        return sim.temperature, sim.centred_velocity()
+    missing = {"temperature", "velocity"} - set(plain)
+    if missing:
+        raise ValueError(
+            f"--sim {path!r} must hold 'temperature' and 'velocity' arrays, "
+            f"missing {', '.join(sorted(missing))}"
+        )
+    return plain["temperature"], plain["velocity"]

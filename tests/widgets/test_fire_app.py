@@ -1,0 +1,131 @@
+"""The fire app driven from Python, with the same calls the front end makes."""
+
+import datetime as dt
+import io
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from fluidnb import data, to_uint8
+from fluidnb.fire import FireParams
+from fluidnb.widgets import FireApp
+from fluidnb.widgets._fire import FireAppParams, comparison_clip
+
+
+@pytest.fixture
+def app():
+    a = FireApp(quick=True, seed=1)
+    yield a
+    a.close()
+
+
+def test_the_panel_offers_the_specs_controls():
+    app = FireApp(quick=True)
+    try:
+        assert set(app.panel.controls) == {
+            "kappa_b",
+            "epsilon",
+            "C_r",
+            "source_radius",
+            "source_T",
+            "interval",
+            "overlap",
+            "weight",
+        }
+        params = app.panel.params
+        assert isinstance(params, FireAppParams)
+        assert params.fire() == FireParams()
+    finally:
+        app.close()
+
+
+def test_run_makes_fire_with_the_panels_parameters(app):
+    app.panel.set("weight", 0.8)
+    app.panel.set("interval", 6)
+    app.panel.set("epsilon", 0.2)
+    clip = app.run(timeout=120)
+    assert clip.n_frames == 16
+    assert clip.shape == (64, 64)
+    meta = clip.metadata
+    assert meta["method"] == "fire"
+    assert meta["params"]["weight"] == 0.8
+    assert meta["params"]["interval"] == 6
+    assert app.fire_result.simulation.params.epsilon == 0.2
+    assert app.player.clip is clip
+    # Side by side: temperature | keyframe | fire.
+    assert app.compare.clip.shape == (64, 192)
+    np.testing.assert_array_equal(app.compare.clip.frames[..., 128:, :], clip.frames)
+    assert "done" in app.status
+
+
+def test_same_seed_same_clip(app):
+    a = app.run(timeout=120)
+    b = app.run(timeout=120)
+    np.testing.assert_array_equal(a.frames, b.frames)
+
+
+def test_a_painted_matte_replaces_the_photos_own(app):
+    assert app.matte() is app.photo_matte
+    h, w = app.photo.shape[:2]
+    app.canvas.paint([[0.3 * h, 0.5 * w], [0.9 * h, 0.5 * w]], radius=0.15 * w, layer="matte")
+    matte = app.matte()
+    assert matte.dtype == np.float32
+    assert set(np.unique(matte)) == {0.0, 1.0}
+    assert app.run(timeout=120).n_frames == 16
+
+
+def upload(name, content):
+    """One file as the FileUpload widget holds it after the browser sends it."""
+    return {
+        "name": name,
+        "type": "image/png",
+        "size": len(content),
+        "content": memoryview(content),
+        "last_modified": dt.datetime(2026, 1, 1, tzinfo=dt.timezone.utc),
+    }
+
+
+def test_choosing_a_sample_and_uploading_a_photo(app):
+    app._sample.value = "flame"
+    assert app.photo_matte is not None
+    assert app.canvas.image.shape == app.photo.shape
+    photo = data.sample("fire", size=50)
+    buf = io.BytesIO()
+    Image.fromarray(to_uint8(photo)).save(buf, format="png")
+    app._upload.value = (upload("f.png", buf.getvalue()),)
+    assert app.photo.shape == photo.shape
+    assert app.photo_matte is None  # an RGB upload: its luminance is the alpha
+    app._upload.value = (upload("x.png", b"not an image"),)
+    assert "could not read" in app.status
+    assert app.photo.shape == photo.shape  # the previous photo is kept
+
+
+def test_invalid_combination_disables_run_and_says_why(app):
+    app.panel.set("interval", 4)
+    with pytest.raises(ValueError, match="overlap must be < interval"):
+        app.panel.set("overlap", 4)
+    assert not app.panel.valid
+    assert "overlap" in app.panel.message
+    assert app.start() is False
+
+
+def test_cancel_stops_the_run_and_keeps_the_drawing(app):
+    app.canvas.paint([[20, 20]], radius=5, layer="matte")
+    before = app.canvas.get_mask("matte").copy()
+    app._frames.value = 200  # long enough that Cancel lands mid-run
+    assert app.start()
+    app.cancel()
+    app.wait(timeout=60)
+    assert "cancelled" in app.status
+    assert app.result is None
+    np.testing.assert_array_equal(app.canvas.get_mask("matte"), before)
+
+
+def test_comparison_clip_shows_the_keyframe_in_effect(app):
+    app.panel.set("interval", 4)
+    app.run(timeout=120)
+    res = app.fire_result
+    comp = comparison_clip(res)
+    np.testing.assert_array_equal(comp.frames[0, :, 64:128], res.keyframes[0])
+    np.testing.assert_array_equal(comp.frames[res.starts[1], :, 64:128], res.keyframes[1])
