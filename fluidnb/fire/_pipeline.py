@@ -10,13 +10,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._clip import DEFAULT_FPS, Clip
-from .._image import as_image
 from .._progress import Progress
 from .._random import rng
-from .._validation import check_array, check_int, check_shape_match
+from .._validation import check_array, check_int
 from ..fields import advect, resize
 from ._params import FireParams
-from ._synthesis import _check_photo, _run
+from ._synthesis import _check_photo, _photo_and_matte, _run
 
 __all__ = [
     "FireResult",
@@ -222,12 +221,7 @@ def fire(
     if not isinstance(params, FireParams):
         raise ValueError(f"params must be a FireParams, got {type(params).__name__}")
     report = Progress(progress)
-    photo = as_image(photo, name="photo")
-    if photo.ndim != 3 or photo.shape[2] != 3:
-        raise ValueError(f"photo must be an RGB image (H, W, 3), got shape {photo.shape}")
-    if matte is not None:
-        matte = as_image(matte, mode="grey", name="matte")
-        check_shape_match("matte", matte, photo.shape[:2], "the photo")
+    photo, matte = _photo_and_matte(photo, matte)
     temperature = check_array("temperature", temperature, ndim=3, dtype_kinds="iuf")
     n, h, w = temperature.shape
     velocity = check_array("velocity", velocity, ndim=4, dtype_kinds="iuf")

@@ -227,13 +227,19 @@ def neighbourhood_error(image, sources, photo, target, params=None, *, matte=Non
 # ---------------------------------------------------------------------- checks
 
 
-def _check_photo(photo, matte):
+def _photo_and_matte(photo, matte):
+    """The photo as RGB float32 and its optional matte as grey, both checked."""
     photo = as_image(photo, name="photo")
     if photo.ndim != 3 or photo.shape[2] != 3:
         raise ValueError(f"photo must be an RGB image (H, W, 3), got shape {photo.shape}")
     if matte is not None:
         matte = as_image(matte, mode="grey", name="matte")
         check_shape_match("matte", matte, photo.shape[:2], "the photo")
+    return photo, matte
+
+
+def _check_photo(photo, matte):
+    photo, matte = _photo_and_matte(photo, matte)
     return photo, alpha_from_photo(photo, matte)
 
 
