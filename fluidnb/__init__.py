@@ -37,11 +37,12 @@ __all__ = [
     "rng",
     "sketch",
     "to_uint8",
+    "turbulence",
 ]
 
 # Subpackages load on first use so `import fluidnb` (and `fluidnb --version`) stays
 # quick; `fluidnb.fields` and `fluidnb.sketch` pull in scikit-image.
-_SUBPACKAGES = {"data", "fields", "fire", "flicker", "fluid", "frost", "sketch"}
+_SUBPACKAGES = {"data", "fields", "fire", "flicker", "fluid", "frost", "sketch", "turbulence"}
 
 
 def __getattr__(name):

@@ -1,0 +1,42 @@
+"""Example-based turbulence synthesis with adaptive patch search (Watanabe et al.).
+
+The high-frequency detail of a high-resolution source flow is pasted, patch by
+patch, onto a low-resolution target flow: a global search on the coarse grid
+(Eq. 1) then a local search on the fine grid (Eq. 2) find, for every ``B x B``
+patch, the source patch whose low frequencies, smoke mask and (for temporal
+coherence) previous detail match best. The local search can visit its window
+exhaustively, at a uniform interval, adaptively coarse-to-fine (the seed's
+contribution, Table 1), or exactly and fast (:data:`STRATEGIES`).
+"""
+
+from ._flows import PAPER_SHAPES, Flow, cache_dir, sample_flows
+from ._params import STRATEGIES, TurbulenceParams
+from ._prepare import Prepared, global_search, prepare
+from ._render import dye_clip, injection, render, vorticity, vorticity_clip
+from ._search import SearchResult, local_search, window_positions
+from ._synthesis import PAPER_TABLE1, Synthesis, compare, synthesize, table1
+
+__all__ = [
+    "PAPER_SHAPES",
+    "PAPER_TABLE1",
+    "STRATEGIES",
+    "Flow",
+    "Prepared",
+    "SearchResult",
+    "Synthesis",
+    "TurbulenceParams",
+    "cache_dir",
+    "compare",
+    "dye_clip",
+    "global_search",
+    "injection",
+    "local_search",
+    "prepare",
+    "render",
+    "sample_flows",
+    "synthesize",
+    "table1",
+    "vorticity",
+    "vorticity_clip",
+    "window_positions",
+]

@@ -1,0 +1,132 @@
+"""The local search strategies of seed section 3 (Table 1) and the two exact ones."""
+
+import numpy as np
+import pytest
+
+from fluidnb.turbulence import STRATEGIES, local_search, window_positions
+
+EXACT = ("exhaustive", "exact-fft", "exact-bounds")
+
+
+def brute_force(S, X, starts, n):
+    """Every window position's energy, by plain numpy, shape (P, n, n)."""
+    P, B = X.shape[:2]
+    E = np.empty((P, n, n))
+    for p in range(P):
+        for a in range(n):
+            for b in range(n):
+                y, x = starts[p] + (a, b)
+                E[p, a, b] = ((X[p] - S[y : y + B, x : x + B]) ** 2).sum()
+    return E
+
+
+def problem(seed, shape=(40, 36), B=6, n=9, P=7, channels=5, smooth=False):
+    g = np.random.default_rng(seed)
+    S = g.normal(size=(*shape, channels))
+    if smooth:  # flow-like: low frequencies dominate, as in the sample flows
+        S = np.cumsum(np.cumsum(S, 0), 1) / 30 + 0.1 * S
+    starts = np.stack(
+        [g.integers(0, shape[0] - B - n + 2, P), g.integers(0, shape[1] - B - n + 2, P)], -1
+    )
+    # Targets near some source patch, plus noise: a clear but not exact minimum.
+    X = np.empty((P, B, B, channels))
+    for p in range(P):
+        y, x = starts[p] + g.integers(0, n, 2)
+        X[p] = S[y : y + B, x : x + B] + 0.3 * g.normal(size=(B, B, channels))
+    return S, X, starts, n
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("smooth", [False, True])
+def test_exhaustive_returns_the_brute_force_minimum(seed, smooth):
+    S, X, starts, n = problem(seed, smooth=smooth)
+    E = brute_force(S, X, starts, n).reshape(len(X), -1)
+    out = local_search(S, X, starts, n, "exhaustive")
+    k = E.argmin(1)  # the first minimum in raster order
+    np.testing.assert_array_equal(out.positions, starts + np.stack([k // n, k % n], -1))
+    np.testing.assert_allclose(out.energies, E.min(1), rtol=1e-12)
+    assert (out.evaluations == n * n).all()
+
+
+@pytest.mark.parametrize("strategy", ["exact-fft", "exact-bounds"])
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("smooth", [False, True])
+def test_the_exact_searches_return_the_exhaustive_answer(strategy, seed, smooth):
+    S, X, starts, n = problem(seed, smooth=smooth, B=8, n=12)
+    ref = local_search(S, X, starts, n, "exhaustive")
+    out = local_search(S, X, starts, n, strategy)
+    np.testing.assert_array_equal(out.positions, ref.positions)
+    np.testing.assert_array_equal(out.energies, ref.energies)  # the same kernel: bit for bit
+
+
+@pytest.mark.parametrize("strategy", ["exact-fft", "exact-bounds", "adaptive"])
+def test_ties_resolve_like_the_exhaustive_search(strategy):
+    # A periodic source: the same patch at many positions, all with energy 0.
+    y, x = np.mgrid[:30, :30]
+    S = np.stack([np.sin(y * np.pi / 2), np.cos(x * np.pi / 2), (y + x) % 2], -1).astype(float)
+    X = np.stack([S[4:10, 4:10], S[8:14, 6:12]])
+    starts = np.array([[1, 1], [3, 2]])
+    ref = local_search(S, X, starts, 16, "exhaustive")
+    out = local_search(S, X, starts, 16, strategy, m0=1)
+    np.testing.assert_array_equal(out.positions, ref.positions)
+    np.testing.assert_array_equal(out.energies, 0)
+
+
+def test_odd_patch_sizes_work_for_every_strategy():
+    S, X, starts, n = problem(3, B=5, n=8)
+    ref = local_search(S, X, starts, n, "exhaustive")
+    for strategy in STRATEGIES:
+        out = local_search(S, X, starts, n, strategy, m0=4, interval=2)
+        assert (out.energies >= ref.energies).all()
+        if strategy.startswith("exact"):
+            np.testing.assert_array_equal(out.positions, ref.positions)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_adaptive_from_interval_1_and_interval_1_are_the_exhaustive_search(seed):
+    S, X, starts, n = problem(seed, smooth=True, n=10)
+    ref = local_search(S, X, starts, n, "exhaustive")
+    for out in (
+        local_search(S, X, starts, n, "adaptive", m0=1),
+        local_search(S, X, starts, n, "interval", interval=1),
+    ):
+        np.testing.assert_array_equal(out.positions, ref.positions)
+        np.testing.assert_array_equal(out.energies, ref.energies)
+        assert (out.evaluations == n * n).all()
+
+
+def test_sampling_strategies_visit_what_the_paper_says_and_never_beat_exhaustive():
+    S, X, starts, n = problem(1, shape=(60, 60), B=8, n=32, smooth=True)
+    ref = local_search(S, X, starts, n, "exhaustive")
+    for m in (2, 4, 8):
+        out = local_search(S, X, starts, n, "interval", interval=m)
+        assert (out.evaluations == (n // m) ** 2).all()
+        assert (out.energies >= ref.energies).all()
+        assert ((out.positions - starts) % m == 0).all()
+    ada = local_search(S, X, starts, n, "adaptive", m0=8)
+    # 4 x 4 samples, then at most 24 new ones in each of the rounds m = 4, 2, 1.
+    assert (ada.evaluations >= 16).all()
+    assert (ada.evaluations <= 16 + 3 * 24).all()
+    assert (ada.energies >= ref.energies).all()
+    # On smooth data the coarse-to-fine search finds (nearly) the exhaustive minimum.
+    assert np.mean((ada.energies - ref.energies) / ref.energies) < 0.05
+
+
+def test_window_positions_draws_the_adaptive_rounds():
+    rounds = window_positions("adaptive", 32, m0=8, best=lambda pts: tuple(pts[-1]))
+    assert next(len(r) for r in rounds) == 16
+    assert all(len(r) <= 24 for r in rounds[1:])
+    assert len(rounds) == 4
+    steps = [np.diff(np.unique(r[:, 0])).min() for r in rounds[1:]]
+    assert steps == [4, 2, 1]
+    (grid,) = window_positions("interval", 32, interval=4)
+    assert len(grid) == 64
+    assert grid.max() == 28
+    with pytest.raises(ValueError, match="strategy"):
+        window_positions("exact-fft", 32)
+
+
+def test_an_unknown_strategy_is_refused():
+    S, X, starts, n = problem(0)
+    with pytest.raises(ValueError, match="strategy must be one of"):
+        local_search(S, X, starts, n, "random")
