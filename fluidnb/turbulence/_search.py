@@ -306,63 +306,69 @@ def _measure_candidates(S2, X2, starts, n, cand, c):
 
 def _bounds_search(S, X, S2, X2, starts, n):
     P, B, _, c = X.shape
-    # Box sizes B, B/2, B/4 (while they halve exactly and stay >= 2): level l splits
-    # a patch into 4^l boxes. Finer levels bound tighter but cost more, so each
-    # level only sees the positions the coarser ones could not rule out.
+    # Three levels of boxes: the whole patch, its quarters, its sixteenths (as far
+    # as B halves exactly). Finer levels bound tighter but cost more, so each level
+    # only sees the positions the coarser ones could not rule out.
     sizes = [B]
-    while sizes[-1] % 2 == 0 and sizes[-1] >= 4 and len(sizes) < 3:
+    while sizes[-1] % 2 == 0 and len(sizes) < 3:
         sizes.append(sizes[-1] // 2)
+    sizes += [sizes[-1]] * (3 - len(sizes))  # repeat the last level if B is odd
+    channels_first = np.ascontiguousarray(S.transpose(2, 0, 1))  # (C, H, W)
     h, w = S.shape[:2]
-    L = len(sizes)
-    m_src = np.zeros((L, h, w, c))
-    v_src = np.zeros((L, h, w, c))
-    m_x = np.zeros((P, L, 4 ** (L - 1), c))
-    v_x = np.zeros((P, L, 4 ** (L - 1), c))
+    stats = []
+    norm2 = np.zeros((h, w))  # ||Z||^2 of every whole patch
     for lv, size in enumerate(sizes):
-        _box_stats(S, size, m_src[lv], v_src[lv])
-        _patch_stats(X, size, m_x[:, lv], v_x[:, lv])
-    # The stats carry round-off (a spread near 0 is a square root of a difference):
-    # a bound rules a position out only when it clears the best by this margin.
-    margin = 1e-6 * (np.max(X2 * X2, initial=0.0) + np.max(S2 * S2, initial=0.0)) * B * B * c
-    return _bounds_kernel(S2, X2, starts, n, c, np.array(sizes), m_src, v_src, m_x, v_x, margin)
+        k = B // size
+        # Only the boxes that fit are written (and read).
+        src = (np.empty((c, h, w)), np.empty((c, h, w)))
+        tgt = (np.empty((P, k * k, c)), np.empty((P, k * k, c)))
+        _box_stats(channels_first, size, *src, norm2, lv == 0)
+        _patch_stats(X, size, *tgt)
+        if lv == 0:  # read along window rows: channels first
+            stats += [*src, *tgt]
+        else:  # read a position at a time: all its channels' numbers side by side
+            stats += [np.ascontiguousarray(np.stack(src, -1).transpose(1, 2, 0, 3)), *tgt]
+    return _bounds_kernel(S2, X2, starts, n, c, *sizes, norm2, *stats)
 
 
-@njit(cache=True)
-def _box_stats(S, size, mean, spread):
-    # Mean and spread ||v - mean|| of every size x size box (by its top-left cell),
-    # per channel, from running sums of the values and their squares: down the
-    # columns first, then along the rows (both loops run over contiguous memory).
-    h, w, c = S.shape
+@njit(cache=True, fastmath=True)
+def _box_stats(S, size, mean, spread, norm2, with_norm2):
+    # Mean and spread ||v - mean|| of every size x size box (by its top-left cell)
+    # per channel, and the boxes' squared norms summed over channels, from running
+    # sums of the values and their squares: down the columns, then along the rows.
+    # Channels first, so the inner loops run over contiguous rows and vectorise.
+    c, h, w = S.shape
     hh, ww = h - size + 1, w - size + 1
-    col1 = np.zeros((hh, w, c))
-    col2 = np.zeros((hh, w, c))
-    for i in range(size):
-        for x in range(w):
-            for ch in range(c):
-                v = S[i, x, ch]
-                col1[0, x, ch] += v
-                col2[0, x, ch] += v * v
-    for y in range(1, hh):
-        for x in range(w):
-            for ch in range(c):
-                a, b = S[y + size - 1, x, ch], S[y - 1, x, ch]
-                col1[y, x, ch] = col1[y - 1, x, ch] + a - b
-                col2[y, x, ch] = col2[y - 1, x, ch] + a * a - b * b
     count = float(size * size)
-    for y in range(hh):
-        for ch in range(c):
-            s1 = 0.0
-            s2 = 0.0
-            for x in range(size):
-                s1 += col1[y, x, ch]
-                s2 += col2[y, x, ch]
+    col1 = np.zeros(w)
+    col2 = np.zeros(w)
+    pre1 = np.zeros(w + 1)
+    pre2 = np.zeros(w + 1)
+    for ch in range(c):
+        col1[:] = 0.0
+        col2[:] = 0.0
+        for i in range(size):
+            for x in range(w):
+                v = S[ch, i, x]
+                col1[x] += v
+                col2[x] += v * v
+        for y in range(hh):
+            if y > 0:
+                for x in range(w):
+                    a, b = S[ch, y + size - 1, x], S[ch, y - 1, x]
+                    col1[x] += a - b
+                    col2[x] += a * a - b * b
+            for x in range(w):
+                pre1[x + 1] = pre1[x] + col1[x]
+                pre2[x + 1] = pre2[x] + col2[x]
             for x in range(ww):
-                if x > 0:
-                    s1 += col1[y, x + size - 1, ch] - col1[y, x - 1, ch]
-                    s2 += col2[y, x + size - 1, ch] - col2[y, x - 1, ch]
+                s1 = pre1[x + size] - pre1[x]
+                s2 = pre2[x + size] - pre2[x]
                 m = s1 / count
-                mean[y, x, ch] = m
-                spread[y, x, ch] = np.sqrt(max(s2 - s1 * m, 0.0))
+                mean[ch, y, x] = m
+                spread[ch, y, x] = np.sqrt(max(s2 - s1 * m, 0.0))
+                if with_norm2:
+                    norm2[y, x] += s2
 
 
 @njit(cache=True)
@@ -387,74 +393,98 @@ def _patch_stats(X, size, mean, spread):
                 spread[p, j, ch] = np.sqrt(max(s2 - s1 * m, 0.0))
 
 
-@njit(cache=True)
-def _level_bound(m_src, v_src, m_x, v_x, p, size, k, y, x, c):
+@njit(cache=True, fastmath=True)
+def _bound(stats, m_x, v_x, p, size, k, y, x):
     # ||x - z||^2 = count (mean_x - mean_z)^2 + ||x~ - z~||^2 over each box, where
     # x~, z~ are the values less their means, and ||x~ - z~|| >= | ||x~|| - ||z~|| |
     # (triangle inequality): a lower bound from two numbers per box and channel.
+    # stats[y, x, channel] holds (mean, spread) of the box at (y, x).
+    c = m_x.shape[2]
     count = float(size * size)
     lb = 0.0
     for j in range(k * k):
         yy, xx = y + (j // k) * size, x + (j % k) * size
         for ch in range(c):
-            d = m_x[p, j, ch] - m_src[yy, xx, ch]
-            r = v_x[p, j, ch] - v_src[yy, xx, ch]
+            d = m_x[p, j, ch] - stats[yy, xx, ch, 0]
+            r = v_x[p, j, ch] - stats[yy, xx, ch, 1]
             lb += count * d * d + r * r
     return lb
 
 
+@njit(cache=True, fastmath=True)
+def _level0_row(m0, v0, mx0, vx0, norm2, p, y, x0, count, qx, lb, slack):
+    # Level 0 along one window row: vectorised over the row's positions.
+    n = lb.shape[0]
+    for b in range(n):
+        lb[b] = 0.0
+        # The stats carry round-off (a spread is the square root of a difference,
+        # ~1e-8 of the norms): a bound rules a position out only when it clears
+        # the best by far more than that.
+        slack[b] = 1e-6 * (qx + norm2[y, x0 + b])
+    for ch in range(m0.shape[0]):
+        mx, vx = mx0[p, 0, ch], vx0[p, 0, ch]
+        for b in range(n):
+            d = mx - m0[ch, y, x0 + b]
+            r = vx - v0[ch, y, x0 + b]
+            lb[b] += count * d * d + r * r
+
+
 @njit(cache=True)
-def _bounds_kernel(S2, X2, starts, n, c, sizes, m_src, v_src, m_x, v_x, margin):
+def _bounds_kernel(
+    S2, X2, starts, n, c, s0, s1, s2, norm2,
+    m0, v0, mx0, vx0, st1, mx1, vx1, st2, mx2, vx2,
+):  # fmt: skip
     P, B = X2.shape[0], X2.shape[1]
-    L = sizes.shape[0]
     off = np.zeros((P, 2), np.int64)
     en = np.empty(P)
     ev = np.zeros(P, np.int64)
     lb0 = np.empty(n * n)
-    m0, v0 = m_src[0], v_src[0]
-    count0 = float(B * B)
+    slack = np.empty(n * n)
+    lb_row = np.empty(n)
+    slack_row = np.empty(n)
+    count0 = float(s0 * s0)
     for p in range(P):
         y0, x0 = starts[p, 0], starts[p, 1]
+        qx = 0.0
+        for ch in range(c):
+            qx += count0 * mx0[p, 0, ch] ** 2 + vx0[p, 0, ch] ** 2
         # Level 0 (whole patch) at every position; start from the most promising.
         first = 0
         for a in range(n):
+            _level0_row(m0, v0, mx0, vx0, norm2, p, y0 + a, x0, count0, qx, lb_row, slack_row)
             for b in range(n):
-                lb = 0.0
-                for ch in range(c):
-                    d = m_x[p, 0, 0, ch] - m0[y0 + a, x0 + b, ch]
-                    r = v_x[p, 0, 0, ch] - v0[y0 + a, x0 + b, ch]
-                    lb += count0 * d * d + r * r
                 k = a * n + b
-                lb0[k] = lb - margin
+                slack[k] = slack_row[b]
+                lb0[k] = lb_row[b] - slack_row[b]
                 if lb0[k] < lb0[first]:
                     first = k
         best = _ssd(S2, X2, p, y0 + first // n, x0 + first % n, c)
         by, bx, count = first // n, first % n, 1
         for k in range(n * n):
-            if lb0[k] > best or k == first:
+            if k == first:
+                continue
+            # Ties go to the first position in raster order, as in the exhaustive
+            # search: after the best so far only a strictly lower energy wins.
+            later = k > by * n + bx
+            if lb0[k] > best or (later and lb0[k] >= best):
                 continue
             a, b = k // n, k % n
             y, x = y0 + a, x0 + b
-            ruled_out = False
-            for lv in range(1, L):
-                size = sizes[lv]
-                lb = _level_bound(
-                    m_src[lv], v_src[lv], m_x[:, lv], v_x[:, lv], p, size, B // size, y, x, c
-                )
-                if lb - margin > best:
-                    ruled_out = True
-                    break
-            if ruled_out:
+            lb = _bound(st1, mx1, vx1, p, s1, B // s1, y, x) - slack[k]
+            if lb > best or (later and lb >= best):
                 continue
-            # Partial distance elimination: stop once the sum of whole rows passes
-            # the best (the row sums are the ones _ssd adds, in the same order).
+            lb = _bound(st2, mx2, vx2, p, s2, B // s2, y, x) - slack[k]
+            if lb > best or (later and lb >= best):
+                continue
+            # Partial distance elimination: stop once the sum of whole rows cannot
+            # win (the row sums are the ones _ssd adds, in the same order).
             e = 0.0
             for i in range(B):
                 e += _row_ssd(S2, X2, p, y + i, x * c, i)
-                if e > best:
+                if e > best or (later and e >= best):
                     break
             count += 1
-            if e < best or (e == best and k < by * n + bx):
+            if e < best or (e == best and not later):
                 best, by, bx = e, a, b
         off[p, 0], off[p, 1], en[p], ev[p] = by, bx, best, count
     return off, en, ev

@@ -130,3 +130,17 @@ def test_an_unknown_strategy_is_refused():
     S, X, starts, n = problem(0)
     with pytest.raises(ValueError, match="strategy must be one of"):
         local_search(S, X, starts, n, "random")
+
+
+def test_still_air_ties_cost_the_bounded_search_almost_nothing():
+    # Early frames are mostly still air: many windows are all zeros, every position
+    # ties at energy 0, and the first in raster order must win without measuring all.
+    S = np.zeros((40, 40, 5))
+    S[30:, 30:] = np.random.default_rng(0).normal(size=(10, 10, 5))
+    X = np.zeros((3, 8, 8, 5))
+    starts = np.array([[0, 0], [5, 3], [10, 10]])
+    ref = local_search(S, X, starts, 16, "exhaustive")
+    out = local_search(S, X, starts, 16, "exact-bounds")
+    np.testing.assert_array_equal(out.positions, ref.positions)
+    np.testing.assert_array_equal(out.positions, starts)
+    assert (out.evaluations == 1).all()
