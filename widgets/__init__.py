@@ -4,8 +4,8 @@ Reusable pieces every method's app is made of: :class:`DrawingCanvas` (strokes, 
 points over an image), :class:`FramePlayer` (play and export a clip),
 :class:`ParamPanel` (sliders from a parameter dataclass) and :class:`App` (all of them
 with a run button, progress, cancel and a live preview), and one app per method
-(:class:`FlickerApp`, :class:`FrostApp`, :class:`FireApp`). No algorithm lives here:
-everything calls :mod:`fluidnb`.
+(:class:`FlickerApp`, :class:`FrostApp`, :class:`FireApp`, :class:`TurbulenceApp`).
+No algorithm lives here: everything calls :mod:`fluidnb`.
 """
 
 from ._app import App
@@ -15,5 +15,15 @@ from ._flicker import FlickerApp
 from ._frost import FrostApp
 from ._panel import ParamPanel
 from ._player import FramePlayer
+from ._turbulence import TurbulenceApp
 
-__all__ = ["App", "DrawingCanvas", "FireApp", "FlickerApp", "FramePlayer", "FrostApp", "ParamPanel"]
+__all__ = [
+    "App",
+    "DrawingCanvas",
+    "FireApp",
+    "FlickerApp",
+    "FramePlayer",
+    "FrostApp",
+    "ParamPanel",
+    "TurbulenceApp",
+]

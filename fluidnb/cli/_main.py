@@ -19,6 +19,7 @@ _COMMAND_MODULES = [
     "fluidnb.cli._frost",
     "fluidnb.cli._fluid",
     "fluidnb.cli._fire",
+    "fluidnb.cli._turbulence",
 ]
 
 

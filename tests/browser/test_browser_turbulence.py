@@ -1,0 +1,117 @@
+"""The turbulence app in JupyterLab: a bad slider, switch strategy, run, the table fills."""
+
+import pytest
+
+from tests.browser.helpers import assert_visible, img_rgba, poll
+
+pytestmark = pytest.mark.browser
+
+APP = """\
+import os
+os.environ["FLUIDNB_CACHE_DIR"] = os.path.abspath("cache")  # the kernel's own cache
+from fluidnb.widgets import TurbulenceApp
+
+app = TurbulenceApp()  # the quick size: 40 frames, a run takes seconds
+
+def report(_=None):
+    clip = app.player.clip
+    dump("state.json", {
+        "strategy": app.panel.params.strategy,
+        "b": app.panel.params.b,
+        "status": app.status,
+        "rows": sorted(app.rows),
+        "frames": None if clip is None else len(clip),
+        "shown": None if app.synthesis is None else app.synthesis.params.strategy,
+        "synth_peak": None if clip is None else float(clip.frames[:, :, -64:].max()),
+    })
+
+app.panel.observe(report, "params")
+app.observe(report, "status")
+report()
+app
+"""
+
+
+def row_cells(page, strategy):
+    """The texts of a Table 1 row's cells (ours first, the paper's after)."""
+    return page.locator(f".fluidnb-table tr[data-strategy='{strategy}'] td").all_inner_texts()
+
+
+def test_switch_strategy_run_and_the_table_fills(notebook, page, shot):
+    nb = notebook([APP])
+    app = page.locator(".fluidnb-app")
+    app.wait_for()
+    # Before any run: Table 1 with the paper's figures, our columns empty.
+    assert row_cells(page, "adaptive") == ["—"] * 5 + ["12.5", "9.2×", "0.0103", "0.1935"]
+    app.scroll_into_view_if_needed()
+    shot(page, "before")
+
+    # A bad b (b must exceed B dX/dx = 2) is said in the status line, the slider kept.
+    handle = page.locator(".fluidnb-param-b .noUi-handle")
+    handle.scroll_into_view_if_needed()
+    handle.focus()
+    page.keyboard.press("ArrowLeft")
+    page.keyboard.press("ArrowLeft")
+    state = nb.state("state.json", lambda s: "b must be > B dX/dx" in s["status"])
+    status = page.locator(".fluidnb-app .fluidnb-status")
+    status.filter(has_text="b must be > B dX/dx").wait_for()
+    assert page.locator(".fluidnb-param-b .widget-readout").inner_text() == "2"
+    page.locator(".fluidnb-app .fluidnb-run").click()  # refused, nothing runs
+    page.keyboard.press("ArrowRight")
+    handle.focus()
+    page.keyboard.press("ArrowRight")
+    page.keyboard.press("ArrowRight")
+    state = nb.state("state.json", lambda s: s["b"] == 4 and s["status"] == "")
+    assert state["rows"] == []
+    assert state["frames"] is None
+
+    # Switch the search to exhaustive and run: its row fills, frames appear.
+    page.locator(".fluidnb-param-strategy select").select_option("exhaustive")
+    nb.state("state.json", lambda s: s["strategy"] == "exhaustive")
+    page.locator(".fluidnb-app .fluidnb-run").click()
+    state = nb.state("state.json", lambda s: s["rows"] == ["exhaustive"], timeout=180)
+    assert state["frames"] == 40
+    assert state["shown"] == "exhaustive"
+    assert state["synth_peak"] > 0.3, "the synthesised dye is blank"
+    status.filter(has_text="exhaustive:").wait_for(timeout=30_000)
+    poll("the exhaustive row", lambda: row_cells(page, "exhaustive")[2] == "0.0000")
+    assert (
+        page.locator(".fluidnb-table tr.fluidnb-latest").get_attribute("data-strategy")
+        == "exhaustive"
+    )
+
+    # Then the adaptive search: a second row, with a speedup against the first.
+    page.locator(".fluidnb-param-strategy select").select_option("adaptive")
+    nb.state("state.json", lambda s: s["strategy"] == "adaptive")
+    page.locator(".fluidnb-app .fluidnb-run").click()
+    nb.state("state.json", lambda s: s["rows"] == ["adaptive", "exhaustive"], timeout=180)
+    poll("the adaptive row", lambda: row_cells(page, "adaptive")[1].endswith("×"))
+    cells = row_cells(page, "adaptive")
+    assert float(cells[0]) > 0  # ms per frame
+    assert float(cells[1].rstrip("×")) > 0  # speedup
+    assert float(cells[2]) >= 0  # relative error
+    page.locator(".fluidnb-app .fluidnb-status", has_text="adaptive:").wait_for()
+
+    # The dye and vorticity frames are shown (the last one), and scrubbing the dye
+    # moves both.
+    dye = page.locator(".fluidnb-dye .fluidnb-frame")
+    vort = page.locator(".fluidnb-vorticity .fluidnb-frame")
+    dye.scroll_into_view_if_needed()
+    for img in (dye, vort):
+        poll("a frame to show", lambda img=img: img_rgba(img) is not None)
+        assert_visible(img.bounding_box(), min_width=300, min_height=150)
+    # The vorticity map is coloured: somewhere red or blue, not grey.
+    colours = [img_rgba(vort, fx, fy) for fx in (0.2, 0.5, 0.85) for fy in (0.2, 0.4, 0.6, 0.8)]
+    assert any(max(c[:3]) - min(c[:3]) > 40 for c in colours), colours
+    srcs = (dye.get_attribute("src"), vort.get_attribute("src"))
+    page.locator(".fluidnb-dye .fluidnb-frame-slider .noUi-handle").focus()
+    for _ in range(8):
+        page.keyboard.press("ArrowLeft")
+    for img, src in zip((dye, vort), srcs):
+        page.wait_for_function(
+            "([el, src]) => el.src !== src", arg=[img.element_handle(), src], timeout=10_000
+        )
+    page.locator(".fluidnb-app h3").scroll_into_view_if_needed()
+    shot(page, "controls")
+    page.locator(".fluidnb-vorticity").scroll_into_view_if_needed()
+    shot(page)
