@@ -226,6 +226,12 @@ def _lift(u, r):
     low-resolution grid can see) and makes :math:`U_t` average back to the
     user's :math:`u_t`. Both operators are separable, so ``v`` comes from two
     small matrices, :math:`v = M_y^{-1} u M_x^{-T}`, built once per grid.
+
+    The price: undoing the blur boosts the coarse grid's finest scales (the
+    matrices' condition number is about 2), so where ``u`` changes from cell to
+    cell the result differs from plain bilinear interpolation by up to a few tens
+    of percent (about 10 % RMS on the sample flows at the paper's sizes) and its
+    vorticity shows faint cell-sized stripes.
     """
     h, w = u.shape[1:3]
     my, mx = _round_trip(h, r), _round_trip(w, r)

@@ -338,6 +338,12 @@ def compare(target, source, strategies=None, params=None, *, progress=None):
 def table1(results):
     """Table 1 rows from :func:`compare`'s results, next to the paper's figures.
 
+    Parameters
+    ----------
+    results : dict
+        Label -> :class:`Synthesis`, or -> its :meth:`Synthesis.summary` row (keep
+        the small rows, not the flows, when collecting many runs).
+
     Returns
     -------
     list of dict
@@ -347,7 +353,7 @@ def table1(results):
         ``paper_relative_error``, ``paper_absolute_error``, ``paper_seconds``,
         ``paper_speedup`` where the paper has the row.
     """
-    rows = [r.summary() for r in results.values()]
+    rows = [dict(r) if isinstance(r, dict) else r.summary() for r in results.values()]
     ex = next((r for r in rows if r["strategy"] == "exhaustive"), None)
     for r in rows:
         if ex is not None:

@@ -136,6 +136,7 @@ def test_errors_are_zero_for_exact_searches_and_positive_for_sampling(pair):
         ],
     )
     rows = {r["strategy"]: r for r in table1(results)}
+    assert table1({k: v.summary() for k, v in results.items()}) == list(rows.values())
     for name in ("exhaustive", "exact-fft", "exact-bounds"):
         assert rows[name]["relative_error"] == 0
         assert rows[name]["absolute_error"] == 0
