@@ -14,7 +14,7 @@ from ._params import STRATEGIES, TurbulenceParams
 from ._prepare import Prepared, global_search, prepare
 from ._render import dye_clip, injection, render, vorticity, vorticity_clip
 from ._search import SearchResult, local_search, window_positions
-from ._synthesis import PAPER_TABLE1, Synthesis, compare, synthesize, table1
+from ._synthesis import PAPER_TABLE1, Synthesis, compare, local_features, synthesize, table1
 
 __all__ = [
     "PAPER_SHAPES",
@@ -30,6 +30,7 @@ __all__ = [
     "dye_clip",
     "global_search",
     "injection",
+    "local_features",
     "local_search",
     "prepare",
     "render",

@@ -13,7 +13,7 @@ from ._params import TurbulenceParams
 from ._prepare import Prepared, global_search, prepare
 from ._search import local_search
 
-__all__ = ["PAPER_TABLE1", "Synthesis", "compare", "synthesize", "table1"]
+__all__ = ["PAPER_TABLE1", "Synthesis", "compare", "local_features", "synthesize", "table1"]
 
 #: The seed's Table 1 (Core i7-2600K, 16 x 24 target, 128 x 192 source, B = 16,
 #: b = 4, 200 frames): strategy -> (mean relative error, mean absolute error,
@@ -199,7 +199,6 @@ def synthesize(target, source, params=None, *, reference=False, progress=None, p
     n_frames, (H, W), P = prep.n_frames, prep.U_t.shape[1:3], prep.n_patches
     B, n = params.B, prep.window
     ty, tx = prep.tiles
-    a_w, b_w = np.sqrt(params.alpha), np.sqrt(params.beta)
     velocity = np.empty((n_frames, H, W, 2), np.float32)
     detail = np.empty((n_frames, H, W, 2), np.float32)
     q_l_all = np.empty((n_frames, P, 2), np.int64)
@@ -216,16 +215,7 @@ def synthesize(target, source, params=None, *, reference=False, progress=None, p
         q_l, _ = global_search(prep, i)
         t_global += time.perf_counter() - tg
         starts = prep.window_starts(q_l)
-        # Eq. (2)'s terms as channels: velocity, sqrt(alpha) mask, sqrt(beta) detail.
-        tgt = [prep.U_t[i], a_w * prep.D_t[i][..., None]]
-        src = [prep.U_sl[i], a_w * prep.D_s[i][..., None]]
-        if advected is not None and params.beta > 0:
-            tgt.append(b_w * advected)
-            src.append(b_w * prep.U_sh[i])
-        T = np.concatenate(tgt, -1).astype(np.float64)
-        S = np.concatenate(src, -1).astype(np.float64)
-        C = T.shape[-1]
-        X = T.reshape(ty, B, tx, B, C).swapaxes(1, 2).reshape(P, B, B, C)
+        S, X = local_features(prep, i, advected, params)
         found = local_search(
             S, X, starts, n, params.strategy, m0=params.m0, interval=params.interval
         )
@@ -250,6 +240,47 @@ def synthesize(target, source, params=None, *, reference=False, progress=None, p
         velocity, detail, prep, q_l_all, q_h_all, energies, best, evaluations, seconds,
         params, timings,
     )  # fmt: skip
+
+
+def local_features(prep, i, previous=None, params=None):
+    r"""The source image ``S`` and target patches ``X`` of frame ``i``'s local search.
+
+    Eq. (2)'s terms become channels of one sum of squared differences: velocity
+    (:math:`U_t` against :math:`U_{sl}`), the mask times :math:`\sqrt{\alpha}`
+    (:math:`D_t` against :math:`D_s`) and, when ``previous`` is given and
+    :math:`\beta > 0`, the detail times :math:`\sqrt{\beta}` (:math:`U^*_h`
+    against :math:`U_{sh}`).
+
+    Parameters
+    ----------
+    prep : Prepared
+    i : int
+        The frame.
+    previous : ndarray, (H, W, 2), optional
+        :math:`U^*_h(i)`: the previous frame's detail advected by
+        :math:`U_t(i-1)`; ``None`` at the first frame.
+    params : TurbulenceParams, optional
+        Default: ``prep.params``.
+
+    Returns
+    -------
+    S : ndarray, (H, W, C)
+        Source features, float64.
+    X : ndarray, (P, B, B, C)
+        Target features of the ``B x B`` tiles, row by row, float64.
+    """
+    params = prep.params if params is None else params
+    B, (ty, tx) = params.B, prep.tiles
+    a_w, b_w = np.sqrt(params.alpha), np.sqrt(params.beta)
+    tgt = [prep.U_t[i], a_w * prep.D_t[i][..., None]]
+    src = [prep.U_sl[i], a_w * prep.D_s[i][..., None]]
+    if previous is not None and params.beta > 0:
+        tgt.append(b_w * previous)
+        src.append(b_w * prep.U_sh[i])
+    T = np.concatenate(tgt, -1).astype(np.float64)
+    S = np.concatenate(src, -1).astype(np.float64)
+    X = T.reshape(ty, B, tx, B, T.shape[-1]).swapaxes(1, 2).reshape(ty * tx, B, B, -1)
+    return S, X
 
 
 def _check_prepared(prep, params, target, source):

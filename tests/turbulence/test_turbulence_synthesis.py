@@ -9,6 +9,8 @@ from fluidnb.turbulence import (
     TurbulenceParams,
     compare,
     global_search,
+    local_features,
+    local_search,
     prepare,
     render,
     sample_flows,
@@ -206,3 +208,16 @@ def test_bad_parameters_and_flows_are_refused():
         Flow(v, np.zeros((3, 8, 9)), 1.0)
     with pytest.raises(ValueError, match="dx"):
         Flow(v, np.zeros((3, 8, 8)), 0.0)
+
+
+def test_local_features_rebuild_the_synthesis_search(pair):
+    out = synthesize(*pair, TurbulenceParams(strategy="exhaustive", beta=2.0))
+    prep = out.prepared
+    for i in (0, 9):
+        previous = None if i == 0 else advect(out.detail[i - 1], prep.U_t[i - 1])
+        S, X = local_features(prep, i, previous, out.params)
+        assert X.shape == (prep.n_patches, 16, 16, 3 if i == 0 else 5)
+        starts = prep.window_starts(out.global_positions[i])
+        found = local_search(S, X, starts, prep.window, "exhaustive")
+        np.testing.assert_array_equal(found.positions, out.local_positions[i])
+        np.testing.assert_array_equal(found.energies, out.energies[i])
