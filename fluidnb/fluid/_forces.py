@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from .._validation import check_array, check_range, check_vector_field
-from ._grid import _centres, _curl, _to_x_faces, _to_y_faces
+from . import _kernels
+from ._grid import _f64
 from ._params import FluidParams
 
 __all__ = ["buoyancy", "cool", "source_mask", "vorticity_confinement"]
@@ -52,16 +53,20 @@ def buoyancy(temperature, params):
 
 
 def _buoyancy(t, params):
-    excess = t - params.T_amb
     f = np.empty((*t.shape, 2))
-    f[..., 0] = _to_y_faces(excess)
-    f[..., 0] *= -params.kappa_b
-    if params.wind:
-        f[..., 1] = _to_x_faces(excess)
-        f[..., 1] *= params.wind
-    else:
-        f[..., 1] = 0.0
+    kappa_b, t_amb, wind = float(params.kappa_b), float(params.T_amb), float(params.wind)
+    _kernels.forces(f, _f64(t), kappa_b, t_amb, wind, 0.0, 1.0, True, f, False)
     return f
+
+
+def _add_forces(v, t, params):
+    """``v += dt * (buoyancy + confinement)`` in place, one fused pass over the faces.
+
+    The confinement is computed from ``v`` itself (before the update).
+    """
+    p = params
+    args = (float(p.kappa_b), float(p.T_amb), float(p.wind), float(p.epsilon), float(p.dt))
+    _kernels.forces(v, t, *args, True, v, True)
 
 
 def vorticity_confinement(velocity, epsilon):
@@ -98,24 +103,9 @@ def vorticity_confinement(velocity, epsilon):
     """
     v = check_vector_field("velocity", velocity)
     epsilon = check_range("epsilon", epsilon, 0)
-    return _confinement(_centres(np.asarray(v, dtype=np.float64)), epsilon)
-
-
-def _confinement(c, epsilon):
-    f = np.zeros(c.shape)
-    if epsilon == 0 or min(c.shape[:2]) < 2:
-        return f
-    w = _curl(c)
-    a = np.abs(w)
-    ny = np.gradient(a, axis=0)
-    nx = np.gradient(a, axis=1)
-    norm = np.hypot(ny, nx)
-    # Where |omega| is flat there is no direction to push: N = 0 there.
-    norm[norm < 1e-12] = np.inf
-    scale = epsilon * w / norm
-    # N x omega with N = (nx, ny, 0) and omega = (0, 0, w) is (ny w, -nx w, 0).
-    f[..., 0] = _to_y_faces(-nx * scale)
-    f[..., 1] = _to_x_faces(ny * scale)
+    v = _f64(v)
+    f = np.empty(v.shape)
+    _kernels.forces(v, np.zeros(v.shape[:2]), 0.0, 0.0, 0.0, float(epsilon), 1.0, False, f, False)
     return f
 
 
@@ -168,12 +158,17 @@ def _cool(t, c_r, t_amb, dt, t_max=None):
     span = t_max - t_amb
     if c_r == 0 or dt == 0 or span <= 0:
         return t.copy()
-    hot = t > t_amb
-    x = (t[hot] - t_amb) / span
-    x /= np.cbrt(1.0 + (3.0 * c_r * dt / span) * x**3)
-    out = t.copy()
-    out[hot] = t_amb + span * x
+    t = _f64(t)
+    out = np.empty(t.shape)
+    _kernels.cool(t, float(t_amb), float(span), _cooling_roots(t, c_r, t_amb, dt, span), out)
     return out
+
+
+def _cooling_roots(t, c_r, t_amb, dt, span):
+    """Per cell ``(1 + 3 c dt x^3)^(1/3)``, ``c = C_r / span``: the cooling's divisor."""
+    roots = np.empty(t.shape)
+    _kernels.cooling_base(t, float(t_amb), float(span), float(3.0 * c_r * dt / span), roots)
+    return np.cbrt(roots, out=roots)
 
 
 def source_mask(shape, params):

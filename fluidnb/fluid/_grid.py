@@ -34,6 +34,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from .._validation import check_choice, check_vector_field
+from . import _kernels
 from ._params import BOUNDARIES
 
 __all__ = [
@@ -81,33 +82,15 @@ def centred_velocity(velocity):
     return _centres(np.asarray(v, dtype=np.float64))
 
 
+def _f64(a):
+    """float64, C-contiguous (what the compiled kernels take); no copy when already so."""
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
 def _centres(v):
-    out = np.empty_like(v)
-    uy, ux = v[..., 0], v[..., 1]
-    np.add(uy[:-1], uy[1:], out=out[:-1, :, 0])
-    out[-1, :, 0] = uy[-1]  # the bottom wall's face is zero
-    np.add(ux[:, :-1], ux[:, 1:], out=out[:, :-1, 1])
-    out[:, -1, 1] = ux[:, -1]  # the right wall's face is zero
-    out *= 0.5
+    out = np.empty(v.shape)
+    _kernels.centres(_f64(v), out)
     return out
-
-
-def _to_y_faces(c):
-    """A centred scalar averaged to the top faces (row 0 takes the top cell's value)."""
-    f = np.empty_like(c)
-    np.add(c[:-1], c[1:], out=f[1:])
-    f[1:] *= 0.5
-    f[0] = c[0]
-    return f
-
-
-def _to_x_faces(c):
-    """A centred scalar averaged to the left faces (column 0 takes the left cell's)."""
-    f = np.empty_like(c)
-    np.add(c[:, :-1], c[:, 1:], out=f[:, 1:])
-    f[:, 1:] *= 0.5
-    f[:, 0] = c[:, 0]
-    return f
 
 
 def divergence(velocity):
@@ -141,10 +124,8 @@ def divergence(velocity):
 
 
 def _divergence(v):
-    uy, ux = v[..., 0], v[..., 1]
-    div = -uy - ux
-    div[:-1] += uy[1:]
-    div[:, :-1] += ux[:, 1:]
+    div = np.empty(v.shape[:2])
+    _kernels.divergence(_f64(v), div)
     return div
 
 
@@ -184,9 +165,10 @@ def curl(velocity):
 
 
 def _curl(c):
-    if min(c.shape[:2]) < 2:
-        return np.zeros(c.shape[:2])
-    return np.gradient(c[..., 0], axis=1) - np.gradient(c[..., 1], axis=0)
+    out = np.zeros(c.shape[:2])
+    if min(c.shape[:2]) >= 2:  # np.gradient's rule: one-sided needs two samples
+        _kernels.curl(_f64(c[..., 0]), _f64(c[..., 1]), out)
+    return out
 
 
 class _Poisson:
@@ -246,16 +228,13 @@ def _poisson(shape, boundary):
 
 
 def _project(v, boundary):
-    """Project a staggered velocity (modified in place) and return the pressure."""
+    """Project a staggered velocity (float64, C order; modified in place); return p."""
     enforce_walls(v, boundary, out=v)
     h, w = v.shape[:2]
     if h * w == 1 and boundary == "closed":
         return np.zeros((h, w))
     p = _poisson((h, w), boundary).solve(_divergence(v))
-    v[1:, :, 0] -= p[1:] - p[:-1]
-    if boundary == "open_top":
-        v[0, :, 0] -= p[0]  # pressure 0 above the open top
-    v[:, 1:, 1] -= p[:, 1:] - p[:, :-1]
+    _kernels.subtract_gradient(v, p, boundary == "open_top")
     return p
 
 

@@ -15,9 +15,9 @@ from .._validation import (
     check_shape_match,
     check_vector_field,
 )
-from ..fields import advect
-from ._forces import _buoyancy, _check_params, _confinement, _cool, source_mask
-from ._grid import _centres, _project, _to_x_faces, _to_y_faces
+from . import _kernels
+from ._forces import _add_forces, _check_params, _cooling_roots, source_mask
+from ._grid import _centres, _f64, _project
 from ._params import FluidParams
 
 __all__ = ["FluidState", "advect_velocity", "step"]
@@ -129,10 +129,11 @@ class FluidState:
 def advect_velocity(velocity, dt=1.0):
     """Carry a staggered velocity field along itself: the first term of Eq. (1).
 
-    Each component is backtraced from its own face with
-    :func:`fluidnb.fields.advect` (semi-Lagrangian, bilinear, clamped; Stam 1999),
-    using the full velocity vector interpolated to that face. The result is not
-    divergence-free; :func:`fluidnb.fluid.project` makes it so.
+    Each component is backtraced from its own face and sampled as
+    :func:`fluidnb.fields.advect` does (semi-Lagrangian, bilinear, clamped; Stam
+    1999; the same arithmetic, compiled), using the full velocity vector interpolated
+    to that face. The result is not divergence-free; :func:`fluidnb.fluid.project`
+    makes it so.
 
     Parameters
     ----------
@@ -158,33 +159,11 @@ def advect_velocity(velocity, dt=1.0):
 
 
 def _advect_velocity(v, dt):
-    # Each component is carried from its own face, so it needs the full velocity
-    # vector there. The bottom (for dy) and right (for dx) walls' faces are not
-    # stored; they are appended as zeros so a backtrace towards those walls reads
-    # the wall's zero, as it does at the stored top and left walls. Clamping at the
-    # last stored face instead would make the grid lopsided (a symmetric flame
-    # would drift).
-    h, w = v.shape[:2]
-    c = _centres(v)
-    new = np.empty_like(v)
-
-    q = np.zeros((h + 1, w))
-    q[:h] = v[..., 0]
-    vel = np.empty((h + 1, w, 2))
-    vel[:h, :, 0] = v[..., 0]
-    vel[h, :, 0] = 0.0
-    vel[:h, :, 1] = _to_y_faces(c[..., 1])
-    vel[h, :, 1] = c[-1, :, 1]
-    new[..., 0] = advect(q, vel, dt)[:h]
-
-    q = np.zeros((h, w + 1))
-    q[:, :w] = v[..., 1]
-    vel = np.empty((h, w + 1, 2))
-    vel[:, :w, 0] = _to_x_faces(c[..., 0])
-    vel[:, w, 0] = c[:, -1, 0]
-    vel[:, :w, 1] = v[..., 1]
-    vel[:, w, 1] = 0.0
-    new[..., 1] = advect(q, vel, dt)[:, :w]
+    # The compiled kernel reads the bottom (dy) and right (dx) walls' unstored faces
+    # as zero; see fluidnb.fluid._kernels.advect_velocity for why.
+    v = _f64(v)
+    new = np.empty(v.shape)
+    _kernels.advect_velocity(v, float(dt), np.empty(v.shape), new)
     return new
 
 
@@ -200,8 +179,8 @@ def step(state, params, *, rng=None):
     In order (Stam 1999 [2]_, the seed paper's section 3.1 [1]_):
 
     1. advect the velocity through itself, semi-Lagrangian (the first term of
-       Eq. (1)), each staggered component backtraced from its own face with
-       :func:`fluidnb.fields.advect` (bilinear, clamped);
+       Eq. (1)), each staggered component backtraced from its own face and
+       sampled as :func:`fluidnb.fields.advect` does (bilinear, clamped);
     2. add the forces f of Eq. (1): buoyancy, Eq. (4), upward (dy < 0), and
        vorticity confinement, Eq. (5) [3]_;
     3. project onto divergence-free fields, Eq. (2) and the pressure term of
@@ -233,6 +212,13 @@ def step(state, params, *, rng=None):
     ValueError
         If ``state`` or ``params`` is of the wrong type.
 
+    Notes
+    -----
+    The per-cell work runs in numba-compiled kernels (fused passes, no whole-grid
+    temporaries); only the LU solve is scipy's. The very first call on a machine
+    compiles them (several seconds) and caches them on disk; later processes load
+    them in a fraction of a second.
+
     References
     ----------
     .. [1] 古川 歩, 土橋 宜典, 山本 強 (A. Kogawa, Y. Dobashi, T. Yamamoto),
@@ -255,45 +241,42 @@ def step(state, params, *, rng=None):
         raise ValueError(f"state must be a FluidState, got {type(state).__name__}")
     params = _check_params(params)
     dt = params.dt
-    v = np.asarray(state.velocity, dtype=np.float64)
-    t = np.asarray(state.temperature, dtype=np.float64)
-    d = np.asarray(state.density, dtype=np.float64)
+    v = _f64(state.velocity)
+    t = _f64(state.temperature)
+    d = _f64(state.density)
     shape = t.shape
 
     # 1. Self-advection.
     new = _advect_velocity(v, dt)
 
-    # 2. Forces.
-    f = _buoyancy(t, params)
-    if params.epsilon:
-        f += _confinement(_centres(new), params.epsilon)
-    f *= dt
-    new += f
+    # 2. Forces, added in place: buoyancy and (epsilon > 0) confinement.
+    _add_forces(new, t, params)
 
     # 3. Projection (walls enforced inside).
     _project(new, params.boundary)
 
-    # 4. Scalars ride the divergence-free velocity, both in one pass.
-    s = advect(np.stack([t, d], axis=-1), _centres(new), dt)
-    t = np.ascontiguousarray(s[..., 0])
-    d = np.ascontiguousarray(s[..., 1])
+    # 4. Scalars ride the divergence-free velocity, both in one pass, which also
+    # measures T_max for step 5.
+    t_new, d_new = np.empty(shape), np.empty(shape)
+    t_max = _kernels.advect_scalars(t, d, new, float(dt), np.empty(new.shape), t_new, d_new)
+    t, d = t_new, d_new
 
-    # 5. Radiative cooling with T_max measured now.
-    t = _cool(t, params.C_r, params.T_amb, dt)
-
-    # 6. Source.
-    if params.source_radius > 0:
+    # 5. Radiative cooling with T_max measured now, and 6. the source: one pass.
+    c_r, t_amb = params.C_r, params.T_amb
+    span = t_max - t_amb
+    cooling = c_r != 0 and dt != 0 and span > 0
+    roots = _cooling_roots(t, c_r, t_amb, dt, span) if cooling else np.ones((1, 1))
+    heat = params.source_radius > 0
+    hot = params.source_T - t_amb
+    noisy = heat and params.source_flicker > 0 and hot > 0
+    if heat:
         m = _mask(shape, params.source_x, params.source_y, params.source_radius)
-        span = params.source_T - params.T_amb
-        if params.source_flicker > 0 and span > 0:
-            noise = _as_rng(rng).uniform(-1.0, 1.0, size=shape)
-            target = params.T_amb + span * (1.0 + params.source_flicker * noise)
-        else:
-            target = np.full(shape, params.source_T)
-        target -= t
-        np.maximum(target, 0.0, out=target)
-        target *= m
-        t += target
-        if params.density_rate > 0:
-            d += (params.density_rate * dt) * m
+    else:
+        m = _frozen(np.zeros((1, 1)))  # unused; read-only like _mask's, one compilation
+    noise = _as_rng(rng).uniform(-1.0, 1.0, size=shape) if noisy else np.zeros((1, 1))
+    _kernels.cool_and_heat(
+        t, d, cooling, float(t_amb), float(span), roots, m, heat, float(params.source_T),
+        noisy, float(hot), float(params.source_flicker), noise,
+        float(params.density_rate * dt) if params.density_rate > 0 else 0.0,
+    )  # fmt: skip
     return FluidState._trusted(new, t, d, state.frame + 1)
