@@ -179,7 +179,7 @@ def prepare(target, source, params=None):
     u_s = _frames(downsample, U_s, r, vector=True)
     d_s = _frames(downsample, D_s.astype(np.float32), r)
     U_t = _lift(u_t, r)
-    D_t = _frames(upsample, d_t.astype(np.float32), r)
+    D_t = _bilinear(d_t.astype(np.float32), r)
     U_sl = _lift(u_s, r)
     U_sh = U_s - U_sl
     ty, tx = H // B, W // B
@@ -225,7 +225,8 @@ def _lift(u, r):
     :math:`U_{sh}` average to zero over every coarse cell (they add nothing the
     low-resolution grid can see) and makes :math:`U_t` average back to the
     user's :math:`u_t`. Both operators are separable, so ``v`` comes from two
-    small matrices, :math:`v = M_y^{-1} u M_x^{-T}`, built once per grid.
+    small matrices, :math:`v = M_y^{-1} u M_x^{-T}`, and the whole lift is one
+    matrix per axis applied to every frame at once.
 
     The price: undoing the blur boosts the coarse grid's finest scales (the
     matrices' condition number is about 2), so where ``u`` changes from cell to
@@ -234,14 +235,33 @@ def _lift(u, r):
     vorticity shows faint cell-sized stripes.
     """
     h, w = u.shape[1:3]
-    my, mx = _round_trip(h, r), _round_trip(w, r)
-    v = np.einsum("ij,fjkc,lk->filc", np.linalg.inv(my), u.astype(np.float64), np.linalg.inv(mx))
-    return _frames(upsample, v.astype(np.float32), r, vector=True)
+    ay = _upsampling(h, r) @ np.linalg.inv(_round_trip(h, r))
+    ax = _upsampling(w, r) @ np.linalg.inv(_round_trip(w, r))
+    return _separable(ay, u, ax) * r  # velocities scale with the grid
+
+
+def _bilinear(d, r):
+    """Plain bilinear upsampling of a (I, h, w) sequence (the masks)."""
+    h, w = d.shape[1:3]
+    return _separable(_upsampling(h, r), d[..., None], _upsampling(w, r))[..., 0]
+
+
+def _separable(ay, u, ax):
+    """``ay @ u[f, :, :, c] @ ax.T`` for every frame and channel, float32."""
+    out = np.tensordot(ay, u.astype(np.float64), axes=(1, 1))  # (A, f, j, c), by BLAS
+    out = np.tensordot(out, ax, axes=(2, 1))  # (A, f, c, B)
+    return np.ascontiguousarray(out.transpose(1, 0, 3, 2), dtype=np.float32)
+
+
+def _upsampling(n, r):
+    """The matrix of :func:`fluidnb.fields.upsample` (bilinear) along one axis."""
+    # The n unit vectors as channels of an (n, 1) image: the other axis is trivial.
+    eye = np.eye(n, dtype=np.float32)[:, None, :]
+    return upsample(eye, r)[:, 0, :].astype(np.float64)
 
 
 def _round_trip(n, r):
     """The matrix of ``downsample(upsample(., r), r)`` along one axis of length n."""
-    # The n unit vectors as channels of an (n, 1) image: the other axis is trivial.
     eye = np.eye(n, dtype=np.float32)[:, None, :]
     return downsample(upsample(eye, r), r)[:, 0, :].astype(np.float64)
 
