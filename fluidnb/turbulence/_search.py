@@ -193,21 +193,26 @@ def _ssd(S2, X2, p, y, x, c):
 
 
 @njit(cache=True)
+def _scan(S2, X2, p, y0, x0, n, m, c):
+    # Every m-th position of patch p's window in raster order: (best, row, col, count).
+    best, by, bx, count = np.inf, 0, 0, 0
+    for a in range(0, n, m):
+        for b in range(0, n, m):
+            e = _ssd(S2, X2, p, y0 + a, x0 + b, c)
+            count += 1
+            if e < best:
+                best, by, bx = e, a, b
+    return best, by, bx, count
+
+
+@njit(cache=True)
 def _grid_search(S2, X2, starts, n, m, c):
     P = X2.shape[0]
     off = np.zeros((P, 2), np.int64)
     en = np.empty(P)
     ev = np.zeros(P, np.int64)
     for p in range(P):
-        best, by, bx, count = np.inf, 0, 0, 0
-        y0, x0 = starts[p, 0], starts[p, 1]
-        for a in range(0, n, m):
-            for b in range(0, n, m):
-                e = _ssd(S2, X2, p, y0 + a, x0 + b, c)
-                count += 1
-                if e < best:
-                    best, by, bx = e, a, b
-        off[p, 0], off[p, 1], en[p], ev[p] = by, bx, best, count
+        en[p], off[p, 0], off[p, 1], ev[p] = _scan(S2, X2, p, starts[p, 0], starts[p, 1], n, m, c)
     return off, en, ev
 
 
@@ -221,14 +226,8 @@ def _adaptive_search(S2, X2, starts, n, m0, c):
     en = np.empty(P)
     ev = np.zeros(P, np.int64)
     for p in range(P):
-        best, by, bx, count = np.inf, 0, 0, 0
         y0, x0 = starts[p, 0], starts[p, 1]
-        for a in range(0, n, m0):
-            for b in range(0, n, m0):
-                e = _ssd(S2, X2, p, y0 + a, x0 + b, c)
-                count += 1
-                if e < best:
-                    best, by, bx = e, a, b
+        best, by, bx, count = _scan(S2, X2, p, y0, x0, n, m0, c)
         m = m0
         while m > 1:
             half = m // 2
