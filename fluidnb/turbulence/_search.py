@@ -318,24 +318,29 @@ def _bounds_search(S, X, S2, X2, starts, n):
     norm2 = np.zeros((h, w))  # ||Z||^2 of every whole patch
     for lv, size in enumerate(sizes):
         k = B // size
-        # Only the boxes that fit are written (and read).
-        src = (np.empty((c, h, w)), np.empty((c, h, w)))
         tgt = (np.empty((P, k * k, c)), np.empty((P, k * k, c)))
-        _box_stats(channels_first, size, *src, norm2, lv == 0)
         _patch_stats(X, size, *tgt)
+        # Only the boxes that fit are written (and read).
         if lv == 0:  # read along window rows: channels first
+            src = (np.empty((c, h, w)), np.empty((c, h, w)))
+            _box_stats(channels_first, size, *src, norm2, np.empty((1, 1, 1, 2)), 0)
             stats += [*src, *tgt]
         else:  # read a position at a time: all its channels' numbers side by side
-            stats += [np.ascontiguousarray(np.stack(src, -1).transpose(1, 2, 0, 3)), *tgt]
+            side = np.empty((h, w, c, 2))
+            none = np.empty((1, 1, 1))
+            _box_stats(channels_first, size, none, none, norm2, side, 1)
+            stats += [side, *tgt]
     return _bounds_kernel(S2, X2, starts, n, c, *sizes, norm2, *stats)
 
 
 @njit(cache=True, fastmath=True)
-def _box_stats(S, size, mean, spread, norm2, with_norm2):
+def _box_stats(S, size, mean, spread, norm2, side, layout):
     # Mean and spread ||v - mean|| of every size x size box (by its top-left cell)
-    # per channel, and the boxes' squared norms summed over channels, from running
-    # sums of the values and their squares: down the columns, then along the rows.
-    # Channels first, so the inner loops run over contiguous rows and vectorise.
+    # per channel, from running sums of the values and their squares: down the
+    # columns, then along the rows (channels-first input, so the inner loops run
+    # over contiguous rows and vectorise). layout 0: into mean[ch, y, x] and
+    # spread[ch, y, x], plus the boxes' squared norms summed over channels into
+    # norm2[y, x]; layout 1: into side[y, x, ch] = (mean, spread).
     c, h, w = S.shape
     hh, ww = h - size + 1, w - size + 1
     count = float(size * size)
@@ -364,10 +369,14 @@ def _box_stats(S, size, mean, spread, norm2, with_norm2):
                 s1 = pre1[x + size] - pre1[x]
                 s2 = pre2[x + size] - pre2[x]
                 m = s1 / count
-                mean[ch, y, x] = m
-                spread[ch, y, x] = np.sqrt(max(s2 - s1 * m, 0.0))
-                if with_norm2:
+                v = np.sqrt(max(s2 - s1 * m, 0.0))
+                if layout == 0:
+                    mean[ch, y, x] = m
+                    spread[ch, y, x] = v
                     norm2[y, x] += s2
+                else:
+                    side[y, x, ch, 0] = m
+                    side[y, x, ch, 1] = v
 
 
 @njit(cache=True)
