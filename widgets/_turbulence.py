@@ -8,7 +8,7 @@ import math
 import ipywidgets as W
 import numpy as np
 
-from fluidnb import Clip, Progress
+from fluidnb import Progress
 from fluidnb.turbulence import (
     PAPER_SHAPES,
     PAPER_TABLE1,
@@ -18,6 +18,7 @@ from fluidnb.turbulence import (
     prepare,
     render,
     sample_flows,
+    side_by_side,
     synthesize,
     table1,
     vorticity,
@@ -405,12 +406,12 @@ class TurbulenceApp(App):
             "panels": [*PANELS[:2], f"synthesised ({label})"],
             "timings": dict(result.timings),
         }
-        dye = _side_by_side([dyes[k] for k in ("target", "source", "synthesised")], meta)
+        dye = side_by_side([dyes[k] for k in ("target", "source", "synthesised")], meta)
         # One colour scale for the three maps: the synthesised flow's.
         top = float(np.percentile(np.abs(vorticity(result.velocity)), 99)) or 1.0
         maps = [vorticity_clip(v, fps=12, vmax=top) for v in (prep.U_t, prep.U_s, result.velocity)]
         self.synthesis = result
-        self.vorticity.clip = _side_by_side(maps, {**meta, "what": "vorticity"})
+        self.vorticity.clip = side_by_side(maps, {**meta, "what": "vorticity"})
         for header in self._headers:
             header.value = _header(label, self.player.display_width)
         return dye
@@ -507,17 +508,6 @@ class _Row:
 
     def summary(self):
         return dict(self._row)
-
-
-def _side_by_side(clips, metadata):
-    """Clips of one size placed left to right with a thin gap, as one clip."""
-    frames = [c.frames for c in clips]
-    gap = max(1, frames[0].shape[2] // 32)
-    sep = np.full((*frames[0].shape[:2], gap, *frames[0].shape[3:]), 0.5, np.float32)
-    parts = [frames[0]]
-    for f in frames[1:]:
-        parts += [sep, f]
-    return Clip(np.concatenate(parts, axis=2), fps=clips[0].fps, metadata=metadata)
 
 
 def _header(label, width):

@@ -126,7 +126,7 @@ def _flows(args, progress):
 
 def _turbulence(args):
     from .._progress import TextProgress
-    from ..turbulence import TurbulenceParams, render, synthesize
+    from ..turbulence import TurbulenceParams, render, side_by_side, synthesize
 
     params = params_from_args(TurbulenceParams, args)
     if args.output is not None and not str(args.output).endswith(".npz"):
@@ -170,23 +170,9 @@ def _turbulence(args):
         clips = render(result, fps=args.fps)
         clip = clips["synthesised"]
         if args.render_all:
-            clip = _side_by_side([clips[k] for k in ("target", "source", "synthesised")])
+            meta = {**clip.metadata, "flow": "target | source | synthesised"}
+            clip = side_by_side([clips[k] for k in ("target", "source", "synthesised")], meta)
         out = clip.save(args.render)
         what = "target | source | synthesised" if args.render_all else "synthesised"
         print(f"wrote {out} (dye render, {what}, {len(clip)} frames, {clip.fps:g} fps)")
     return 0
-
-
-def _side_by_side(clips):
-    """Grey clips of one size left to right, a thin grey line between them."""
-    import numpy as np
-
-    from .._clip import Clip
-
-    frames = [c.frames for c in clips]
-    gap = np.full((*frames[0].shape[:2], max(1, frames[0].shape[2] // 32)), 0.5, np.float32)
-    parts = [frames[0]]
-    for f in frames[1:]:
-        parts += [gap, f]
-    meta = {**clips[0].metadata, "flow": "target | source | synthesised"}
-    return Clip(np.concatenate(parts, axis=2), fps=clips[0].fps, metadata=meta)

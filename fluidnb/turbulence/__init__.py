@@ -12,7 +12,7 @@ contribution, Table 1), or exactly and fast (:data:`STRATEGIES`).
 from ._flows import PAPER_SHAPES, Flow, cache_dir, sample_flows
 from ._params import STRATEGIES, TurbulenceParams
 from ._prepare import Prepared, global_search, prepare
-from ._render import dye_clip, injection, render, vorticity, vorticity_clip
+from ._render import dye_clip, injection, render, side_by_side, vorticity, vorticity_clip
 from ._search import SearchResult, local_search, window_positions
 from ._synthesis import PAPER_TABLE1, Synthesis, compare, local_features, synthesize, table1
 
@@ -35,6 +35,7 @@ __all__ = [
     "prepare",
     "render",
     "sample_flows",
+    "side_by_side",
     "synthesize",
     "table1",
     "vorticity",

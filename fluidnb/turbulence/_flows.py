@@ -127,8 +127,7 @@ class Flow:
                 meta = json.loads(str(z["metadata"]))
                 fmt = meta.get("format")
                 if fmt == _FORMAT:
-                    flow = cls(z["velocity"], z["density"], meta["dx"] if dx is None else dx)
-                    return flow
+                    return cls(z["velocity"], z["density"], meta["dx"] if dx is None else dx)
         except (OSError, KeyError, ValueError, EOFError) as exc:
             raise ValueError(f"path {path!r} is not a saved Flow or Simulation: {exc}") from None
         if fmt == "fluidnb.fluid.Simulation/1":

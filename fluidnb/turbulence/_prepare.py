@@ -176,8 +176,8 @@ def prepare(target, source, params=None):
             )
     u_t = target.velocity
     U_s = source.velocity
-    u_s = _frames(downsample, U_s, r, vector=True)
-    d_s = _frames(downsample, D_s.astype(np.float32), r)
+    u_s = _coarsen(U_s, r, vector=True)
+    d_s = _coarsen(D_s, r)
     U_t = _lift(u_t, r)
     D_t = _bilinear(d_t.astype(np.float32), r)
     U_sl = _lift(u_s, r)
@@ -201,16 +201,16 @@ def prepare(target, source, params=None):
     )
 
 
-def _frames(fn, seq, factor, vector=False):
-    """Apply a per-frame resampling to a whole (I, H, W[, 2]) sequence in one call."""
+def _coarsen(seq, factor, vector=False):
+    """Block-mean :func:`fluidnb.fields.downsample` of a whole (I, H, W[, 2]) sequence."""
     seq = np.asarray(seq, dtype=np.float32)
     i = seq.shape[0]
-    # Frames (and components) become channels: one resampling call for all.
+    # Frames (and components) become channels: one call for all.
     stacked = np.moveaxis(seq.reshape(i, *seq.shape[1:3], -1), 0, 2)  # (H, W, I, k)
     h, w = stacked.shape[:2]
-    out = fn(stacked.reshape(h, w, -1), factor, vector=False)
+    out = downsample(stacked.reshape(h, w, -1), factor)
     if vector:
-        out = out * (factor if fn is upsample else 1 / factor)
+        out = out / factor  # velocities in cells of the coarser grid
     out = np.moveaxis(out.reshape(*out.shape[:2], i, -1), 2, 0)
     return np.ascontiguousarray(out.reshape(i, *out.shape[1:3], *seq.shape[3:]), np.float32)
 

@@ -8,7 +8,7 @@ from .._clip import Clip
 from .._validation import check_array, check_range
 from ..fields import advect, upsample
 
-__all__ = ["dye_clip", "injection", "render", "vorticity", "vorticity_clip"]
+__all__ = ["dye_clip", "injection", "render", "side_by_side", "vorticity", "vorticity_clip"]
 
 
 def vorticity(velocity):
@@ -137,3 +137,31 @@ def render(synthesis, *, fps=24.0):
         k: _grey(d, top if top > 0 else 1.0, fps, {"method": "turbulence", "flow": k})
         for k, d in dyes.items()
     }
+
+
+def side_by_side(clips, metadata=None):
+    """Clips of one size placed left to right, a thin grey line between them, as one clip.
+
+    Parameters
+    ----------
+    clips : list of Clip
+        Same frame count and frame shape (grey or colour, not mixed).
+    metadata : dict, optional
+        Default: the first clip's.
+
+    Examples
+    --------
+    >>> a = Clip(np.zeros((2, 4, 64), np.float32))
+    >>> side_by_side([a, a, a]).frames.shape
+    (2, 4, 196)
+    """
+    frames = [c.frames for c in clips]
+    if len({f.shape for f in frames}) != 1:
+        raise ValueError(f"clips must all have one shape, got {[f.shape for f in frames]}")
+    gap = max(1, frames[0].shape[2] // 32)
+    sep = np.full((*frames[0].shape[:2], gap, *frames[0].shape[3:]), 0.5, np.float32)
+    parts = [frames[0]]
+    for f in frames[1:]:
+        parts += [sep, f]
+    meta = clips[0].metadata if metadata is None else metadata
+    return Clip(np.concatenate(parts, axis=2), fps=clips[0].fps, metadata=meta)

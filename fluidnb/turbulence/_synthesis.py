@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -192,9 +192,8 @@ def synthesize(target, source, params=None, *, reference=False, progress=None, p
     if prepared is None:
         prep = prepare(target, source, params)
     else:
-        prep = _check_prepared(prepared, params, target, source)
         # The search settings may differ from the ones it was prepared with.
-        prep = _with_params(prep, params)
+        prep = replace(_check_prepared(prepared, params), params=params)
     t_prep = time.perf_counter() - t0
     n_frames, (H, W), P = prep.n_frames, prep.U_t.shape[1:3], prep.n_patches
     B, n = params.B, prep.window
@@ -283,19 +282,13 @@ def local_features(prep, i, previous=None, params=None):
     return S, X
 
 
-def _check_prepared(prep, params, target, source):
+def _check_prepared(prep, params):
     if not isinstance(prep, Prepared):
         raise ValueError(f"prepared must be a Prepared, got {type(prep).__name__}")
     same = all(getattr(prep.params, k) == getattr(params, k) for k in ("B", "b", "alpha", "D_th"))
     if not same:
         raise ValueError("prepared was made with other B, b, alpha or D_th than params")
     return prep
-
-
-def _with_params(prep, params):
-    from dataclasses import replace
-
-    return replace(prep, params=params)
 
 
 def _paste(U_sh, positions, tiles, B, blend):

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from fluidnb.fields import advect, downsample
+from fluidnb.fields import advect
 from fluidnb.turbulence import (
     Flow,
     TurbulenceParams,
@@ -18,7 +18,7 @@ from fluidnb.turbulence import (
     table1,
     vorticity_clip,
 )
-from fluidnb.turbulence._prepare import _frames
+from fluidnb.turbulence._prepare import _coarsen
 
 
 @pytest.fixture(scope="module")
@@ -33,12 +33,12 @@ def prep(pair):
 
 def test_the_source_high_frequencies_hold_no_low_frequencies(prep):
     # Seed 2.1: U_sh = U_s - U_sl. Averaged back to the coarse grid it is ~0 ...
-    lo = _frames(downsample, prep.U_sh, prep.factor, vector=True)
+    lo = _coarsen(prep.U_sh, prep.factor, vector=True)
     assert np.sqrt(np.mean(lo**2)) < 1e-6 * np.sqrt(np.mean(prep.u_s**2))
     # ... while it is a real part of the source, not a rounding error.
     assert np.sqrt(np.mean(prep.U_sh**2)) > 0.2 * np.sqrt(np.mean(prep.U_s**2))
     # The upsampled target averages back to the user's design.
-    back = _frames(downsample, prep.U_t, prep.factor, vector=True)
+    back = _coarsen(prep.U_t, prep.factor, vector=True)
     np.testing.assert_allclose(back, prep.u_t, atol=1e-5)
 
 
