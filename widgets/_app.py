@@ -58,6 +58,7 @@ class App(W.VBox):
         self.result = None  #: The last full run's Clip.
         self._token = None
         self._thread = None
+        self._busy = ()  # widgets start_task disables while a task runs
         self._preview_lock = threading.Condition()
         self._preview_requested = 0
         self._preview_done = 0
@@ -184,7 +185,7 @@ class App(W.VBox):
         """Start the full run in a worker thread (what the Run button does)."""
         return self.start_task(self._run_fn, self._show_clip)
 
-    def start_task(self, task, done=None, *, message="running…"):
+    def start_task(self, task, done=None, *, message="running…", busy=()):
         """Run ``task(params, progress)`` in the worker thread, as the Run button does.
 
         The generic part of :meth:`start`, for a method's other long actions (an
@@ -201,6 +202,10 @@ class App(W.VBox):
             returned; its text is the status line's success message.
         message : str
             Status line while the task runs.
+        busy : sequence of widgets
+            More buttons to disable while the task runs (the Run button always is);
+            they are enabled again before the worker ends, so :meth:`wait` returns
+            with them usable.
 
         Returns
         -------
@@ -216,6 +221,9 @@ class App(W.VBox):
         params = self.panel.params
         self._token = CancelToken(self._report)
         self._run_button.disabled = True
+        self._busy = tuple(busy)
+        for widget in self._busy:
+            widget.disabled = True
         self._cancel_button.disabled = False
         self.progress.value = 0
         self.progress.bar_style = ""
@@ -266,6 +274,8 @@ class App(W.VBox):
             traceback.print_exc()
         finally:
             self._run_button.disabled = not self.panel.valid
+            for widget in self._busy:
+                widget.disabled = False
             self._cancel_button.disabled = True
             self._progress_text.value = ""
 

@@ -242,16 +242,12 @@ class FrostApp(App):
                 on_step=self._add_row,
             )
 
-        started = self.start_task(task, self._optimised, message=f"optimising β ({solver})…")
-        if started:
-            self._optimise_button.disabled = True
-            worker = self._thread
-            threading.Thread(target=self._enable_after, args=(worker,), daemon=True).start()
-        return started
-
-    def _enable_after(self, worker):
-        worker.join()
-        self._optimise_button.disabled = False
+        return self.start_task(
+            task,
+            self._optimised,
+            message=f"optimising β ({solver})…",
+            busy=(self._optimise_button,),
+        )
 
     def _add_row(self, row):
         with self._rows_lock:

@@ -304,19 +304,12 @@ class TurbulenceApp(App):
                 self.say(problem, "error")
                 return False
         size, n = self._size.value, int(self._frames.value)
-        self._compare_button.disabled = True
-        started = self.start_task(
-            lambda p, progress: task(p, progress, size, n), done, message=message
+        return self.start_task(
+            lambda p, progress: task(p, progress, size, n),
+            done,
+            message=message,
+            busy=(self._compare_button,),
         )
-        if not started:
-            self._compare_button.disabled = False
-        return started
-
-    def _run_worker(self, task, done, params, token):
-        try:
-            super()._run_worker(task, done, params, token)
-        finally:
-            self._compare_button.disabled = False
 
     def _prepared(self, target, source, params):
         """The preparation for these flows and (B, b, alpha, D_th), reused across runs."""
