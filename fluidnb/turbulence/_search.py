@@ -175,11 +175,14 @@ def local_search(S, X, starts, n, strategy, *, m0=8, interval=2):
 def _row_ssd(S2, X2, p, y, o, i):
     # A patch row is a contiguous run of B * C values in both arrays, so this loop
     # vectorises (fastmath lets it reorder this row's sum; rows add up in order).
-    row = S2[y]
+    # Both runs are taken as slices: indexing ``row[o + k]`` instead would make
+    # numba guard every access against negative (wrap-around) indices, which
+    # blocks vectorisation and made every search 2.5-4x slower.
     xr = X2[p, i]
+    row = S2[y, o : o + xr.shape[0]]
     e = 0.0
-    for k in range(X2.shape[2]):
-        d = xr[k] - row[o + k]
+    for k in range(xr.shape[0]):
+        d = xr[k] - row[k]
         e += d * d
     return e
 
