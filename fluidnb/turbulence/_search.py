@@ -20,21 +20,25 @@ exhaustive answer:
   window positions at once; the few positions within round-off of the minimum are
   then measured directly, so ties resolve as the exhaustive search resolves them.
 - ``exact-bounds`` rules positions out by lower bounds that cost a few operations
-  (the same expansion restricted to each channel's mean and spread over the patch
-  and its quarters, from box sums), measures the survivors in full, and stops a
-  measurement as soon as its partial sum exceeds the best so far (successive
-  elimination and partial distance elimination, as in block-matching motion
-  search). No position that could be the minimum is skipped.
+  (``||x - z||^2 >= (sum x - sum z)^2 / k`` over boxes of ``k`` cells: the patch's
+  quarters at every window position, a 4 x 4 grid of boxes where that is not
+  enough), measures the survivors row by row, and stops a measurement as soon as
+  its partial sum plus the bound on the remaining rows exceeds the best so far
+  (successive and partial distance elimination, as in block-matching motion
+  search). No position that could be the minimum is skipped. Started from a hint
+  (the previous frame's choice, in :func:`~fluidnb.turbulence.synthesize`), it
+  needs to measure fewer positions.
 """
 
 from __future__ import annotations
 
+import threading
 import time
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.fft
-from numba import njit
+from numba import njit, uint64
 
 __all__ = ["SearchResult", "local_search", "window_positions"]
 
@@ -50,8 +54,8 @@ class SearchResult:
     energies : ndarray, shape (P,)
         Its energy :math:`E_h` (Eq. 2).
     evaluations : ndarray of int, shape (P,)
-        How many full patch energies were computed (the exact searches count the
-        positions they measured in full).
+        How many positions' energies were measured directly (``exact-bounds``
+        counts those it measured in full or until a partial sum ruled them out).
     seconds : float
         Wall time of the search (the whole frame).
     """
@@ -119,7 +123,7 @@ def window_positions(strategy, n, *, m0=8, interval=2, best=None):
     return rounds
 
 
-def local_search(S, X, starts, n, strategy, *, m0=8, interval=2):
+def local_search(S, X, starts, n, strategy, *, m0=8, interval=2, hint=None):
     """Find each patch's best window position with one strategy.
 
     Parameters
@@ -137,11 +141,23 @@ def local_search(S, X, starts, n, strategy, *, m0=8, interval=2):
         One of :data:`fluidnb.turbulence.STRATEGIES`.
     m0, interval : int
         The adaptive search's first interval and the uniform search's interval.
+    hint : ndarray of int, shape (P, 2), optional
+        A likely position per patch (source cells), e.g. the previous frame's
+        choice. ``exact-bounds`` measures it first, which lets its bounds rule
+        more positions out sooner; the answer does not depend on it. The other
+        strategies ignore it.
 
     Returns
     -------
     SearchResult
     """
+    if hint is not None:
+        hint = np.asarray(hint)
+        if hint.shape != (len(X), 2) or not np.issubdtype(hint.dtype, np.integer):
+            raise ValueError(
+                f"hint must be integer positions of shape ({len(X)}, 2), "
+                f"got {hint.dtype} of shape {hint.shape}"
+            )
     S = np.ascontiguousarray(S, dtype=np.float64)
     X = np.ascontiguousarray(X, dtype=np.float64)
     starts = np.ascontiguousarray(starts, dtype=np.int64)
@@ -159,13 +175,29 @@ def local_search(S, X, starts, n, strategy, *, m0=8, interval=2):
     elif strategy == "exact-fft":
         off, e, k = _fft_search(S, X, S2, X2, starts, n)
     elif strategy == "exact-bounds":
-        off, e, k = _bounds_search(S, X, S2, X2, starts, n)
+        off, e, k = _bounds_search(S2, X2, starts, n, c, _hint_offsets(hint, starts, n))
     else:
         from ._params import STRATEGIES
 
         raise ValueError(f"strategy must be one of {STRATEGIES}, got {strategy!r}")
     seconds = time.perf_counter() - t0
     return SearchResult(starts + off, e, k, seconds)
+
+
+def _hint_offsets(hint, starts, n):
+    """Window offsets ``a * n + b`` of the hinted positions, -1 where none or outside."""
+    if hint is None:
+        return np.full(len(starts), -1, np.int64)
+    return _offsets_in_window(hint.astype(np.int64, copy=False), starts, n)
+
+
+@njit(cache=True)
+def _offsets_in_window(pos, starts, n):
+    out = np.empty(len(starts), np.int64)
+    for p in range(len(starts)):
+        a, b = pos[p, 0] - starts[p, 0], pos[p, 1] - starts[p, 1]
+        out[p] = a * n + b if 0 <= a < n and 0 <= b < n else -1
+    return out
 
 
 # -- the paper's strategies: one energy kernel ---------------------------------------
@@ -303,199 +335,269 @@ def _measure_candidates(S2, X2, starts, n, cand, c):
     return off, en, ev
 
 
-# -- exact search 2: lower bounds, then partial sums -----------------------------------
+# -- exact search 2: lower bounds from box sums, then partial sums ---------------------
+#
+# Successive elimination (as in block-matching motion search): for any boxes covering
+# part of a patch, ||X - Z||^2 >= sum over the boxes of (sum_box X - sum_box Z)^2 / size
+# (Cauchy-Schwarz on each box). With s = B // 4, two levels of boxes are used:
+#
+# - level 1, the patch's 2 x 2 quarters (2s x 2s), at *every* window position, a
+#   window row at a time (vectorised), over the channels whose quarter sums carry most
+#   of their energy (velocity and mask; the detail channels are nearly zero-mean over
+#   a quarter, cost the most and rule almost nothing out);
+# - level 2, columns s cells tall: four bands of s rows, each cut into its B columns,
+#   in every channel, only where level 1 could not rule the position out. A band's
+#   column sums are one contiguous run of B * C values in the source's column sums
+#   (like a patch row), so this level costs a quarter of a full measurement and is
+#   much tighter than level 1. Each band also bounds the rows a partial sum has not
+#   reached.
+#
+# The first position measured in full is a hint (last frame's choice) or level 1's
+# minimum; the others follow in raster order, so ties resolve as in the exhaustive
+# search. The sums are stored in float32 (half the memory traffic, twice the vector
+# width); _threshold widens every comparison by a margin that covers their round-off,
+# so no position that could win is skipped.
+
+_WORKSPACE = threading.local()  # per-thread buffers, reused from frame to frame
 
 
-def _bounds_search(S, X, S2, X2, starts, n):
-    P, B, _, c = X.shape
-    # Three levels of boxes: the whole patch, its quarters, its sixteenths (as far
-    # as B halves exactly). Finer levels bound tighter but cost more, so each level
-    # only sees the positions the coarser ones could not rule out.
-    sizes = [B]
-    while sizes[-1] % 2 == 0 and len(sizes) < 3:
-        sizes.append(sizes[-1] // 2)
-    sizes += [sizes[-1]] * (3 - len(sizes))  # repeat the last level if B is odd
-    channels_first = np.ascontiguousarray(S.transpose(2, 0, 1))  # (C, H, W)
-    h, w = S.shape[:2]
-    stats = []
-    norm2 = np.zeros((h, w))  # ||Z||^2 of every whole patch
-    for lv, size in enumerate(sizes):
-        k = B // size
-        tgt = (np.empty((P, k * k, c)), np.empty((P, k * k, c)))
-        _patch_stats(X, size, *tgt)
-        # Only the boxes that fit are written (and read).
-        if lv == 0:  # read along window rows: channels first
-            src = (np.empty((c, h, w)), np.empty((c, h, w)))
-            _box_stats(channels_first, size, *src, norm2, np.empty((1, 1, 1, 2)), 0)
-            stats += [*src, *tgt]
-        else:  # read a position at a time: all its channels' numbers side by side
-            side = np.empty((h, w, c, 2))
-            none = np.empty((1, 1, 1))
-            _box_stats(channels_first, size, none, none, norm2, side, 1)
-            stats += [side, *tgt]
-    return _bounds_kernel(S2, X2, starts, n, c, *sizes, norm2, *stats)
+def _bounds_search(S2, X2, starts, n, c, hint):
+    P, B = X2.shape[:2]
+    if B < 4:  # too small for 4 bands: measure everything
+        return _grid_search(S2, X2, starts, n, 1, c)
+    s = B // 4
+    h, w = S2.shape[0], S2.shape[1] // c
+    key = (h, w, c, P, B)
+    if getattr(_WORKSPACE, "key", None) != key:
+        hh, ww = h - s + 1, w - s + 1
+        _WORKSPACE.key = key
+        _WORKSPACE.arrays = (
+            np.empty((P, 4, B * c), np.float32),  # the patches' column sums per band
+            np.empty((P, c, 2, 2), np.float32),  # their quarter sums
+            np.empty(P),  # their squared norms
+            np.empty(c, np.int64),  # the level-1 channels
+            np.empty((hh, w * c), np.float32),  # the source's column sums
+            np.empty((c, hh, ww), np.float32),  # s x s box sums, level-1 channels
+            np.empty((c, hh - s, ww - s), np.float32),  # quarter sums
+            np.empty(2 * w * c),  # row buffers
+        )
+    xcol, x8, qx, chans, col, box, quarter, row = _WORKSPACE.arrays
+    m = _patch_sums(X2, c, s, xcol, x8, qx, chans)
+    _source_sums(S2, c, s, chans[:m], col, box[:m], quarter[:m], row)
+    return _bounds_kernel(S2, X2, starts, n, c, s, quarter, col, chans[:m], x8, xcol, qx, hint)
 
 
 @njit(cache=True, fastmath=True)
-def _box_stats(S, size, mean, spread, norm2, side, layout):
-    # Mean and spread ||v - mean|| of every size x size box (by its top-left cell)
-    # per channel, from running sums of the values and their squares: down the
-    # columns, then along the rows (channels-first input, so the inner loops run
-    # over contiguous rows and vectorise). layout 0: into mean[ch, y, x] and
-    # spread[ch, y, x], plus the boxes' squared norms summed over channels into
-    # norm2[y, x]; layout 1: into side[y, x, ch] = (mean, spread).
-    c, h, w = S.shape
-    hh, ww = h - size + 1, w - size + 1
-    count = float(size * size)
-    col1 = np.zeros(w)
-    col2 = np.zeros(w)
-    pre1 = np.zeros(w + 1)
-    pre2 = np.zeros(w + 1)
-    for ch in range(c):
-        col1[:] = 0.0
-        col2[:] = 0.0
-        for i in range(size):
-            for x in range(w):
-                v = S[ch, i, x]
-                col1[x] += v
-                col2[x] += v * v
-        for y in range(hh):
-            if y > 0:
-                for x in range(w):
-                    a, b = S[ch, y + size - 1, x], S[ch, y - 1, x]
-                    col1[x] += a - b
-                    col2[x] += a * a - b * b
-            for x in range(w):
-                pre1[x + 1] = pre1[x] + col1[x]
-                pre2[x + 1] = pre2[x] + col2[x]
+def _source_sums(S2, c, s, chans, col, box, quarter, row):
+    # The source's sums, accumulated in float64 and stored in float32:
+    # - col[y, x * c + ch]: column sums over rows y .. y + s - 1 (S2's layout);
+    # - box[m, y, x]: s x s box sums of channel chans[m], channels first;
+    # - quarter[m, y, x]: 2s x 2s box sums, from four of box's.
+    # Direct sums (no running differences), so each sum's round-off is relative to
+    # its own cells.
+    L = S2.shape[1]
+    m_count, hh, ww = box.shape
+    for y in range(hh):
+        r = S2[y]
+        for k in range(L):
+            row[k] = r[k]
+        for i in range(1, s):
+            r = S2[y + i]
+            for k in range(L):
+                row[k] += r[k]
+        o = col[y]
+        for k in range(L):
+            o[k] = row[k]
+        # along the row: s consecutive columns (channels interleaved, so offsets of c)
+        LL = ww * c
+        hsum = row[L : L + LL]
+        for k in range(LL):
+            hsum[k] = row[k]
+        for j in range(1, s):
+            rj = row[j * c : j * c + LL]
+            for k in range(LL):
+                hsum[k] += rj[k]
+        for m in range(m_count):
+            ch = chans[m]
+            b = box[m, y]
             for x in range(ww):
-                s1 = pre1[x + size] - pre1[x]
-                s2 = pre2[x + size] - pre2[x]
-                m = s1 / count
-                v = np.sqrt(max(s2 - s1 * m, 0.0))
-                if layout == 0:
-                    mean[ch, y, x] = m
-                    spread[ch, y, x] = v
-                    norm2[y, x] += s2
-                else:
-                    side[y, x, ch, 0] = m
-                    side[y, x, ch, 1] = v
+                b[x] = hsum[x * c + ch]
+    for m in range(m_count):
+        for y in range(hh - s):
+            a, b, q = box[m, y], box[m, y + s], quarter[m, y]
+            a1, b1 = a[s : s + ww - s], b[s : s + ww - s]
+            for x in range(ww - s):
+                q[x] = a[x] + a1[x] + b[x] + b1[x]
 
 
-@njit(cache=True)
-def _patch_stats(X, size, mean, spread):
-    # The same statistics for the (B / size)^2 boxes of every target patch.
-    P, B, _, c = X.shape
-    k = B // size
-    count = float(size * size)
+@njit(cache=True, fastmath=True)
+def _patch_sums(X2, c, s, xcol, x8, qx, chans):
+    # For every target patch: xcol[p, i, j * c + ch], the column sums of band i (rows
+    # i*s .. i*s + s - 1), column j, channel ch; x8[p, ch, i, j], its 2 x 2 quarters
+    # (2s x 2s); qx[p], its squared norm. chans[:m] (m returned): the channels whose
+    # quarter sums carry at least half of their energy over all patches (level 1
+    # uses those; all of them if none does, e.g. a zero target).
+    P, B, L = X2.shape
+    acc = np.empty(L)
+    sq = np.empty(L)
+    sq_all = np.zeros(L)
+    captured = np.zeros(c)
     for p in range(P):
-        for j in range(k * k):
-            y0, x0 = (j // k) * size, (j % k) * size
-            for ch in range(c):
-                s1 = 0.0
-                s2 = 0.0
-                for i in range(size):
-                    for jj in range(size):
-                        v = X[p, y0 + i, x0 + jj, ch]
-                        s1 += v
-                        s2 += v * v
-                m = s1 / count
-                mean[p, j, ch] = m
-                spread[p, j, ch] = np.sqrt(max(s2 - s1 * m, 0.0))
-
-
-@njit(cache=True, fastmath=True)
-def _bound(stats, m_x, v_x, p, size, k, y, x):
-    # ||x - z||^2 = count (mean_x - mean_z)^2 + ||x~ - z~||^2 over each box, where
-    # x~, z~ are the values less their means, and ||x~ - z~|| >= | ||x~|| - ||z~|| |
-    # (triangle inequality): a lower bound from two numbers per box and channel.
-    # stats[y, x, channel] holds (mean, spread) of the box at (y, x).
-    c = m_x.shape[2]
-    count = float(size * size)
-    lb = 0.0
-    for j in range(k * k):
-        yy, xx = y + (j // k) * size, x + (j % k) * size
+        sq[:] = 0.0
+        for i in range(B):
+            r = X2[p, i]
+            for t in range(L):
+                sq[t] += r[t] * r[t]
+        q = 0.0
+        for t in range(L):
+            q += sq[t]
+            sq_all[t] += sq[t]
+        qx[p] = q
+        for band in range(4):
+            acc[:] = 0.0
+            for i in range(s):
+                r = X2[p, band * s + i]
+                for t in range(L):
+                    acc[t] += r[t]
+            xb = xcol[p, band]
+            for t in range(L):
+                xb[t] = acc[t]
+        xq = x8[p]
+        xq[:] = 0.0
+        for band in range(4):
+            xb = xcol[p, band]
+            for j in range(2):  # the quarter's columns: 2s of them from j * 2s
+                for k in range(j * 2 * s * c, (j + 1) * 2 * s * c, c):
+                    for ch in range(c):
+                        xq[ch, band >> 1, j] += xb[k + ch]
         for ch in range(c):
-            d = m_x[p, j, ch] - stats[yy, xx, ch, 0]
-            r = v_x[p, j, ch] - stats[yy, xx, ch, 1]
-            lb += count * d * d + r * r
-    return lb
+            for i in range(2):
+                for j in range(2):
+                    captured[ch] += float(xq[ch, i, j]) ** 2 / (4 * s * s)
+    m = 0
+    for ch in range(c):
+        energy = 0.0
+        for j in range(B):
+            energy += sq_all[j * c + ch]
+        if 2.0 * captured[ch] >= energy:
+            chans[m] = ch
+            m += 1
+    if m == 0:
+        for ch in range(c):
+            chans[ch] = ch
+        m = c
+    return m
 
 
 @njit(cache=True, fastmath=True)
-def _level0_row(m0, v0, mx0, vx0, norm2, p, y, x0, count, qx, lb, slack):
-    # Level 0 along one window row: vectorised over the row's positions.
-    n = lb.shape[0]
-    for b in range(n):
-        lb[b] = 0.0
-        # The stats carry round-off (a spread is the square root of a difference,
-        # ~1e-8 of the norms): a bound rules a position out only when it clears
-        # the best by far more than that.
-        slack[b] = 1e-6 * (qx + norm2[y, x0 + b])
-    for ch in range(m0.shape[0]):
-        mx, vx = mx0[p, 0, ch], vx0[p, 0, ch]
+def _level1_window(quarter, chans, x8, y0, x0, n, s2, lb):
+    # Level 1 at every window position, a window row at a time (contiguous runs of
+    # n positions, vectorised): lb[a * n + b] = sum over channels and quarters of
+    # (x_sum - z_sum)^2 (divided by the quarter's size later).
+    for a in range(n):
+        o = lb[a * n : (a + 1) * n]
         for b in range(n):
-            d = mx - m0[ch, y, x0 + b]
-            r = vx - v0[ch, y, x0 + b]
-            lb[b] += count * d * d + r * r
+            o[b] = 0.0
+        for m in range(chans.shape[0]):
+            for i in range(2):
+                zrow = quarter[m, y0 + a + i * s2]
+                for j in range(2):
+                    sx = x8[chans[m], i, j]
+                    zr = zrow[x0 + j * s2 : x0 + j * s2 + n]
+                    for b in range(n):
+                        d = sx - zr[b]
+                        o[b] += d * d
+
+
+@njit(cache=True, fastmath=True)
+def _level2_bands(colf, zo, step, xcolf, xo, L, out):
+    # Level 2 at one position, per band: out[i] = sum over band i's columns and
+    # channels of (x_sum - z_sum)^2; returns their total. zo: the position's first
+    # column sum in the flat colf, step: one band further down; xo: the patch's in
+    # xcolf; L: B * c values per band. Unsigned flat indices (no wrap-around
+    # guards) and float32 sums (no conversions), so each run vectorises. (Not
+    # inlined: numba would compile it with the caller's strict float semantics.)
+    total = 0.0
+    for i in range(4):
+        z, x = uint64(zo + i * step), uint64(xo + i * L)
+        e = np.float32(0.0)
+        for t in range(uint64(L)):
+            d = xcolf[x + t] - colf[z + t]
+            e += d * d
+        out[i] = e
+        total += e
+    return total
 
 
 @njit(cache=True)
-def _bounds_kernel(
-    S2, X2, starts, n, c, s0, s1, s2, norm2,
-    m0, v0, mx0, vx0, st1, mx1, vx1, st2, mx2, vx2,
-):  # fmt: skip
+def _threshold(best, qx):
+    # A bound from the float32 sums differs from its exact value by at most
+    # 2 sqrt(lb t) + t, t = 1e-12 (||X|| + sqrt(best))^2 for any position that could
+    # still reach best (the sums' round-off is below 1e-7 of their cells' norms, and
+    # such a position's ||Z|| <= ||X|| + sqrt(best)), and by 1e-4 relative for the
+    # float32 arithmetic. It rules a position out only above this.
+    t = 1e-12 * (np.sqrt(qx) + np.sqrt(best)) ** 2
+    r = np.sqrt(t) + np.sqrt(best + 2.0 * t)
+    return r * r * (1.0 + 1e-4)
+
+
+@njit(cache=True)
+def _bounds_kernel(S2, X2, starts, n, c, s, quarter, col, chans, x8, xcol, qx, hint):
     P, B = X2.shape[0], X2.shape[1]
+    W = col.shape[1]
+    colf, xcolf = col.ravel(), xcol.ravel()
     off = np.zeros((P, 2), np.int64)
     en = np.empty(P)
     ev = np.zeros(P, np.int64)
-    lb0 = np.empty(n * n)
-    slack = np.empty(n * n)
-    lb_row = np.empty(n)
-    slack_row = np.empty(n)
-    count0 = float(s0 * s0)
+    lb = np.empty(n * n, np.float32)
+    part = np.empty(4)
+    size1, size2 = float(4 * s * s), float(s)
+    L = B * c
     for p in range(P):
         y0, x0 = starts[p, 0], starts[p, 1]
-        qx = 0.0
-        for ch in range(c):
-            qx += count0 * mx0[p, 0, ch] ** 2 + vx0[p, 0, ch] ** 2
-        # Level 0 (whole patch) at every position; start from the most promising.
-        first = 0
+        _level1_window(quarter, chans, x8[p], y0, x0, n, 2 * s, lb)
+        # The first position measured in full: the hint, else level 1's minimum.
+        kb = hint[p] if hint[p] >= 0 else np.argmin(lb)
+        best = _ssd(S2, X2, p, y0 + kb // n, x0 + kb % n, c)
+        first = kb
+        thr = _threshold(best, qx[p])
+        t1, t2 = thr * size1, thr * size2  # in the units of the raw sums
+        count = 1
         for a in range(n):
-            _level0_row(m0, v0, mx0, vx0, norm2, p, y0 + a, x0, count0, qx, lb_row, slack_row)
+            y = y0 + a
             for b in range(n):
                 k = a * n + b
-                slack[k] = slack_row[b]
-                lb0[k] = lb_row[b] - slack_row[b]
-                if lb0[k] < lb0[first]:
-                    first = k
-        best = _ssd(S2, X2, p, y0 + first // n, x0 + first % n, c)
-        by, bx, count = first // n, first % n, 1
-        for k in range(n * n):
-            if k == first:
-                continue
-            # Ties go to the first position in raster order, as in the exhaustive
-            # search: after the best so far only a strictly lower energy wins.
-            later = k > by * n + bx
-            if lb0[k] > best or (later and lb0[k] >= best):
-                continue
-            a, b = k // n, k % n
-            y, x = y0 + a, x0 + b
-            lb = _bound(st1, mx1, vx1, p, s1, B // s1, y, x) - slack[k]
-            if lb > best or (later and lb >= best):
-                continue
-            lb = _bound(st2, mx2, vx2, p, s2, B // s2, y, x) - slack[k]
-            if lb > best or (later and lb >= best):
-                continue
-            # Partial distance elimination: stop once the sum of whole rows cannot
-            # win (the row sums are the ones _ssd adds, in the same order).
-            e = 0.0
-            for i in range(B):
-                e += _row_ssd(S2, X2, p, y + i, x * c, i)
-                if e > best or (later and e >= best):
-                    break
-            count += 1
-            if e < best or (e == best and not later):
-                best, by, bx = e, a, b
-        off[p, 0], off[p, 1], en[p], ev[p] = by, bx, best, count
+                # Ties go to the first position in raster order: a later one must
+                # beat best strictly, so its bound may not even reach it.
+                later = k > kb
+                lv = lb[k]
+                if lv > t1 or (later and lv >= t1) or k == first:
+                    continue
+                x = x0 + b
+                lv = _level2_bands(colf, y * W + x * c, s * W, xcolf, p * 4 * L, L, part)
+                if lv > t2 or (later and lv >= t2):
+                    continue
+                # Partial distance elimination: stop once the rows summed so far,
+                # plus level 2's bound on the bands not reached, cannot win.
+                after = part[1] + part[2] + part[3]
+                e = 0.0
+                in_band = 0
+                for i in range(B):
+                    e += _row_ssd(S2, X2, p, y + i, x * c, i)
+                    if e > best or (later and e >= best):
+                        break
+                    in_band += 1
+                    if in_band == s and i < 3 * s:  # the end of band i // s
+                        in_band = 0
+                        lv = e * size2 + after
+                        if lv > t2 or (later and lv >= t2):
+                            e = np.inf
+                            break
+                        after -= part[i // s + 1]
+                count += 1
+                if e < best or (e == best and not later):
+                    best, kb = e, k
+                    thr = _threshold(best, qx[p])
+                    t1, t2 = thr * size1, thr * size2
+        off[p, 0], off[p, 1], en[p], ev[p] = kb // n, kb % n, best, count
     return off, en, ev

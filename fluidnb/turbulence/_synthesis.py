@@ -215,11 +215,14 @@ def synthesize(target, source, params=None, *, reference=False, progress=None, p
         t_global += time.perf_counter() - tg
         starts = prep.window_starts(q_l)
         S, X = local_features(prep, i, advected, params)
+        # The exact bounded search starts from last frame's choices (a hint: it
+        # speeds the search up, never changes its answer; the others ignore it).
+        hint = q_h_all[i - 1] if i > 0 else None
         found = local_search(
-            S, X, starts, n, params.strategy, m0=params.m0, interval=params.interval
+            S, X, starts, n, params.strategy, m0=params.m0, interval=params.interval, hint=hint
         )
-        if reference:
-            best[i] = local_search(S, X, starts, n, "exact-bounds").energies
+        if reference:  # the exhaustive minimum, by the exact search from this answer
+            best[i] = local_search(S, X, starts, n, "exact-bounds", hint=found.positions).energies
         U_h = _paste(prep.U_sh[i], found.positions, (ty, tx), B, params.blend)
         detail[i] = U_h
         velocity[i] = prep.U_t[i] + U_h

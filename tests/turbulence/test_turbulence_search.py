@@ -144,3 +144,67 @@ def test_still_air_ties_cost_the_bounded_search_almost_nothing():
     np.testing.assert_array_equal(out.positions, ref.positions)
     np.testing.assert_array_equal(out.positions, starts)
     assert (out.evaluations == 1).all()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_hint_speeds_the_bounded_search_but_never_changes_its_answer(seed):
+    S, X, starts, n = problem(seed, smooth=True, B=8, n=12, P=9)
+    ref = local_search(S, X, starts, n, "exhaustive")
+    g = np.random.default_rng(seed)
+    hints = {
+        "the answer": ref.positions,
+        "random, inside": starts + g.integers(0, n, starts.shape),
+        "outside the window": starts - 1 - g.integers(0, 5, starts.shape),
+        "mixed": np.where(g.random((len(X), 1)) < 0.5, ref.positions, starts + n),
+    }
+    plain = local_search(S, X, starts, n, "exact-bounds")
+    for name, hint in hints.items():
+        out = local_search(S, X, starts, n, "exact-bounds", hint=hint)
+        np.testing.assert_array_equal(out.positions, ref.positions, err_msg=name)
+        np.testing.assert_array_equal(out.energies, ref.energies, err_msg=name)
+    # Starting from the answer, fewer positions need measuring than from level 1's guess.
+    best = local_search(S, X, starts, n, "exact-bounds", hint=ref.positions)
+    assert best.evaluations.sum() <= plain.evaluations.sum()
+    # The paper's strategies ignore it.
+    ada = local_search(S, X, starts, n, "adaptive", hint=hints["random, inside"])
+    np.testing.assert_array_equal(
+        ada.positions, local_search(S, X, starts, n, "adaptive").positions
+    )
+
+
+def test_a_malformed_hint_is_refused():
+    S, X, starts, n = problem(0)
+    with pytest.raises(ValueError, match="hint must be integer positions of shape"):
+        local_search(S, X, starts, n, "exact-bounds", hint=np.zeros((len(X), 3), int))
+    with pytest.raises(ValueError, match="hint must be integer positions"):
+        local_search(S, X, starts, n, "exact-bounds", hint=np.zeros((len(X), 2)))
+
+
+@pytest.mark.parametrize("B", [4, 7, 12, 16])
+def test_the_bounded_search_is_exact_for_any_patch_size(B):
+    # B = 4 s + r: the level-2 boxes (s x s) cover the patch's top-left 4s x 4s only;
+    # a bound over part of the patch is still a lower bound.
+    S, X, starts, n = problem(B, shape=(50, 50), B=B, n=10, P=5, smooth=True)
+    ref = local_search(S, X, starts, n, "exhaustive")
+    out = local_search(S, X, starts, n, "exact-bounds")
+    np.testing.assert_array_equal(out.positions, ref.positions)
+    np.testing.assert_array_equal(out.energies, ref.energies)
+
+
+def test_the_bounded_search_is_exact_on_a_mix_of_smooth_and_rough_channels():
+    # As in Eq. (2): smooth velocity and mask channels (used at level 1) next to
+    # zero-mean detail channels (left to level 2 and the partial sums).
+    g = np.random.default_rng(5)
+    B, n, P = 16, 20, 6
+    smooth = np.cumsum(np.cumsum(g.normal(size=(60, 60, 3)), 0), 1) / 30
+    S = np.concatenate([smooth, 0.5 * g.normal(size=(60, 60, 2))], -1)
+    starts = g.integers(0, 60 - B - n + 2, (P, 2))
+    X = np.empty((P, B, B, 5))
+    for p in range(P):
+        y, x = starts[p] + g.integers(0, n, 2)
+        X[p] = S[y : y + B, x : x + B] + 0.2 * g.normal(size=(B, B, 5))
+    ref = local_search(S, X, starts, n, "exhaustive")
+    out = local_search(S, X, starts, n, "exact-bounds")
+    np.testing.assert_array_equal(out.positions, ref.positions)
+    np.testing.assert_array_equal(out.energies, ref.energies)
+    assert out.evaluations.mean() < n * n / 4  # the bounds do rule most positions out
