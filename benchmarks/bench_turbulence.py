@@ -41,25 +41,40 @@ import numpy as np
 # peers' interpreter, which does not have it.
 
 
-def search_problems(target, source, frames):
-    """The local searches of some frames (with the temporal term), for the peer."""
-    from fluidnb.fields import advect
-    from fluidnb.turbulence import TurbulenceParams, synthesize
-    from fluidnb.turbulence._prepare import global_search
+def search_problems(run, frames):
+    """The local searches of some frames of a synthesis ``run``, as it made them.
 
-    params = TurbulenceParams(strategy="exhaustive")
-    run = synthesize(target.frames(0, max(frames) + 1), source.frames(0, max(frames) + 1), params)
-    prep = run.prepared
-    B, (ty, tx) = params.B, prep.tiles
+    Each is ``(S, X, starts, n, hint)``: the features with the temporal term, the
+    windows, and the previous frame's choices (the hint ``synthesize`` gives).
+    """
+    from fluidnb.fields import advect
+    from fluidnb.turbulence import local_features
+
+    prep, params = run.prepared, run.params
     out = []
     for i in frames:
-        q_l, _ = global_search(prep, i)
-        adv = advect(run.detail[i - 1], prep.U_t[i - 1])
-        T = np.concatenate([prep.U_t[i], prep.D_t[i][..., None], adv], -1).astype(np.float64)
-        S = np.concatenate([prep.U_sl[i], prep.D_s[i][..., None], prep.U_sh[i]], -1)
-        X = T.reshape(ty, B, tx, B, -1).swapaxes(1, 2).reshape(-1, B, B, T.shape[-1])
-        out.append((S.astype(np.float64), X, prep.window_starts(q_l), prep.window))
+        previous = advect(run.detail[i - 1], prep.U_t[i - 1]) if i > 0 else None
+        S, X = local_features(prep, i, previous, params)
+        hint = run.local_positions[i - 1] if i > 0 else None
+        out.append((S, X, prep.window_starts(run.global_positions[i]), prep.window, hint))
     return out
+
+
+def head_to_head(problems, strategies, rounds=5):
+    """Seconds per frame of each strategy on the same searches, alternating.
+
+    On a shared machine the speed drifts by up to 2x within minutes; alternating the
+    strategies frame by frame and taking each frame's fastest round (and median)
+    compares them under the same conditions.
+    """
+    from fluidnb.turbulence import local_search
+
+    secs = {s: np.empty((len(problems), rounds)) for s in strategies}
+    for r in range(rounds):
+        for f, (S, X, starts, n, hint) in enumerate(problems):
+            for s in strategies:
+                secs[s][f, r] = local_search(S, X, starts, n, s, hint=hint).seconds
+    return {s: (t.min(1).mean(), np.median(t, 1).mean()) for s, t in secs.items()}
 
 
 def peer_main(path):
@@ -164,6 +179,18 @@ def main():
             f"{np.nanmax(res.errors()['relative']):.4f}"
         )
 
+    # The goal "the exact search at least as fast as the adaptive one", head to head:
+    # every frame's local search of the exact run, both strategies alternating.
+    problems = search_problems(results["exact-bounds"], range(args.frames))
+    h2h = head_to_head(problems, ("adaptive", "exact-bounds"))
+    (a_min, a_med), (e_min, e_med) = h2h["adaptive"], h2h["exact-bounds"]
+    print(
+        f"\nhead to head, all {args.frames} frames alternating, 5 rounds (s/frame, "
+        f"fastest round / median): adaptive {a_min:.4f} / {a_med:.4f}, exact-bounds "
+        f"{e_min:.4f} / {e_med:.4f}; exact / adaptive = {e_min / a_min:.2f} / "
+        f"{e_med / a_med:.2f}"
+    )
+
     # The whole synthesis, start to end, as a user runs it.
     for s in ("adaptive", "exact-bounds"):
         t0 = time.perf_counter()
@@ -178,7 +205,7 @@ def main():
 
     # The peer on the same searches (every 20th frame from 10).
     frames = list(range(10, args.frames, 20)) or [1]
-    problems = search_problems(target, source, frames)
+    problems = [p[:4] for p in search_problems(results["exhaustive"], frames)]
     peer, err = run_peer(problems)
     if peer is None:
         print(f"\npeer skipped: {err}")
