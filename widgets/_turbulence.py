@@ -13,6 +13,7 @@ from fluidnb.turbulence import (
     PAPER_SHAPES,
     PAPER_TABLE1,
     Flow,
+    Synthesis,
     TurbulenceParams,
     compare,
     prepare,
@@ -334,17 +335,27 @@ class TurbulenceApp(App):
     def _compare_task(self, params, progress, size=None, n_frames=None):
         load, work, show = Progress(progress).split(0.05, 0.92)
         target, source = self.flows(size, n_frames, progress=load)
-        results = compare(target, source, params=params, progress=work)
-        shown = next((r for r in results.values() if r.params == params), None)
+        # Keep whole only the run to show (the others' flows would cost ~80 MB each).
+        results = compare(
+            target,
+            source,
+            params=params,
+            progress=work,
+            keep=lambda p: p.strategy in (params.strategy, "adaptive"),
+        )
+        runs = [r for r in results.values() if isinstance(r, Synthesis)]
+        shown = next((r for r in runs if r.params == params), None)
         if shown is None:
             shown = next(
-                (r for r in results.values() if r.params.strategy == params.strategy),
-                results.get("adaptive", next(iter(results.values()))),
+                (r for r in runs if r.params.strategy == params.strategy),
+                next(r for r in runs if r.params.strategy == "adaptive"),
             )
         show(0.0, "rendering")
         clip = self._show(shown)
-        rows = {label: r.summary() for label, r in results.items()}
-        del results
+        rows = {
+            label: r.summary() if isinstance(r, Synthesis) else r for label, r in results.items()
+        }
+        del results, runs
         self.rows = {}
         self._add_rows(rows, self._settings_key(params, size, n_frames))
         return clip

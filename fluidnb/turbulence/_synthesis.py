@@ -322,7 +322,7 @@ def _paste(U_sh, positions, tiles, B, blend):
     return (acc / wsum[..., None])[o : o + H, o : o + W].astype(np.float32)
 
 
-def compare(target, source, strategies=None, params=None, *, progress=None):
+def compare(target, source, strategies=None, params=None, *, progress=None, keep=None):
     """Run several strategies on one pair, side by side, with errors (Table 1).
 
     Parameters
@@ -335,11 +335,17 @@ def compare(target, source, strategies=None, params=None, *, progress=None):
     params : TurbulenceParams, optional
         The common settings.
     progress : callable, optional
+    keep : callable, optional
+        ``keep(run_params) -> bool``: which runs to return whole; the others are
+        reduced to their :meth:`Synthesis.summary` row as soon as they finish (a
+        run holds two high-resolution flows, about 80 MB at the paper's sizes).
+        Default: keep every run.
 
     Returns
     -------
     dict
-        Row label -> :class:`Synthesis` (each run with ``reference=True``).
+        Row label -> :class:`Synthesis` (each run with ``reference=True``), or its
+        summary row where ``keep`` said no. :func:`table1` takes either.
     """
     params = TurbulenceParams() if params is None else params
     if strategies is None:
@@ -358,7 +364,9 @@ def compare(target, source, strategies=None, params=None, *, progress=None):
     out = {}
     for change, part in zip(strategies, parts):
         p = params.replace(**change)
-        out[_label(p)] = synthesize(target, source, p, reference=True, progress=part, prepared=prep)
+        run = synthesize(target, source, p, reference=True, progress=part, prepared=prep)
+        out[_label(p)] = run if keep is None or keep(p) else run.summary()
+        del run
     return out
 
 

@@ -150,6 +150,24 @@ def test_errors_are_zero_for_exact_searches_and_positive_for_sampling(pair):
     assert np.nanmin(smoke["absolute"]) >= 0
 
 
+def test_compare_can_keep_only_the_runs_asked_for(pair):
+    short = [f.frames(0, 6) for f in pair]
+    strategies = [{"strategy": "exhaustive"}, {"strategy": "adaptive"}]
+    whole = compare(*short, strategies)
+    lean = compare(*short, strategies, keep=lambda p: p.strategy == "adaptive")
+    assert isinstance(lean["adaptive"], type(whole["adaptive"]))
+    np.testing.assert_array_equal(lean["adaptive"].velocity, whole["adaptive"].velocity)
+    assert isinstance(lean["exhaustive"], dict)  # its row, not its flows
+
+    def untimed(rows):
+        return [
+            {k: v for k, v in r.items() if k not in ("seconds_per_frame", "speedup")} for r in rows
+        ]
+
+    assert untimed([lean["exhaustive"]]) == untimed([whole["exhaustive"].summary()])
+    assert untimed(table1(lean)) == untimed(table1(whole))
+
+
 def test_synthesis_is_deterministic(pair):
     a = synthesize(*pair, TurbulenceParams(strategy="adaptive"))
     b = synthesize(*pair, TurbulenceParams(strategy="adaptive"))
