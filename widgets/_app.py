@@ -301,8 +301,13 @@ class App(W.VBox):
     def close(self):
         """Stop the preview worker and close the widgets."""
         self._closed = True
-        with self._preview_lock:
-            self._preview_lock.notify_all()
-        if self._token is not None:
-            self._token.cancel()
+        # A subclass that refused its arguments never reached App.__init__; ipywidgets
+        # still closes it when it is collected.
+        lock = getattr(self, "_preview_lock", None)
+        if lock is not None:
+            with lock:
+                lock.notify_all()
+        token = getattr(self, "_token", None)
+        if token is not None:
+            token.cancel()
         super().close()

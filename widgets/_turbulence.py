@@ -429,10 +429,8 @@ class TurbulenceApp(App):
     def close(self):
         """Stop the workers, close the widgets and drop the flows held in memory."""
         self._flows_cache, self._prep_cache = {}, None
-        if not hasattr(self, "_preview_lock"):  # refused arguments: App never set up
-            W.VBox.close(self)
-            return
-        self.vorticity.close()
+        if hasattr(self, "vorticity"):  # not if the arguments were refused
+            self.vorticity.close()
         super().close()
 
     # ------------------------------------------------------------------ the table

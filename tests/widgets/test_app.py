@@ -1,3 +1,5 @@
+import gc
+import sys
 import threading
 import time
 from dataclasses import dataclass
@@ -6,7 +8,7 @@ import numpy as np
 import pytest
 
 from fluidnb import Clip, Params, Progress, param
-from fluidnb.widgets import App, DrawingCanvas, ParamPanel
+from fluidnb.widgets import App, DrawingCanvas, FireApp, ParamPanel, TurbulenceApp
 
 
 @dataclass(frozen=True)
@@ -180,3 +182,25 @@ def test_a_preview_finishing_after_a_run_does_not_replace_the_result():
     assert app.player.clip is result
     assert "done" in app.status
     app.close()
+
+
+@pytest.mark.parametrize(
+    ("make", "why"),
+    [
+        (lambda: FireApp(photo=np.full((3, 3), np.nan)), "photo"),
+        (lambda: TurbulenceApp(size="huge"), "size must be one of"),
+    ],
+    ids=["fire", "turbulence"],
+)
+def test_an_app_that_refuses_its_arguments_is_collected_cleanly(make, why):
+    # ipywidgets closes a widget when it is collected, even one whose __init__ raised
+    # before App.__init__ ran: close() must not fail on the missing parts.
+    seen = []
+    old, sys.unraisablehook = sys.unraisablehook, seen.append
+    try:
+        with pytest.raises(ValueError, match=why):
+            make()
+        gc.collect()
+    finally:
+        sys.unraisablehook = old
+    assert not seen, [str(u.exc_value) for u in seen]
