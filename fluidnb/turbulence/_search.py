@@ -21,9 +21,9 @@ exhaustive answer:
   then measured directly, so ties resolve as the exhaustive search resolves them.
 - ``exact-bounds`` rules positions out by lower bounds that cost a few operations
   (``||x - z||^2 >= (sum x - sum z)^2 / k`` over boxes of ``k`` cells: the patch's
-  quarters at every window position, a 4 x 4 grid of boxes where that is not
-  enough), measures the survivors row by row, and stops a measurement as soon as
-  its partial sum plus the bound on the remaining rows exceeds the best so far
+  quarters at every window position, column sums over four bands of rows where
+  that is not enough), measures the survivors row by row, and stops a measurement
+  as soon as its partial sum plus the bound on the remaining rows exceeds the best so far
   (successive and partial distance elimination, as in block-matching motion
   search). No position that could be the minimum is skipped. Started from a hint
   (the previous frame's choice, in :func:`~fluidnb.turbulence.synthesize`), it
