@@ -38,11 +38,22 @@ __all__ = [
     "sketch",
     "to_uint8",
     "turbulence",
+    "videodb",
 ]
 
 # Subpackages load on first use so `import fluidnb` (and `fluidnb --version`) stays
 # quick; `fluidnb.fields` and `fluidnb.sketch` pull in scikit-image.
-_SUBPACKAGES = {"data", "fields", "fire", "flicker", "fluid", "frost", "sketch", "turbulence"}
+_SUBPACKAGES = {
+    "data",
+    "fields",
+    "fire",
+    "flicker",
+    "fluid",
+    "frost",
+    "sketch",
+    "turbulence",
+    "videodb",
+}
 
 
 def __getattr__(name):

@@ -6,10 +6,10 @@ import json
 import os
 import tempfile
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
+from .._cache import cache_dir
 from .._progress import Progress
 from .._validation import check_array, check_int, check_range
 
@@ -135,19 +135,6 @@ class Flow:
 
             return cls.from_simulation(Simulation.load(path), dx)
         raise ValueError(f"path {path!r} is not a saved Flow or Simulation (format {fmt!r})")
-
-
-def cache_dir():
-    """The folder where :func:`sample_flows` keeps its flows between sessions.
-
-    ``$FLUIDNB_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/fluidnb`` or
-    ``~/.cache/fluidnb``.
-    """
-    env = os.environ.get("FLUIDNB_CACHE_DIR")
-    if env:
-        return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "fluidnb"
 
 
 def sample_flows(n_frames=200, *, scale=1, progress=None):
