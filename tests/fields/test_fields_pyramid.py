@@ -3,7 +3,14 @@ import math
 import numpy as np
 import pytest
 
-from fluidnb.fields import collapse, expand, gaussian_pyramid, laplacian_pyramid, pyramid_blend
+from fluidnb.fields import (
+    _pyramid,
+    collapse,
+    expand,
+    gaussian_pyramid,
+    laplacian_pyramid,
+    pyramid_blend,
+)
 
 
 @pytest.mark.parametrize("shape", [(37, 53), (37, 53, 3), (64, 64), (128, 192, 2), (5, 9)])
@@ -187,3 +194,17 @@ def test_expand_without_blur_is_bilinear_resize(shape, target):
     np.testing.assert_allclose(
         expand(x, target, sigma=0), resize(x, target, anti_aliasing=False), atol=1e-12
     )
+
+
+@pytest.mark.parametrize("shape", [(37, 53, 3), (48, 72, 130), (5, 9, 1)])
+def test_fast_pyramids_are_the_library_pyramids(shape):
+    """The OpenCV float32 pyramids equal the float64 ones to float32 rounding,
+    also beyond OpenCV's channel limit (chunks) and on tiny odd levels."""
+    x = np.random.default_rng(5).random(shape).astype(np.float32)
+    levels = 4
+    for fast, lib in zip(_pyramid._laplacian32(x, levels), laplacian_pyramid(x, levels)):
+        np.testing.assert_allclose(fast, lib, rtol=0, atol=2e-6)
+    for fast, lib in zip(_pyramid._gaussian32(x, levels), gaussian_pyramid(x, levels)):
+        np.testing.assert_allclose(fast, lib, rtol=0, atol=2e-6)
+    back = _pyramid._collapse32(_pyramid._laplacian32(x, levels))
+    np.testing.assert_allclose(back, x, rtol=0, atol=2e-6)
