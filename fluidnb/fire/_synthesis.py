@@ -291,7 +291,7 @@ def _run(photo, alpha, target, params, exhaustive, gen):
 # ---------------------------------------------------------------------- kernels
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _distance(out, tgt, ap, alp, r, c, sr, sc, offc, offl, cu, cl, h, best):
     """D of input pixel (sr, sc) for output pixel (r, c); stops once above ``best``."""
     hh, ww = tgt.shape
@@ -319,7 +319,7 @@ def _distance(out, tgt, ap, alp, r, c, sr, sc, offc, offl, cu, cl, h, best):
     return d
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _weights(r, c, hh, ww, offc, offl, weight):
     nu = 0
     for k in range(offc.shape[0]):
@@ -338,7 +338,7 @@ def _weights(r, c, hh, ww, offc, offl, weight):
     return cu, cl
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _scan(ap, alp, tgt, noise, upper, lower, full, weight, rand_r, rand_c, passes, exhaustive):
     hh, ww = tgt.shape
     h = -upper[0, 0]
@@ -410,7 +410,7 @@ def _scan(ap, alp, tgt, noise, upper, lower, full, weight, rand_r, rand_c, passe
     return out, src, err
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _mean_error(out, src, ap, alp, tgt, upper, lower, weight):
     hh, ww = tgt.shape
     h = -upper[0, 0]

@@ -31,7 +31,7 @@ from numba import njit
 # ------------------------------------------------------------------ small helpers
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def centres(v, out):
     """Average the staggered faces to cell centres (bottom and right walls are zero)."""
     h, w = v.shape[0], v.shape[1]
@@ -47,7 +47,7 @@ def centres(v, out):
                 out[i, j, 1] = v[i, j, 1] * 0.5
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _split(t, hi):
     """Clamp ``t`` to [0, hi]; return its integer part and the fraction.
 
@@ -59,7 +59,7 @@ def _split(t, hi):
     return lo, t - lo
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _bilinear(q, k, ox, oy, fx, fy):
     """Sample the flat grid ``q`` between ``k``, ``k + ox``, ``k + oy``, ``k + oy + ox``.
 
@@ -81,7 +81,7 @@ def _bilinear(q, k, ox, oy, fx, fy):
 # indices.
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def advect_velocity(v, dt, c, out):
     """Semi-Lagrangian self-advection of a staggered velocity; ``c`` is (H, W, 2) scratch.
 
@@ -120,7 +120,7 @@ def advect_velocity(v, dt, c, out):
             out[i, j, 1] = _bilinear(qx, y0 * (w + 1) + x0, ox, oy, fx, fy)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def advect_scalars(t, d, v, dt, c, t_out, d_out):
     """Carry two centred scalars along a staggered velocity; return ``max(t_out)``.
 
@@ -152,7 +152,7 @@ def advect_scalars(t, d, v, dt, c, t_out, d_out):
 # ------------------------------------------------------------------------- forces
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _rows(i, h):
     """Rows of np.gradient's difference at row ``i`` and its divisor (2, or 1 at edges)."""
     if i == 0:
@@ -162,7 +162,7 @@ def _rows(i, h):
     return i + 1, i - 1, 2.0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def curl(cy, cx, out):
     """Vorticity at the centres from the centred velocity (dy, dx), as ``np.gradient``.
 
@@ -180,7 +180,7 @@ def curl(cy, cx, out):
         out[i, j] = (cy[i, j] - cy[i, j - 1]) - (cx[ip, j] - cx[im, j]) / dv
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _planar_centres(v, cy, cx):
     """The centred velocity as two planes, what the stencils below read fastest."""
     h, w = cy.shape
@@ -196,7 +196,7 @@ def _planar_centres(v, cy, cx):
                 cx[i, j] = v[i, j, 1] * 0.5
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _push(ny, nx, om, epsilon):
     """The push epsilon (N x omega) at one centre, given grad|omega| = (ny, nx)."""
     # Not math.hypot: the C library's is an order of magnitude slower, and its
@@ -210,7 +210,7 @@ def _push(ny, nx, om, epsilon):
     return -nx * scale, ny * scale
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _confinement_at_centres(v, epsilon, fy, fx):
     """The push epsilon (N x omega) at the centres into the planes ``fy``, ``fx``."""
     h, w = fy.shape
@@ -233,7 +233,7 @@ def _confinement_at_centres(v, epsilon, fy, fx):
         fy[i, j], fx[i, j] = _push(ny, a[i, j] - a[i, j - 1], om[i, j], epsilon)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def forces(v, t, kappa_b, t_amb, wind, epsilon, dt, buoyant, out, accumulate):
     """Buoyancy (Eq. 4) and vorticity confinement (Eq. 5) on the faces.
 
@@ -279,7 +279,7 @@ def forces(v, t, kappa_b, t_amb, wind, epsilon, dt, buoyant, out, accumulate):
 # ---------------------------------------------------------------------- projection
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def divergence(v, out):
     """Net outflow of each cell: (dy below - dy above) + (dx right - dx left)."""
     h, w = out.shape
@@ -293,7 +293,7 @@ def divergence(v, out):
             out[i, j] = s
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def subtract_gradient(v, p, open_top):
     """``v -= grad p`` on every active face; above an open top the pressure is 0."""
     h, w = p.shape
@@ -310,7 +310,7 @@ def subtract_gradient(v, p, open_top):
 # ------------------------------------------------------------------ cooling, source
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def cooling_base(t, t_amb, span, k, out):
     """``1 + k x^3`` with ``x = (T - T_amb) / span`` for cells above ambient, else 1.
 
@@ -330,7 +330,7 @@ def cooling_base(t, t_amb, span, k, out):
                 out[i, j] = 1.0
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _cooled(x, t_amb, span, root):
     """One cell of the exact cooling step, given the cube root from cooling_base."""
     if x > t_amb:
@@ -338,7 +338,7 @@ def _cooled(x, t_amb, span, root):
     return x
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def cool(t, t_amb, span, roots, out):
     """Radiative cooling of every cell above ambient (``roots`` from cooling_base)."""
     h, w = t.shape
@@ -347,7 +347,7 @@ def cool(t, t_amb, span, roots, out):
             out[i, j] = _cooled(t[i, j], t_amb, span, roots[i, j])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def cool_and_heat(
     t, d, cooling, t_amb, span, roots, mask, heat, source_t, noisy, hot, flicker, noise, smoke
 ):
