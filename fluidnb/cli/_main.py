@@ -20,6 +20,7 @@ _COMMAND_MODULES = [
     "fluidnb.cli._fluid",
     "fluidnb.cli._fire",
     "fluidnb.cli._turbulence",
+    "fluidnb.cli._videodb",
 ]
 
 

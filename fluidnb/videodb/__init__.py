@@ -1,11 +1,42 @@
-"""Animating a single fluid image from a database of fluid videos (Okabe et al. 2011).
+r"""Animating a single fluid image from a database of fluid videos (Okabe et al. 2011).
 
-Work in progress: the database half (seed section 4) and the animation half
-(sections 5-6) are being built in this package.
+The database (seed section 4): fluid clips, each flipped, scaled and rotated, cut into
+48 x 48-pixel fragments of ``N`` frames; per fragment its mean image, dense-SIFT
+visual words, mean motion, motion power spectra and textureness, in a zarr store
+(:func:`build_database`, :func:`open_database`, :func:`starter_database`).
+
+The animation (sections 5-6): the target image cut the same way; candidates by
+spatial-pyramid histogram intersection (Eq. 1); an MRF over the fragments solved by
+alpha-expansion (Eq. 4-6, with :math:`\sigma`, :math:`\lambda`, :math:`\rho`);
+rendering from the assigned fragments' difference frames with pyramid blending,
+pseudo motion blur, histogram matching and a dynamic matte.
+
+Every compiled or optimised step has a plain numpy version beside it (the
+``reference_*`` functions) that the tests compare it with.
 """
 
+from ._augment import (
+    reference_sample_version,
+    reference_transform_vectors,
+    sample_version,
+    transform_flow,
+    transform_vectors,
+    valid_positions,
+    version_coordinates,
+    version_shape,
+)
+from ._build import add_clips, build_database, clip_fragments
+from ._features import motion_spectra, textureness, window_features
+from ._flow import optical_flow
 from ._geometry import ANGLES, FRAGMENT, SCALES, STRIDE, VERSIONS
 from ._params import AUGMENTATIONS, FLOW_BACKENDS, AnimateParams, DatabaseParams
+from ._retrieval import HistogramIndex, reference_top_k
+from ._sift import dense_sift, reference_dense_sift
+from ._starter import starter_database, starter_params, starter_path
+from ._starter_clips import STARTER_KINDS, flow_map_texture, starter_clips
+from ._store import VideoDatabase, open_database
+from ._video import Video, read_video
+from ._words import fit_codebook, intersection, pyramid_histograms, quantise, reference_quantise
 
 __all__ = [
     "ANGLES",
@@ -13,8 +44,42 @@ __all__ = [
     "FLOW_BACKENDS",
     "FRAGMENT",
     "SCALES",
+    "STARTER_KINDS",
     "STRIDE",
     "VERSIONS",
     "AnimateParams",
     "DatabaseParams",
+    "HistogramIndex",
+    "Video",
+    "VideoDatabase",
+    "add_clips",
+    "build_database",
+    "clip_fragments",
+    "dense_sift",
+    "fit_codebook",
+    "flow_map_texture",
+    "intersection",
+    "motion_spectra",
+    "open_database",
+    "optical_flow",
+    "pyramid_histograms",
+    "quantise",
+    "read_video",
+    "reference_dense_sift",
+    "reference_quantise",
+    "reference_sample_version",
+    "reference_top_k",
+    "reference_transform_vectors",
+    "sample_version",
+    "starter_clips",
+    "starter_database",
+    "starter_params",
+    "starter_path",
+    "textureness",
+    "transform_flow",
+    "transform_vectors",
+    "valid_positions",
+    "version_coordinates",
+    "version_shape",
+    "window_features",
 ]

@@ -167,6 +167,25 @@ class AnimateParams(Params):
     max_speed_ratio : float
         With a user speed map: fragments whose mean speed differs from it by more
         than this factor (either way) are dropped.
+    shutter : float
+        The pseudo shutter time of the approximate mean image (seed section 6), in
+        frames: the target is blurred along the assigned motion over ``shutter``
+        frames' worth of movement, standing in for the fragments' mean images
+        :math:`A`, which are blurred by the motion over their :math:`N` frames.
+    denoise : float
+        The extra Gaussian blur of the approximate mean image, in pixels per px/frame
+        of motion (seed section 6: "proportional to the motion's magnitude").
+    cell : int
+        Side in pixels of the grid cells in which each frame's histograms are matched
+        to the target's (seed section 6, after Heeger & Bergen).
+    tau : float
+        :math:`\tau` of the dynamic fluid boundary :math:`B_{i+1} = \tau W_i(B_i) +
+        (1 - \tau)\alpha` (seed section 6): 0 keeps the matte still (water seen
+        from afar), larger values let fire and smoke move their outline.
+    loop : int
+        Frames cross-faded from the end of the clip into its start so it loops
+        seamlessly (0: no loop; the clip then has :math:`N` frames, else
+        :math:`N -` ``loop``).
     """
 
     sigma: float = param(
@@ -230,3 +249,64 @@ class AnimateParams(Params):
         ui_range=(1, 10),
         step=0.1,
     )
+    shutter: float = param(
+        8.0,
+        lo=0,
+        hi=256,
+        eq="Sec. 6",
+        doc="pseudo shutter time of the approximate mean image",
+        unit="frames",
+        ui_range=(0, 32),
+        step=0.5,
+    )
+    denoise: float = param(
+        0.5,
+        lo=0,
+        hi=100,
+        eq="Sec. 6",
+        doc="Gaussian blur of the approximate mean image per px/frame of motion",
+        unit="px",
+        ui_range=(0, 4),
+        step=0.1,
+    )
+    cell: int = param(
+        48,
+        lo=8,
+        hi=4096,
+        integer=True,
+        eq="Sec. 6",
+        doc="side of the cells of the per-cell histogram matching",
+        unit="px",
+        ui_range=(16, 192),
+        step=8,
+    )
+    tau: float = param(
+        0.0,
+        lo=0,
+        hi=1,
+        symbol=r"\tau",
+        eq="Sec. 6",
+        doc="how far the fluid's outline follows its motion (0: still matte)",
+        step=0.05,
+    )
+    loop: int = param(
+        8,
+        lo=0,
+        hi=128,
+        integer=True,
+        doc="frames cross-faded from the end into the start (0: no loop)",
+        unit="frames",
+        ui_range=(0, 16),
+    )
+
+    @classmethod
+    def for_kind(cls, kind, **changes):
+        """The defaults for a kind of scene: a moving outline (tau 0.5) for fire and smoke.
+
+        Examples
+        --------
+        >>> AnimateParams.for_kind("fire").tau
+        0.5
+        """
+        base = {"tau": 0.5} if str(kind) in ("fire", "smoke") else {}
+        return cls(**{**base, **changes})

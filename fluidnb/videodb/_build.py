@@ -1,0 +1,685 @@
+"""Building a video database (seed section 4): clips in, fragments and features out.
+
+The build runs in four stages, each of which can be interrupted and resumed:
+
+1. **ingest** (sequential): each source is read once (:func:`read_video`), scaled down
+   if needed and stored as ``clips/<i>/frames``;
+2. **fragments** (parallel across clips, on dask): per clip, optical flow once
+   (:func:`optical_flow`), then for every temporal window and augmented version
+   (:func:`sample_version`, :func:`transform_flow`) the fragments' features
+   (:func:`window_features`) and dense SIFT descriptors of their mean images;
+3. **codebook**: repeated cluster bisectioning on a seeded sample of the descriptors
+   (:func:`fit_codebook`), then every descriptor's nearest visual word;
+4. **manifest**: parameters, codebook, clips with their fingerprints and checksums,
+   written last and atomically — a folder without it is an unfinished build.
+
+Every stage's result depends only on the sources, the parameters and the seed, never
+on which worker finished first, so a resumed build ends byte-identical to an
+uninterrupted one, and a cluster build equals a local one.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from .._progress import Progress
+from .._validation import check_int
+from ._features import grey, window_features
+from ._geometry import FRAGMENT
+from ._params import DatabaseParams
+from ._store import (
+    CHUNK,
+    FORMAT,
+    FORMAT_VERSION,
+    FRAGMENT_ARRAYS,
+    MANIFEST,
+    checksum,
+    clip_group,
+    fragment_layout,
+    open_database,
+    read_manifest,
+    versions_used,
+    write_json_atomically,
+)
+from ._video import read_video
+
+__all__ = ["add_clips", "build_database", "clip_fragments"]
+
+_BUILD = "build"  # the folder of an unfinished build's state and descriptors
+_STATE = "state.json"
+
+
+def clip_fragments(frames, params=None, *, clip=0, versions=None):
+    """Cut one clip into fragments and compute their features (seed section 4).
+
+    Windows of ``N`` frames follow each other every ``N - window_overlap`` frames;
+    within each window the optical flow is computed once on the clip and carried to
+    every augmented version, whose fragments (48 x 48 on the stride-24 grid, wholly
+    inside the version) keep their features when at least one pixel moves.
+
+    Parameters
+    ----------
+    frames : ndarray, shape (T, H, W, 3), uint8
+        The clip.
+    params : DatabaseParams, optional
+    clip : int
+        The clip's index, recorded in each fragment's ``source``.
+    versions : sequence of int, optional
+        Indices into :data:`VERSIONS`; default as ``params.augment`` says.
+
+    Yields
+    ------
+    dict of ndarray
+        One batch per window and version, in that order: the arrays of
+        :func:`window_features` plus ``source`` (k, 5) int32 and ``descriptors``
+        (k, 9, 9, 128) uint8 (dense SIFT of the rounded mean images).
+    """
+    from ._augment import sample_version, transform_flow, valid_positions
+    from ._flow import optical_flow
+    from ._sift import dense_sift
+    from ._store import fragment_grey
+
+    params = DatabaseParams() if params is None else params
+    versions = versions_used(params.augment) if versions is None else list(versions)
+    t, h, w = frames.shape[:3]
+    n = params.N
+    positions = {v: valid_positions((h, w), v) for v in versions}
+    positions = {v: p for v, p in positions.items() if len(p)}
+    if t < n or not positions:
+        return
+    for start in range(0, t - n + 1, params.window_step):
+        window = frames[start : start + n]
+        g = grey(window)
+        flow = optical_flow(g, backend=params.flow)
+        mean = window.astype(np.float32).mean(axis=0) / np.float32(255)
+        for v, pos in positions.items():
+            keep, feats = window_features(
+                sample_version(g, v),
+                sample_version(mean[None], v)[0],
+                transform_flow(flow, v),
+                pos,
+                threshold=params.motion_threshold,
+                n_bins=params.n_bins,
+            )
+            if feats is None:
+                continue
+            kept = pos[keep]
+            source = np.empty((len(kept), 5), np.int32)
+            source[:, 0], source[:, 1], source[:, 2] = clip, v, start
+            source[:, 3:] = kept
+            feats["source"] = source
+            feats["descriptors"] = dense_sift(fragment_grey(feats["mean"]))
+            yield feats
+
+
+class _ChunkWriter:
+    """Append rows to zarr arrays one whole chunk at a time (each chunk written once)."""
+
+    def __init__(self, group, layout):
+        from zarr.codecs import BloscCodec
+
+        self.arrays = {}
+        for name, (shape, dtype) in layout.items():
+            self.arrays[name] = group.create_array(
+                name,
+                shape=(0, *shape),
+                chunks=(CHUNK, *shape),
+                dtype=dtype,
+                compressors=BloscCodec(cname="lz4", clevel=5, shuffle="shuffle"),
+                fill_value=0,
+                overwrite=True,
+            )
+        self.pending = {name: [] for name in layout}
+        self.n_pending = 0
+        self.written = 0
+
+    def add(self, batch):
+        for name in self.pending:
+            self.pending[name].append(batch[name])
+        self.n_pending += len(next(iter(batch.values())))
+        while self.n_pending >= CHUNK:
+            self._flush(CHUNK)
+
+    def close(self):
+        if self.n_pending:
+            self._flush(self.n_pending)
+        return self.written
+
+    def _flush(self, count):
+        for name, parts in self.pending.items():
+            rows = np.concatenate(parts) if len(parts) > 1 else parts[0]
+            arr = self.arrays[name]
+            arr.resize((self.written + count, *arr.shape[1:]))
+            arr[self.written : self.written + count] = rows[:count]
+            self.pending[name] = [rows[count:]] if len(rows) > count else []
+        self.n_pending -= count
+        self.written += count
+
+
+def _process_clip(root, index, params_dict, codebook):
+    """One clip's fragments: the dask task (runs in a worker thread or process)."""
+    import zarr
+
+    params = DatabaseParams.from_dict(params_dict)
+    root = Path(root)
+    group = zarr.open_group(str(root), mode="a", zarr_format=3)
+    clip = group[clip_group(index)]
+    frames = clip["frames"][...]
+    layout = fragment_layout(params)
+    names = [n for n in FRAGMENT_ARRAYS if n != "words"]
+    writer = _ChunkWriter(clip, {n: layout[n] for n in names})
+    descs = None
+    if codebook is None:
+        descs = _ChunkWriter(group[f"{_BUILD}/{index:05d}"], {"d": ((9, 9, 128), "uint8")})
+        words_writer = None
+    else:
+        words_writer = _ChunkWriter(clip, {"words": layout["words"]})
+    from ._words import quantise
+
+    for batch in clip_fragments(frames, params, clip=index):
+        writer.add({n: batch[n] for n in names})
+        if descs is not None:
+            descs.add({"d": batch["descriptors"]})
+        else:
+            words_writer.add({"words": quantise(batch["descriptors"], codebook)})
+    count = writer.close()
+    if descs is not None:
+        descs.close()
+    else:
+        words_writer.close()
+    _write_done(root, index, count)
+    return count
+
+
+def _write_done(root, index, count):
+    write_json_atomically(Path(root) / _BUILD / f"done-{index:05d}.json", {"fragments": count})
+
+
+def _read_done(root, index):
+    try:
+        return int(
+            json.loads((Path(root) / _BUILD / f"done-{index:05d}.json").read_text())["fragments"]
+        )
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def build_database(
+    sources,
+    path,
+    *,
+    kind,
+    params=None,
+    seed=0,
+    client=None,
+    workers=None,
+    resume=False,
+    progress=None,
+):
+    """Build a video database from fluid clips (seed section 4).
+
+    Parameters
+    ----------
+    sources : sequence
+        The clips: video files, folders of frames, :class:`fluidnb.Clip` objects,
+        ``(T, H, W[, 3])`` arrays, or ``(name, source)`` pairs (see
+        :func:`read_video`).
+    path : str or os.PathLike
+        A new (or empty) folder for the database; with ``resume=True``, the folder of
+        an interrupted build of the same sources.
+    kind : str
+        What the clips show: ``"water"``, ``"smoke"``, ``"fire"`` or your own label
+        (the paper builds one database per kind of scene).
+    params : DatabaseParams, optional
+        Fragments, augmentation, flow backend, codebook size.
+    seed : int
+        Seeds the codebook's sample of descriptors and its clustering: same sources,
+        params and seed, same database, byte for byte.
+    client : dask.distributed.Client, optional
+        Run the per-clip work on this cluster; default dask's local threaded scheduler.
+    workers : int, optional
+        Threads of the local scheduler (default: all cores).
+    resume : bool
+        Continue an interrupted build in ``path`` (same sources, params and seed).
+    progress : callable, optional
+        ``progress(fraction, message)``; raise :class:`fluidnb.Cancelled` to stop
+        (the folder can then be resumed).
+
+    Returns
+    -------
+    VideoDatabase
+        The database, opened.
+
+    Raises
+    ------
+    ValueError
+        For bad arguments, unreadable sources, a folder that is not empty (or, with
+        ``resume``, holds another build), the same clip given twice, or no fragment at
+        all (every clip too short, too small or still): then nothing is left behind.
+    """
+    params = _check_params(params)
+    kind = _check_kind(kind)
+    seed = check_int("seed", seed, 0)
+    workers = _check_workers(workers)
+    sources = _check_sources(sources)
+    root = Path(path)
+    created = _prepare_folder(root, resume)
+    report = Progress(progress)
+    stage = report.split(0.15, 0.85, 0.95)
+    state = {"mode": "build", "kind": kind, "params": params.to_dict(), "seed": seed, "base": 0}
+    try:
+        records = _ingest(root, sources, state, resume, stage[0], params.max_side, base=0)
+        counts = _run_clips(root, records, params, None, client, workers, stage[1])
+        if sum(counts.values()) == 0:
+            raise _NoFragment(f"no fragment: {_why(records)}")
+        codebook = _train_codebook(root, counts, params, seed, stage[2])
+        stage[3](0.0, "visual words")
+        for i, count in counts.items():
+            _quantise_clip(root, i, count, codebook)
+        manifest = _manifest(root, kind, params, seed, codebook, records, counts)
+        _finish(root, manifest)
+    except BaseException as exc:
+        if created and isinstance(exc, _NoFragment):
+            shutil.rmtree(root, ignore_errors=True)
+        if isinstance(exc, _NoFragment):
+            raise ValueError(str(exc)) from None
+        raise
+    stage[3](1.0, "database ready")
+    return open_database(root)
+
+
+def add_clips(db, sources, *, client=None, workers=None, resume=False, progress=None):
+    """Add clips to an existing database, with its codebook (seed section 4).
+
+    Parameters
+    ----------
+    db : VideoDatabase, str or os.PathLike
+        The database (or its folder).
+    sources : sequence
+        As for :func:`build_database`.
+    client, workers, progress
+        As for :func:`build_database`.
+    resume : bool
+        Continue an interrupted addition of the same sources.
+
+    Returns
+    -------
+    VideoDatabase
+        The grown database, opened. Until the addition finishes, the folder keeps
+        opening as the database it was.
+
+    Raises
+    ------
+    ValueError
+        For unreadable sources, a clip already in the database, an unfinished
+        addition (without ``resume``), or clips that give no fragment at all.
+    """
+    root = Path(getattr(db, "path", db))
+    manifest, params, codebook = read_manifest(root)
+    workers = _check_workers(workers)
+    sources = _check_sources(sources)
+    pending = (root / _BUILD / _STATE).is_file()
+    if pending and not resume:
+        raise ValueError(
+            f"db: {str(root)!r} has an unfinished addition of clips; pass resume=True to "
+            "continue it"
+        )
+    if not pending:
+        shutil.rmtree(root / _BUILD, ignore_errors=True)
+    report = Progress(progress)
+    stage = report.split(0.2, 0.95)
+    base = len(manifest["clips"])
+    known = {c["sha256"]: c["name"] for c in manifest["clips"]}
+    state = {
+        "mode": "add",
+        "kind": manifest["kind"],
+        "params": params.to_dict(),
+        "seed": manifest["seed"],
+        "base": base,
+    }
+    records = _ingest(root, sources, state, pending, stage[0], params.max_side, base, known)
+    counts = _run_clips(root, records, params, codebook, client, workers, stage[1])
+    if sum(counts.values()) == 0:
+        names = ", ".join(repr(r["name"]) for r in records)
+        _discard_clips(root, records)
+        raise ValueError(
+            f"no fragment: none of the clips {names} gives a fragment ({_why(records)})"
+        )
+    new = _manifest(
+        root,
+        manifest["kind"],
+        params,
+        manifest["seed"],
+        codebook,
+        records,
+        counts,
+        old_clips=manifest["clips"],
+    )
+    _finish(root, new)
+    stage[2](1.0, "database ready")
+    return open_database(root)
+
+
+# ---------------------------------------------------------------------- stages
+
+
+class _NoFragment(Exception):
+    pass
+
+
+def _ingest(root, sources, state, resume, report, max_side, base, known=None):
+    """Store each source's frames as clips/<i>/frames; returns the clips' records."""
+    import zarr
+    from zarr.codecs import BloscCodec
+
+    state_file = root / _BUILD / _STATE
+    old = None
+    if resume and state_file.is_file():
+        old = json.loads(state_file.read_text())
+        same = {k: old.get(k) for k in ("mode", "kind", "params", "seed", "base")}
+        if same != {k: state[k] for k in same}:
+            raise ValueError(
+                f"db: {str(root)!r} holds an unfinished build with other settings "
+                f"({same}); resume it with those, or start in a new folder"
+            )
+    (root / _BUILD).mkdir(parents=True, exist_ok=True)
+    group = zarr.open_group(str(root), mode="a", zarr_format=3)
+    records, seen = [], dict(known or {})
+    done_before = {r["sha256"]: r for r in (old or {}).get("clips", [])}
+    for k, src in enumerate(sources):
+        report(k / len(sources), f"reading clip {k + 1}/{len(sources)}")
+        index = base + k
+        video = read_video(src, max_side=max_side)
+        if video.sha256 in seen:
+            raise ValueError(
+                f"sources[{k}] ({video.name!r}) is the same clip as {seen[video.sha256]!r}: "
+                "each clip goes in once"
+            )
+        seen[video.sha256] = video.name
+        rec = {
+            "index": index,
+            "name": video.name,
+            "origin": video.origin,
+            "sha256": video.sha256,
+            "fps": video.fps,
+            "frames": int(video.frames.shape[0]),
+            "height": int(video.frames.shape[1]),
+            "width": int(video.frames.shape[2]),
+            "scaled": video.scaled,
+        }
+        prev = done_before.get(video.sha256)
+        if old is not None and (prev is None or prev["index"] != index):
+            raise ValueError(
+                f"db: {str(root)!r}: sources[{k}] ({video.name!r}) is not the clip the "
+                "interrupted build had in that place; resume with the same sources in the "
+                "same order"
+            )
+        if prev is None or not _frames_complete(root, group, index, video.frames.shape):
+            g = group.require_group(clip_group(index))
+            arr = g.create_array(
+                "frames",
+                shape=video.frames.shape,
+                chunks=(1, *video.frames.shape[1:]),
+                dtype="uint8",
+                compressors=BloscCodec(cname="lz4", clevel=5, shuffle="bitshuffle"),
+                fill_value=0,
+                overwrite=True,
+            )
+            arr[...] = video.frames
+            # The record goes into the state after the frames are on disk.
+            _mark_ingested(root, index)
+        records.append(rec)
+        state["clips"] = records
+        write_json_atomically(state_file, state)
+    if old is not None and len(old.get("clips", [])) > len(records):
+        raise ValueError(
+            f"db: {str(root)!r}: the interrupted build had {len(old['clips'])} clips, "
+            f"resume was given {len(records)}; resume with the same sources"
+        )
+    report(1.0, "clips read")
+    return records
+
+
+def _mark_ingested(root, index):
+    write_json_atomically(Path(root) / _BUILD / f"ingested-{index:05d}.json", {"index": index})
+
+
+def _frames_complete(root, group, index, shape):
+    if not (Path(root) / _BUILD / f"ingested-{index:05d}.json").is_file():
+        return False
+    try:
+        return tuple(group[f"{clip_group(index)}/frames"].shape) == tuple(shape)
+    except Exception:
+        return False
+
+
+def _run_clips(root, records, params, codebook, client, workers, report):
+    """Fragments of every clip not done yet, in parallel; returns {index: count}."""
+    import dask
+
+    counts = {r["index"]: _read_done(root, r["index"]) for r in records}
+    todo = [i for i, c in counts.items() if c is None]
+    names = {r["index"]: r["name"] for r in records}
+    total = len(records)
+    finished = total - len(todo)
+    report(finished / total, f"fragments: {finished}/{total} clips done")
+    if codebook is None:
+        # Groups are made here, once: workers only add arrays to their own group.
+        import zarr
+
+        build = zarr.open_group(str(root), mode="a", zarr_format=3).require_group(_BUILD)
+        for i in todo:
+            build.require_group(f"{i:05d}")
+    tasks = {
+        i: dask.delayed(_process_clip, pure=False)(str(root), i, params.to_dict(), codebook)
+        for i in todo
+    }
+    by_key = {t.key: i for i, t in tasks.items()}
+
+    def tick(index):
+        nonlocal finished
+        finished += 1
+        report(finished / total, f"fragments: {finished}/{total} clips done ({names[index]})")
+
+    if tasks and client is not None:
+        from distributed import as_completed
+
+        futures = client.compute(list(tasks.values()))
+        try:
+            for fut in as_completed(futures):
+                fut.result()
+                tick(by_key[fut.key])
+        except BaseException:
+            client.cancel(futures)
+            raise
+    elif tasks:
+        from concurrent.futures import ThreadPoolExecutor
+
+        from dask.callbacks import Callback
+
+        class _Tick(Callback):
+            def _posttask(self, key, result, dsk, state, worker_id):
+                if key in by_key:
+                    tick(by_key[key])
+
+        pool = ThreadPoolExecutor(workers, thread_name_prefix="fluidnb-videodb")
+        try:
+            with _Tick():
+                dask.compute(*tasks.values(), scheduler="threads", pool=pool)
+        finally:
+            # On an error or a cancel, let the clips in flight finish writing before
+            # returning, so a resume never races a worker still writing.
+            pool.shutdown(wait=True, cancel_futures=True)
+    counts = {i: _read_done(root, i) for i in counts}
+    report(1.0, "fragments done")
+    return counts
+
+
+def _train_codebook(root, counts, params, seed, report):
+    """Fit the codebook on a seeded sample of every clip's descriptors."""
+    import zarr
+
+    from ._words import fit_codebook
+
+    rows = sum(counts.values()) * 81
+    keep = min(1.0, params.codebook_samples / rows)
+    group = zarr.open_group(str(root), mode="r", zarr_format=3)
+    parts = []
+    for i, count in counts.items():
+        if not count:
+            continue
+        d = group[f"{_BUILD}/{i:05d}/d"][...].reshape(-1, 128)
+        # Per clip, a generator seeded by (seed, clip): the sample does not depend on
+        # the order clips finished in.
+        pick = np.random.default_rng([seed, i]).random(len(d)) < keep
+        parts.append(d[pick])
+        report(len(parts) / len(counts) * 0.3, "sampling descriptors")
+    sample = np.concatenate(parts)
+    if len(sample) < params.words:
+        raise _NoFragment(
+            f"too few fragments: {len(sample)} descriptors cannot train a codebook of "
+            f"k = {params.words} words; add clips or lower DatabaseParams.words"
+        )
+    report(0.3, f"codebook: {params.words} words from {len(sample)} descriptors")
+    codebook = fit_codebook(sample, params.words, max_samples=params.codebook_samples, seed=seed)
+    report(1.0, "codebook ready")
+    return codebook
+
+
+def _quantise_clip(root, index, count, codebook):
+    import zarr
+
+    from ._words import quantise
+
+    group = zarr.open_group(str(root), mode="a", zarr_format=3)
+    writer = _ChunkWriter(group[clip_group(index)], {"words": ((9, 9), "uint8")})
+    descs = group[f"{_BUILD}/{index:05d}/d"]
+    for lo in range(0, count, CHUNK):
+        writer.add({"words": quantise(descs[lo : lo + CHUNK], codebook)})
+    writer.close()
+
+
+def _manifest(root, kind, params, seed, codebook, records, counts, old_clips=()):
+    import zarr
+
+    from ._store import RAM_ARRAYS
+
+    group = zarr.open_group(str(root), mode="r", zarr_format=3)
+    clips = [dict(c) for c in old_clips]
+    first = sum(c["fragments"] for c in clips)
+    for rec in records:
+        count = counts[rec["index"]]
+        arrays = {n: group[f"{clip_group(rec['index'])}/{n}"][...] for n in RAM_ARRAYS}
+        clip = {**rec, "first": first, "fragments": count, "checksum": checksum(arrays)}
+        if count == 0:
+            # Kept (the record says what went in) but it adds nothing: say why.
+            clip["note"] = f"no fragment: {_why([rec])}"
+        clips.append(clip)
+        first += count
+    return {
+        "format": FORMAT,
+        "version": FORMAT_VERSION,
+        "kind": kind,
+        "params": params.to_dict(),
+        "seed": seed,
+        "fragment": {"size": FRAGMENT, "stride": 24, "grid": 9},
+        "codebook": codebook.tolist(),
+        "clips": clips,
+        "fragments": first,
+    }
+
+
+def _finish(root, manifest):
+    write_json_atomically(Path(root) / MANIFEST, manifest)
+    shutil.rmtree(Path(root) / _BUILD, ignore_errors=True)
+
+
+def _discard_clips(root, records):
+    for rec in records:
+        shutil.rmtree(Path(root) / clip_group(rec["index"]), ignore_errors=True)
+    shutil.rmtree(Path(root) / _BUILD, ignore_errors=True)
+
+
+def _why(records):
+    reasons = []
+    for r in records:
+        if min(r["height"], r["width"]) < FRAGMENT:
+            reasons.append(f"{r['name']!r} is {r['height']}x{r['width']}, smaller than a fragment")
+        else:
+            reasons.append(
+                f"{r['name']!r} ({r['frames']} frames) has no moving 48 x 48 window of N frames"
+            )
+    return "; ".join(reasons)
+
+
+# ---------------------------------------------------------------------- checks
+
+
+def _check_params(params):
+    if params is None:
+        return DatabaseParams()
+    if not isinstance(params, DatabaseParams):
+        raise ValueError(f"params must be a DatabaseParams, got {type(params).__name__}")
+    return params
+
+
+def _check_kind(kind):
+    if not isinstance(kind, str) or not kind.strip() or len(kind) > 64:
+        raise ValueError(
+            f"kind must be a short label such as 'water', 'smoke' or 'fire', got {kind!r}"
+        )
+    return kind.strip()
+
+
+def _check_workers(workers):
+    if workers is None:
+        return os.cpu_count() or 1
+    return check_int("workers", workers, 1, 1024)
+
+
+def _check_sources(sources):
+    if isinstance(sources, (str, os.PathLike, np.ndarray)) or hasattr(sources, "frames"):
+        sources = [sources]
+    try:
+        sources = list(sources)
+    except TypeError:
+        raise ValueError(
+            f"sources must be a list of clips (paths, Clips, arrays), got {type(sources).__name__}"
+        ) from None
+    if not sources:
+        raise ValueError("sources is empty: give at least one clip")
+    return sources
+
+
+def _prepare_folder(root, resume):
+    """Check the destination; returns True if this build creates the folder."""
+    if root.exists() and not root.is_dir():
+        raise ValueError(f"path {str(root)!r} exists and is not a folder")
+    if (root / MANIFEST).is_file():
+        raise ValueError(
+            f"path {str(root)!r} already holds a video database; add clips to it with "
+            "add_clips(), or choose a new folder"
+        )
+    if root.is_dir() and any(root.iterdir()):
+        if not (root / _BUILD / _STATE).is_file():
+            raise ValueError(
+                f"path {str(root)!r} is not empty and holds no unfinished build: choose an "
+                "empty or new folder"
+            )
+        if not resume:
+            raise ValueError(
+                f"path {str(root)!r} holds an unfinished build; pass resume=True to continue "
+                "it, or remove the folder"
+            )
+        return False
+    created = not root.exists()
+    root.mkdir(parents=True, exist_ok=True)
+    import zarr
+
+    zarr.open_group(str(root), mode="w", zarr_format=3, attributes={"fluidnb": FORMAT})
+    return created

@@ -1,0 +1,463 @@
+"""The video database on disk (zarr v3 + a JSON manifest) and in memory.
+
+Layout of a database folder::
+
+    zarr.json                 the zarr root group
+    manifest.json             format, parameters, codebook, clips, counts (written last)
+    clips/00000/frames        (T, H, W, 3) uint8, the source clip as it went in
+    clips/00000/mean          (F0, 48, 48, 3) uint8      mean image A
+    clips/00000/words         (F0, 9, 9) uint8           visual-word map
+    clips/00000/mean_motion   (F0, 2) float32            (dy, dx) px/frame
+    clips/00000/motion        (F0, N - 1, 2) float32     the same, per frame pair
+    clips/00000/spectra       (F0, NB, 2, 12, 12) float16  motion spectra M^ (Eq. 2)
+    clips/00000/texture       (F0, 4, 24, 24) float16    textureness T (Fig. 7)
+    clips/00000/source        (F0, 5) int32              clip, version, first frame, row, col
+    clips/00001/...
+
+A database is complete when ``manifest.json`` exists: it is written last, atomically,
+so an interrupted build never leaves a folder that opens. Fragment ``i`` of the whole
+database is fragment ``i - first`` of the clip whose range holds it (clips in order).
+
+:func:`open_database` reads the word maps, motions, spectra and textureness of every
+clip sequentially into memory once (the paper's bottleneck was random disk access for
+the smoothness terms); mean images and source frames are read on demand.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import math
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .._progress import Progress
+from .._validation import check_array, check_int
+from ._geometry import FRAGMENT, GRID, SPECTRA_SIDE, TEXTURE_LEVELS, TEXTURE_SIDE, VERSIONS
+from ._params import DatabaseParams
+
+__all__ = ["FORMAT", "FORMAT_VERSION", "VideoDatabase", "open_database"]
+
+#: The manifest's ``format`` and the version of the layout this fluidnb reads and writes.
+FORMAT = "fluidnb.videodb"
+FORMAT_VERSION = 1
+
+MANIFEST = "manifest.json"
+#: Fragments per chunk along the first axis (the spec: 256-1024; blosc-lz4).
+CHUNK = 512
+#: Arrays loaded into memory when a database opens, in this order.
+RAM_ARRAYS = ("words", "mean_motion", "motion", "spectra", "texture", "source")
+#: Every per-fragment array, as written.
+FRAGMENT_ARRAYS = ("mean", *RAM_ARRAYS)
+
+
+def fragment_layout(params):
+    """Shape (after the fragment axis) and dtype of every per-fragment array."""
+    return {
+        "mean": ((FRAGMENT, FRAGMENT, 3), "uint8"),
+        "words": ((GRID, GRID), "uint8"),
+        "mean_motion": ((2,), "float32"),
+        "motion": ((params.N - 1, 2), "float32"),
+        "spectra": ((params.n_bins, 2, SPECTRA_SIDE, SPECTRA_SIDE), "float16"),
+        "texture": ((TEXTURE_LEVELS, TEXTURE_SIDE, TEXTURE_SIDE), "float16"),
+        "source": ((5,), "int32"),
+    }
+
+
+def clip_group(index):
+    """The zarr group path of source clip ``index``."""
+    return f"clips/{index:05d}"
+
+
+def checksum(arrays):
+    """SHA-256 over the in-memory arrays of one clip (the order of RAM_ARRAYS)."""
+    h = hashlib.sha256()
+    for name in RAM_ARRAYS:
+        a = np.ascontiguousarray(arrays[name])
+        h.update(f"{name}{a.shape}{a.dtype}".encode())
+        h.update(a.data)
+    return "sha256:" + h.hexdigest()
+
+
+def write_json_atomically(path, data):
+    """Write ``data`` as JSON to ``path`` through a temporary file and a rename."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            json.dump(data, f, indent=1, sort_keys=True)
+            f.write("\n")
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+
+
+def read_manifest(path):
+    """Read and check a database's manifest; ValueError naming the file if it is wrong."""
+    root = Path(path)
+    file = root / MANIFEST
+    if not root.is_dir():
+        raise ValueError(f"db: no such database folder {str(root)!r}")
+    if not file.is_file():
+        if (root / "build").is_dir():
+            raise ValueError(
+                f"db: {str(root)!r} holds an unfinished build (no {MANIFEST}); continue it "
+                "with build_database(..., resume=True) or `fluidnb videodb build --resume`"
+            )
+        raise ValueError(f"db: {str(root)!r} is not a fluidnb video database (no {MANIFEST})")
+    try:
+        manifest = json.loads(file.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"db: {str(file)!r} is corrupt: {exc}") from None
+    if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
+        raise ValueError(f"db: {str(file)!r} is not a fluidnb video database manifest")
+    version = manifest.get("version")
+    if version != FORMAT_VERSION:
+        raise ValueError(
+            f"db: {str(file)!r} has format version {version!r}; this fluidnb reads version "
+            f"{FORMAT_VERSION}: rebuild the database with this version"
+        )
+    try:
+        params = DatabaseParams.from_dict(manifest["params"])
+        codebook = np.asarray(manifest["codebook"], dtype=np.float64)
+        clips = list(manifest["clips"])
+        total = int(manifest["fragments"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"db: {str(file)!r} is incomplete or damaged ({exc})") from None
+    if codebook.shape != (params.words, 128) or not np.all(np.isfinite(codebook)):
+        raise ValueError(
+            f"db: {str(file)!r}: the codebook must be {params.words} x 128 finite numbers, "
+            f"got shape {codebook.shape}"
+        )
+    first = 0
+    for i, clip in enumerate(clips):
+        if clip.get("index") != i or clip.get("first") != first:
+            raise ValueError(f"db: {str(file)!r}: clip {i} is out of order or its range is wrong")
+        first += int(clip["fragments"])
+    if first != total:
+        raise ValueError(
+            f"db: {str(file)!r}: the clips hold {first} fragments but the manifest says {total}"
+        )
+    return manifest, params, codebook
+
+
+@dataclass(frozen=True, eq=False)
+class VideoDatabase:
+    """A video database, opened: its manifest, and its fragments' features in memory.
+
+    Made by :func:`open_database` (or :func:`~fluidnb.videodb.build_database`); read
+    only. ``F`` is the number of fragments, ``N`` the frames per fragment.
+
+    Attributes
+    ----------
+    path : pathlib.Path
+        The database folder.
+    kind : str
+        What the clips show (``"water"``, ``"smoke"``, ``"fire"`` or the user's label).
+    params : DatabaseParams
+        How it was built.
+    codebook : ndarray, shape (k, 128), float64
+        The visual words (centres of the SIFT descriptors).
+    clips : list of dict
+        One record per source clip: ``name``, ``origin``, ``sha256``, ``fps``,
+        ``frames``, ``height``, ``width``, ``fragments`` and ``first`` (its first
+        fragment's index), in order.
+    words : ndarray, shape (F, 9, 9), uint8
+    mean_motion : ndarray, shape (F, 2), float32
+    motion : ndarray, shape (F, N - 1, 2), float32
+    spectra : ndarray, shape (F, NB, 2, 12, 12), float16
+    texture : ndarray, shape (F, 4, 24, 24), float16
+    source : ndarray, shape (F, 5), int32
+        Per fragment: clip index, version (index into :data:`VERSIONS`), first frame,
+        row and column of its top-left corner in the version's pixels.
+    manifest : dict
+        The manifest as read.
+    """
+
+    path: Path
+    kind: str
+    params: DatabaseParams
+    codebook: np.ndarray
+    clips: list
+    words: np.ndarray
+    mean_motion: np.ndarray
+    motion: np.ndarray
+    spectra: np.ndarray
+    texture: np.ndarray
+    source: np.ndarray
+    manifest: dict
+
+    def __len__(self):
+        return len(self.words)
+
+    @functools.cached_property
+    def index(self):
+        """The :class:`HistogramIndex` of the word maps (built on first use, kept)."""
+        from ._retrieval import HistogramIndex
+
+        return HistogramIndex(self.words, self.params.words, mean_motion=self.mean_motion)
+
+    @property
+    def n_fragments(self):
+        """``F``, the number of fragments."""
+        return len(self.words)
+
+    def __repr__(self):
+        return (
+            f"VideoDatabase({self.kind!r}, {len(self.clips)} clips, {self.n_fragments} "
+            f"fragments, N={self.params.N}, k={self.params.words}, path={str(self.path)!r})"
+        )
+
+    # ------------------------------------------------------------------ summary
+    def summary(self):
+        """A few lines describing the database (what `fluidnb videodb info` prints)."""
+        p = self.params
+        lines = [
+            f"video database {str(self.path)!r}",
+            f"  kind {self.kind!r}: {len(self.clips)} clips, {self.n_fragments} fragments "
+            f"of 48 x 48 px x {p.N} frames",
+            f"  built with flow={p.flow!r}, augment={p.augment!r}, k={p.words} words, "
+            f"motion threshold {p.motion_threshold:g} px/frame",
+            f"  on disk {_folder_size(self.path) / 1e6:.1f} MB",
+        ]
+        for c in self.clips:
+            lines.append(
+                f"  [{c['index']:3d}] {c['name']!r}: {c['frames']} frames {c['height']}x"
+                f"{c['width']}, {c['fragments']} fragments ({c['origin']})"
+            )
+        for s in self.manifest.get("skipped", []):
+            lines.append(f"  skipped {s['name']!r}: {s['reason']}")
+        return "\n".join(lines)
+
+    # ------------------------------------------------------------------ lookups
+    def clip_of(self, ids):
+        """Index of the source clip of each fragment id."""
+        return self.source[np.asarray(ids), 0].astype(np.int64)
+
+    def _check_ids(self, ids):
+        ids = check_array("ids", ids, ndim=(0, 1), dtype_kinds="iu", min_size=0)
+        ids = np.atleast_1d(ids).astype(np.int64)
+        if ids.size and (ids.min() < 0 or ids.max() >= self.n_fragments):
+            raise ValueError(
+                f"ids must be fragment indices in [0, {self.n_fragments - 1}], got values in "
+                f"[{ids.min()}, {ids.max()}]"
+            )
+        return ids
+
+    def _group(self):
+        import zarr
+
+        return zarr.open_group(str(self.path), mode="r", zarr_format=3)
+
+    def mean_images(self, ids):
+        """The mean images :math:`A` of fragments, float32 (n, 48, 48, 3) in [0, 1]."""
+        ids = self._check_ids(ids)
+        out = np.empty((len(ids), FRAGMENT, FRAGMENT, 3), np.float32)
+        group = self._group()
+        for clip in np.unique(self.clip_of(ids)) if len(ids) else ():
+            sel = np.flatnonzero(self.clip_of(ids) == clip)
+            local = ids[sel] - self.clips[clip]["first"]
+            arr = group[f"{clip_group(clip)}/mean"]
+            out[sel] = arr.get_orthogonal_selection((local,)).astype(np.float32) / 255.0
+        return out
+
+    def clip_frames(self, clip, start=0, stop=None):
+        """Frames ``start:stop`` of source clip ``clip`` as uint8 (T, H, W, 3)."""
+        clip = check_int("clip", clip, 0, len(self.clips) - 1)
+        return self._group()[f"{clip_group(clip)}/frames"][start:stop]
+
+    def fragment_frames(self, ids, *, margin=0, grey=False):
+        """Rebuild the ``N`` frames of fragments from their source clips.
+
+        Each fragment is re-sampled from its clip's frames with its version's flip,
+        scale and rotation (:func:`~fluidnb.videodb.sample_version`), exactly as the
+        build cut it, with ``margin`` extra pixels of context on every side (clamped
+        at the clip's border).
+
+        Parameters
+        ----------
+        ids : array_like of int
+            Fragment indices.
+        margin : int
+            Context pixels around the 48 x 48 fragment.
+        grey : bool
+            Luminance only (what rendering needs): the frames are made grey before
+            they are resampled (both are linear), a third of the work.
+
+        Returns
+        -------
+        ndarray, shape (n, N, 48 + 2 margin, 48 + 2 margin[, 3]), float32 in [0, 1]
+        """
+        from ._augment import _sample
+        from ._features import grey as luminance
+
+        ids = self._check_ids(ids)
+        margin = check_int("margin", margin, 0, 1024)
+        n, side = self.params.N, FRAGMENT + 2 * margin
+        out = np.empty((len(ids), n, side, side) + (() if grey else (3,)), np.float32)
+        # Group by (clip, first frame): one read of each window serves all its fragments.
+        keys = self.source[ids][:, [0, 2]]
+        for key in np.unique(keys, axis=0):
+            sel = np.flatnonzero((keys == key).all(axis=1))
+            clip, start = int(key[0]), int(key[1])
+            frames = self.clip_frames(clip, start, start + n)
+            frames = luminance(frames) if grey else frames.astype(np.float32) / 255.0
+            for s in sel:
+                _, version, _, row, col = (int(v) for v in self.source[ids[s]])
+                # The private sampler: these frames are known to be finite and
+                # contiguous, so the public function's checks would only cost time.
+                out[s] = _sample(frames, version, (row - margin, col - margin), (side, side))
+        np.clip(out, 0.0, 1.0, out=out)
+        return out
+
+    def describe(self, images):
+        """Visual-word maps of 48 x 48 images, by the same path as the database's.
+
+        Parameters
+        ----------
+        images : array_like, shape (n, 48, 48, 3) or (n, 48, 48)
+            Fragments (uint8, or floats in [0, 1]); rounded to 8 bits first, as the
+            database's mean images were, so a stored mean image describes itself.
+
+        Returns
+        -------
+        ndarray, shape (n, 9, 9), uint8
+        """
+        from ._sift import dense_sift
+        from ._words import quantise
+
+        return quantise(dense_sift(fragment_grey(images)), self.codebook)
+
+
+def fragment_grey(images):
+    """Grey float32 (n, 48, 48) of fragments rounded to 8 bits (one path for all)."""
+    from .._image import _to_float01, to_uint8
+    from ._features import grey
+
+    arr = check_array("images", images, ndim=(3, 4))
+    if arr.shape[1:3] != (FRAGMENT, FRAGMENT) or (arr.ndim == 4 and arr.shape[3] != 3):
+        raise ValueError(f"images must have shape (n, 48, 48[, 3]), got {arr.shape}")
+    u8 = arr if arr.dtype == np.uint8 else to_uint8(_to_float01(arr, "images"))
+    if u8.ndim == 3:
+        return u8.astype(np.float32) / np.float32(255)
+    return grey(u8)
+
+
+def open_database(path, *, progress=None):
+    """Open a video database: check it, and load its features into memory.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The database folder (made by :func:`~fluidnb.videodb.build_database`).
+    progress : callable, optional
+        ``progress(fraction, message)`` while the arrays load.
+
+    Returns
+    -------
+    VideoDatabase
+
+    Raises
+    ------
+    ValueError
+        If the folder is not a complete database, was made by an incompatible
+        version, or a file is missing, truncated or damaged (the message names it).
+
+    Examples
+    --------
+    >>> open_database("no-such-folder")
+    Traceback (most recent call last):
+    ...
+    ValueError: db: no such database folder 'no-such-folder'
+    """
+    import zarr
+
+    root = Path(path)
+    manifest, params, codebook = read_manifest(root)
+    report = Progress(progress)
+    layout = fragment_layout(params)
+    total = int(manifest["fragments"])
+    data = {name: np.empty((total, *layout[name][0]), dtype=layout[name][1]) for name in RAM_ARRAYS}
+    try:
+        group = zarr.open_group(str(root), mode="r", zarr_format=3)
+    except Exception as exc:
+        raise ValueError(f"db: {str(root)!r}: cannot open the zarr store ({exc})") from None
+    clips = manifest["clips"]
+    done, n_steps = 0, max(1, len(clips) * len(RAM_ARRAYS))
+    for clip in clips:
+        first, count = int(clip["first"]), int(clip["fragments"])
+        where = clip_group(int(clip["index"]))
+        arrays = {}
+        for name in RAM_ARRAYS:
+            shape, dtype = layout[name]
+            arrays[name] = _read_array(group, root, f"{where}/{name}", (count, *shape), dtype)
+            data[name][first : first + count] = arrays[name]
+            done += 1
+            report(done / n_steps, f"loading {clip['name']} ({name})")
+        if checksum(arrays) != clip.get("checksum"):
+            raise ValueError(
+                f"db: {str(root / where)!r}: the arrays do not match the manifest's checksum "
+                "(a file was changed or damaged); rebuild the database"
+            )
+    report(1.0, f"{total} fragments loaded")
+    for arr in data.values():
+        arr.setflags(write=False)
+    return VideoDatabase(
+        path=root,
+        kind=str(manifest.get("kind", "")),
+        params=params,
+        codebook=codebook,
+        clips=clips,
+        manifest=manifest,
+        **data,
+    )
+
+
+def _read_array(group, root, name, shape, dtype):
+    try:
+        arr = group[name]
+    except Exception:
+        raise ValueError(f"db: {str(root / name)!r} is missing") from None
+    if tuple(arr.shape) != tuple(shape) or str(arr.dtype) != dtype:
+        raise ValueError(
+            f"db: {str(root / name)!r} has shape {tuple(arr.shape)} and dtype {arr.dtype}; "
+            f"the manifest expects {tuple(shape)} {dtype} (truncated or mismatched store)"
+        )
+    try:
+        return arr[...]
+    except Exception as exc:
+        raise ValueError(f"db: {_bad_chunk(arr, root / name)!r} cannot be read ({exc})") from None
+
+
+def _bad_chunk(arr, where):
+    """Name the first chunk file of ``arr`` that fails to read, else the array folder."""
+    chunks = arr.chunks
+    counts = [math.ceil(s / c) for s, c in zip(arr.shape, chunks)]
+    for index in np.ndindex(*counts):
+        sl = tuple(slice(i * c, (i + 1) * c) for i, c in zip(index, chunks))
+        try:
+            arr[sl]
+        except Exception:
+            return str(Path(where) / "c" / "/".join(str(i) for i in index))
+    return str(where)
+
+
+def _folder_size(path):
+    return sum(f.stat().st_size for f in Path(path).rglob("*") if f.is_file())
+
+
+def versions_used(augment):
+    """Indices into :data:`VERSIONS` that ``augment`` cuts fragments from."""
+    identity = VERSIONS.index((False, 1.0, 0.0))
+    if augment == "none":
+        return [identity]
+    if augment == "flip":
+        return [identity, VERSIONS.index((True, 1.0, 0.0))]
+    return list(range(len(VERSIONS)))
