@@ -8,10 +8,14 @@ the stride-24 grid gets:
   the threshold (seed Fig. 5-d); a fragment with no moving pixel is dropped;
 - its mean motion (over the window and its moving pixels) and the same mean per frame
   pair (the motion the render step warps the dynamic matte with);
-- the motion power spectra :math:`\hat M(x) = |\mathcal F(M(x))|^2` over time of each
-  flow component at every pixel (Eq. 2), one-sided, divided by :math:`n^2` (``n = N - 1``
-  flows) so that the DC bin is the squared mean motion in (px/frame)^2 whatever ``N``,
-  then averaged over 4 x 4-pixel blocks (12 x 12 per fragment);
+- the motion spectra :math:`\hat M(x)` over time of each flow component (Eq. 2),
+  per 4 x 4-pixel block (12 x 12 per fragment): bins ``f >= 1`` (the paper's
+  :math:`f = 2 \ldots N/2`) are the one-sided power spectrum
+  :math:`|\mathcal F(M(x))|^2 / n^2` (``n = N - 1`` flows; in (px/frame)^2 whatever
+  ``N``); bin 0, the DC term the paper calls the mean motion field, is the mean
+  motion itself, signed, in px/frame (our decision: its power, the mean squared,
+  would be the same for opposite flows, so neighbours moving left and right would
+  count as alike in Eq. (2));
 - its textureness :math:`T`: per frame a 4-level Laplacian pyramid, each band's
   magnitude brought back to full resolution and summed over the window's frames
   (seed Fig. 7), averaged over 2 x 2-pixel blocks (24 x 24 x 4 per fragment).
@@ -97,18 +101,23 @@ def motion_spectra(flow, n_bins):
     Returns
     -------
     ndarray, shape (n_bins, 2, H // 4, W // 4), float32
-        :math:`|\sum_t M_t e^{-2\pi i f t / n}|^2 / n^2` per component, of the motion
+        :math:`|\sum_t M_t e^{-2\pi i f t / n}|^2 / n^2` per component for ``f >= 1``,
+        and the signed mean :math:`\frac1n \sum_t M_t` for ``f = 0``, of the motion
         averaged over each block (the flow is smooth at that scale: the spectra of
         the block means are the spectra of the pixels at a sixteenth of the cost).
     """
-    still = np.zeros(flow.shape[1:3], bool)
-    return _power(_flow_blocks(flow, ~still), n_bins)
+    return _power(_flow_blocks(flow, np.ones(flow.shape[1:3], bool)), n_bins)
 
 
 def _power(blocks, n_bins):
     n = blocks.shape[0]
     spec = np.fft.rfft(blocks, axis=0)[:n_bins]
-    return ((spec.real**2 + spec.imag**2) / np.float32(n * n)).astype(np.float32)
+    out = ((spec.real**2 + spec.imag**2) / np.float32(n * n)).astype(np.float32)
+    # Bin 0 is the mean motion itself, signed (our decision): its power, the mean
+    # squared, is the same for a flow to the left and one to the right, so Eq. (2)'s
+    # DC term could not tell opposite neighbours apart.
+    out[0] = spec[0].real / np.float32(n)
+    return out
 
 
 def textureness(frames):

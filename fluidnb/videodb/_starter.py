@@ -28,7 +28,7 @@ __all__ = ["STARTER_KINDS", "starter_database", "starter_params", "starter_path"
 
 
 # Bump when the clips or the build change what a starter database holds.
-_VERSION = 1
+_VERSION = 2
 
 
 def _quick(quick):
