@@ -1,0 +1,226 @@
+"""Animating a target from a database (seed sections 5-6): assignment and rendering."""
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+from scipy import ndimage as ndi
+
+from fluidnb.videodb import (
+    AnimateParams,
+    DatabaseParams,
+    animate,
+    assign,
+    build_database,
+    cut_target,
+    render,
+)
+
+PARAMS = DatabaseParams(N=8, augment="flip", words=16, codebook_samples=5000)
+
+
+def texture(seed, shape, blur=1.5):
+    gen = np.random.default_rng(seed)
+    t = ndi.gaussian_filter(gen.random(shape), blur, mode="wrap")
+    return (t - t.min()) / (t.max() - t.min())
+
+
+def moving(seed, velocity, shape=(96, 120), frames=16, colour=(0.5, 0.7, 1.0)):
+    base = texture(seed, shape)
+    dy, dx = velocity
+    out = np.stack([np.roll(base, (t * dy, t * dx), axis=(0, 1)) for t in range(frames)])
+    return (out[..., None] * np.array(colour)).astype(np.float32)
+
+
+@pytest.fixture(scope="module")
+def db(tmp_path_factory):
+    # Horizontal motion (and, flipped, its opposite) and vertical motion, at two speeds.
+    clips = [
+        ("right", moving(1, (0, 1))),
+        ("right-fast", moving(2, (0, 2))),
+        ("down", moving(3, (1, 0))),
+        ("up-fast", moving(4, (-2, 0))),
+    ]
+    path = tmp_path_factory.mktemp("animate") / "db"
+    return build_database(clips, path, kind="water", params=PARAMS, seed=0)
+
+
+@pytest.fixture(scope="module")
+def photo():
+    img = np.stack([texture(9, (80, 110), blur=3.0)] * 3, axis=-1) * [0.4, 0.6, 0.9]
+    matte = np.zeros((80, 110), np.float32)
+    matte[10:70, 20:90] = 1.0
+    return img.astype(np.float32), ndi.gaussian_filter(matte, 1.0)
+
+
+FEW = AnimateParams(candidates=20)
+
+
+def test_target_is_cut_like_the_database(photo):
+    img, matte = photo
+    t = cut_target(img, matte)
+    assert t.canvas.shape == (96, 120, 3)  # padded to whole strides
+    np.testing.assert_array_equal(t.canvas[:80, :110], img)
+    assert t.active.shape == (3, 4)
+    # Every fragment touching the matte takes part, the others do not.
+    for (i, j), on in np.ndenumerate(t.active):
+        assert on == bool((t.canvas_matte[24 * i : 24 * i + 48, 24 * j : 24 * j + 48] > 0).any())
+    np.testing.assert_array_equal(t.fragments[0], t.canvas[:48, :48])
+
+
+def test_a_database_fragment_as_target_finds_itself(db):
+    # A stored mean image, as a target, ranks its own fragment first: I = 1 (Eq. 1).
+    ids = np.array([3, 17, 40])
+    words = db.describe(db.mean_images(ids))
+    top = db.index.top_k(words, 5)
+    np.testing.assert_array_equal(top.ids[:, 0], ids)
+    assert (top.scores[:, 0] == 324).all()
+
+
+def test_lambda_zero_takes_each_fragments_best_candidate(db, photo):
+    a = assign(*photo, db, FEW.replace(lam=0.0))
+    np.testing.assert_array_equal(a.labels, np.argmin(a.unary, axis=1))
+    assert (np.diff(a.unary, axis=1) >= 0).all()  # candidates ranked by V = 1 - I
+
+
+def test_assignment_energy_never_rises_and_beats_icm(db, photo):
+    a = assign(*photo, db, FEW)
+    assert (np.diff(a.energies) <= 1e-9).all()
+    assert a.solution.energy <= a.solution.icm_energy + 1e-9
+    assert len(a.target) == len(a.candidates) == len(a.fragments)
+
+
+def test_resolve_recombines_the_kept_tables(db, photo):
+    a = assign(*photo, db, FEW)
+    b = a.resolve(sigma=1e4, rho=0.0)
+    assert b.tables is a.tables  # nothing recomputed
+    assert b.params.sigma == 1e4
+    assert b.params.rho == 0.0
+    np.testing.assert_array_equal(b.candidates, a.candidates)
+    from fluidnb.videodb import energy
+
+    w = b.pairwise()
+    assert energy(b.labels, b.unary, w, b.edges, b.params.lam) == pytest.approx(b.solution.energy)
+
+
+@pytest.mark.parametrize(
+    ("stroke", "sign"), [([[40, 10], [40, 100]], 1), ([[40, 100], [40, 10]], -1)]
+)
+def test_a_drawn_direction_sets_the_assigned_motion(db, photo, stroke, sign):
+    a = assign(*photo, db, FEW, direction=[np.array(stroke, float)])
+    motion = db.mean_motion[a.fragments]
+    # Left to right: every assigned fragment moves right (dx > 0); reversed: left.
+    assert (np.sign(motion[:, 1]) == sign).all()
+    assert (np.abs(motion[:, 1]) > 3 * np.abs(motion[:, 0])).all()
+
+
+def test_a_painted_speed_picks_fast_or_slow_fragments(db, photo):
+    img, matte = photo
+    strict = FEW.replace(max_speed_ratio=1.4)  # 1 and 2 px/frame are a factor 2 apart
+    fast = assign(img, matte, db, strict, speed=np.full(matte.shape, 2.0, np.float32))
+    slow = assign(img, matte, db, strict, speed=np.full(matte.shape, 1.0, np.float32))
+    s_fast = np.linalg.norm(db.mean_motion[fast.fragments], axis=1)
+    s_slow = np.linalg.norm(db.mean_motion[slow.fragments], axis=1)
+    assert (s_fast > 1.4).all()
+    assert (s_slow < 1.4).all()
+
+
+@pytest.fixture(scope="module")
+def anim(db, photo):
+    return animate(*photo, db, FEW.replace(loop=2), seed=5)
+
+
+def test_the_clip_moves_inside_the_matte_and_nowhere_else(anim, photo):
+    img, matte = photo
+    frames = anim.clip.frames
+    assert frames.shape == (8 - 2, 80, 110, 3)
+    change = np.abs(frames - img[None]).max(axis=(0, 3))
+    assert (change[matte == 0] == 0).all()  # exactly the untouched image outside
+    inside = matte > 0.99
+    assert np.abs(np.diff(frames, axis=0)).mean(axis=(0, 3))[inside].mean() > 1e-3
+
+
+def test_the_clip_keeps_the_targets_appearance(anim, photo):
+    img, matte = photo
+    frames = anim.clip.frames
+    inside = matte > 0.99
+    for t in (0, len(frames) - 1):
+        for c in range(3):
+            # Per cell of the matching grid: the frame's histogram matches the photo's.
+            for r0 in range(10, 70, 24):
+                for c0 in range(20, 90, 24):
+                    sel = inside[r0 : r0 + 24, c0 : c0 + 24]
+                    a = np.sort(frames[t, r0 : r0 + 24, c0 : c0 + 24, c][sel])
+                    b = np.sort(img[r0 : r0 + 24, c0 : c0 + 24, c][sel])
+                    assert np.abs(a - b).mean() < 0.06  # 1-D Wasserstein distance
+
+
+def test_same_seed_same_clip(anim, db, photo):
+    again = animate(*photo, db, FEW.replace(loop=2), seed=5)
+    np.testing.assert_array_equal(again.clip.frames, anim.clip.frames)
+    assert again.clip.metadata["seed"] == 5
+    meta = anim.clip.metadata
+    assert meta["method"] == "videodb"
+    assert meta["params"] == FEW.replace(loop=2).to_dict()
+
+
+def test_the_lesson_pictures_are_there(anim, photo):
+    img, _ = photo
+    s = anim.stages
+    assert s["differences"].shape == (6, 80, 110)
+    assert s["mean"].shape == img.shape
+    assert s["matte"].shape == (6, 80, 110)
+    assert abs(float(s["differences"].mean())) < 0.05  # D_i = F_i - A: zero-mean
+
+
+def test_a_dynamic_matte_keeps_its_area(db, photo):
+    img, matte = photo
+    a = assign(img, matte, db, FEW)
+    result = render(a, FEW.replace(tau=0.8, loop=0))
+    areas = result.stages["matte"].sum(axis=(1, 2))
+    np.testing.assert_allclose(areas, matte.sum(), rtol=0.01)
+    assert not np.array_equal(result.stages["matte"][-1], matte)  # it moved
+    still = render(a, FEW.replace(tau=0.0, loop=0))
+    assert (still.stages["matte"] == matte).all()
+
+
+def test_an_rgba_cutout_uses_its_alpha(db):
+    rgba = np.zeros((60, 70, 4), np.float32)
+    gen = np.random.default_rng(1)
+    rgba[..., :3] = gen.random((60, 70, 3))  # junk colour under the transparency
+    rgba[10:50, 10:60, :3] = np.stack([texture(2, (40, 50))] * 3, axis=-1)
+    rgba[10:50, 10:60, 3] = 1.0
+    t = cut_target(rgba)
+    assert (t.matte == rgba[..., 3]).all()
+    assert (t.image[rgba[..., 3] == 0] == 0).all()  # premultiplied: no junk colour
+
+
+def test_bad_inputs_give_clear_errors(db, photo, tmp_path):
+    img, matte = photo
+    with pytest.raises(ValueError, match="matte is empty"):
+        assign(img, np.zeros_like(matte), db, FEW)
+    with pytest.raises(ValueError, match="matte must have the same height and width"):
+        assign(img, matte[:-1], db, FEW)
+    with pytest.raises(ValueError, match="at least 48 x 48"):
+        assign(img[:40], None, db, FEW)
+    with pytest.raises(ValueError, match="speed contains"):
+        assign(img, matte, db, FEW, speed=np.full(matte.shape, np.nan))
+    with pytest.raises(ValueError, match="direction contains"):
+        assign(img, matte, db, FEW, direction=np.full(img.shape[:2] + (2,), np.nan))
+    with pytest.raises(ValueError, match=r"candidates \(1000\) is larger than the database"):
+        assign(img, matte, db, AnimateParams(candidates=1000))
+    with pytest.raises(ValueError, match="db must be a VideoDatabase"):
+        assign(img, matte, "lava", FEW)
+    old = tmp_path / "old"
+    shutil.copytree(db.path, old)
+    manifest = json.loads((old / "manifest.json").read_text())
+    manifest["version"] = 0
+    (old / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(ValueError, match="format version 0"):
+        assign(img, matte, old, FEW)
+    with pytest.raises(ValueError, match="loop must be <= N/2"):
+        render(assign(img, matte, db, FEW), FEW.replace(loop=6))
+    # Nothing the caller passed was changed.
+    assert np.isfinite(img).all()
+    assert matte.max() > 0

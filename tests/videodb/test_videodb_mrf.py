@@ -1,0 +1,425 @@
+"""The assignment MRF (seed 000, section 5, Eq. 2-6): smoothness tables and solvers."""
+
+import numpy as np
+import pytest
+
+from fluidnb import Cancelled, CancelToken
+from fluidnb.videodb import _mrf as mrf
+from fluidnb.videodb._mrf import (
+    alpha_expansion,
+    brute_force,
+    energy,
+    grid_edges,
+    icm,
+    pair_tables,
+    reference_pair_tables,
+    solve,
+)
+
+# ------------------------------------------------------------------------ helpers
+
+
+def random_database(seed, n_fragments=24, n_bins=3, levels=4):
+    """Float16 spectra (F, NB, 2, 12, 12) and textureness (F, L, 24, 24) in RAM."""
+    gen = np.random.default_rng(seed)
+    spectra = (gen.random((n_fragments, n_bins, 2, 12, 12)) * 4).astype(np.float16)
+    texture = (gen.random((n_fragments, levels, 24, 24)) * 2).astype(np.float16)
+    return spectra, texture
+
+
+def with_near_duplicates(spectra, texture, seed=0):
+    """Fragments 0-4 whose overlaps (nearly) coincide, the case float32 gets wrong.
+
+    Cut from one canvas at the stride: 1 is 0's right neighbour and 3 its lower one
+    (their overlaps equal exactly); 2 and 4 are 1 and 3 moved by one float16 step
+    in a few places (near-duplicate overlaps).
+    """
+    gen = np.random.default_rng(seed)
+    spectra, texture = spectra.copy(), texture.copy()
+    for arr, side in ((spectra, 12), (texture, 24)):
+        h = side // 2
+        canvas = (gen.random((*arr.shape[1:-2], side + h, side + h)) * 4).astype(arr.dtype)
+        arr[0] = canvas[..., :side, :side]
+        arr[1] = canvas[..., :side, h:]
+        arr[3] = canvas[..., h:, :side]
+        for near, exact in ((2, 1), (4, 3)):
+            arr[near] = arr[exact]
+            flat = arr[near].reshape(-1)
+            flat[::37] = np.nextafter(flat[::37], np.float16(np.inf))
+    return spectra, texture
+
+
+def random_problem(gen, shape, k, *, metric=None):
+    """A random MRF on a grid: uniform unary, per-edge tables (random or metric)."""
+    _, edges, _ = grid_edges(np.ones(shape, bool))
+    unary = gen.random((shape[0] * shape[1], k))
+    a, b = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")
+    weights = gen.random(len(edges))[:, None, None]
+    if metric == "potts":
+        pairwise = weights * (a != b)
+    elif metric == "truncated":  # min(|a - b|, 2): a metric on the label indices
+        pairwise = weights * np.minimum(np.abs(a - b), 2)
+    else:
+        pairwise = gen.random((len(edges), k, k))
+    return unary, pairwise, edges
+
+
+# -------------------------------------------------------------------------- grid
+
+
+def test_grid_edges_known_answer_with_a_hole():
+    active = np.array([[1, 1, 1], [1, 0, 1], [1, 1, 1]], bool)
+    nodes, edges, horizontal = grid_edges(active)
+    assert nodes.tolist() == [[0, 0], [0, 1], [0, 2], [1, 0], [1, 2], [2, 0], [2, 1], [2, 2]]
+    assert edges.tolist() == [[0, 1], [0, 3], [1, 2], [2, 4], [3, 5], [4, 7], [5, 6], [6, 7]]
+    assert horizontal.tolist() == [True, False, True, False, False, False, True, True]
+
+
+def test_grid_edges_full_grid_geometry():
+    nodes, edges, horizontal = grid_edges(np.ones((14, 26), bool))
+    assert len(nodes) == 364
+    assert len(edges) == 688  # 14 * 25 + 13 * 26
+    step = nodes[edges[:, 1]] - nodes[edges[:, 0]]
+    assert np.array_equal(step[horizontal], np.tile([0, 1], (horizontal.sum(), 1)))
+    assert np.array_equal(step[~horizontal], np.tile([1, 0], ((~horizontal).sum(), 1)))
+    assert np.array_equal(nodes, np.argwhere(np.ones((14, 26), bool)))
+
+
+# ------------------------------------------------------------------- pair tables
+
+
+def tables_setup(seed=0, k=7):
+    spectra, texture = with_near_duplicates(*random_database(seed))
+    active = np.array([[1, 1, 1], [1, 0, 1]], bool)
+    nodes, edges, horizontal = grid_edges(active)
+    gen = np.random.default_rng(seed + 1)
+    candidates = np.stack([gen.choice(np.arange(5, len(spectra)), k) for _ in nodes])
+    # Exact and near-duplicate overlaps across every edge (labels 0 of p and 1-4 of q).
+    candidates[:, :5] = [0, 1, 2, 3, 4]
+    return candidates, edges, horizontal, spectra, texture
+
+
+def test_bulk_tables_equal_the_pair_by_pair_definition():
+    candidates, edges, horizontal, spectra, texture = tables_setup()
+    assert horizontal.any()
+    assert (~horizontal).any()
+    fast = pair_tables(candidates, edges, horizontal, spectra, texture)
+    slow = reference_pair_tables(candidates, edges, horizontal, spectra, texture)
+    for name in ("dc", "rest", "tex"):
+        np.testing.assert_allclose(getattr(fast, name), getattr(slow, name), rtol=1e-9, atol=0)
+        table = getattr(slow, name)
+        assert np.all(table[horizontal, 0, 1] == 0)
+        assert np.all(table[~horizontal, 0, 3] == 0)
+        assert np.all(table[horizontal, 0, 2] > 0)
+        assert np.all(table[~horizontal, 0, 4] > 0)
+    # The near-duplicates were refined directly rather than left to cancellation.
+    assert fast.recomputed >= 4 * len(edges)
+    assert np.array_equal(fast.edges, edges)
+    assert np.array_equal(fast.horizontal, horizontal)
+
+
+def test_bulk_tables_do_not_depend_on_batches_or_threads(monkeypatch):
+    candidates, edges, horizontal, spectra, texture = tables_setup()
+    whole = pair_tables(candidates, edges, horizontal, spectra, texture)
+    # One edge per batch, two worker threads.
+    monkeypatch.setattr(mrf, "_BATCH_BYTES", 1)
+    monkeypatch.setattr(mrf, "_workers", lambda: 2)
+    split = pair_tables(candidates, edges, horizontal, spectra, texture)
+    for name in ("dc", "rest", "tex"):
+        assert np.array_equal(getattr(whole, name), getattr(split, name))
+    assert split.recomputed == whole.recomputed
+
+
+def test_near_duplicates_defeat_float32_so_the_check_is_real():
+    # Norms minus product in float32 misses the near-duplicate entries badly (the
+    # notes measured 300 %); the float64 tables above match to 1e-9.
+    _, _, _, spectra, _ = tables_setup()
+    a = spectra[0, 1:, :, :, 6:].astype(np.float32).ravel()  # right half of 0
+    b = spectra[2, 1:, :, :, :6].astype(np.float32).ravel()  # left half of 2
+    exact = np.sum((a.astype(np.float64) - b.astype(np.float64)) ** 2)
+    approx32 = np.float32(a @ a) + np.float32(b @ b) - np.float32(2) * np.float32(a @ b)
+    assert exact > 0
+    assert abs(float(approx32) - exact) / exact > 0.5
+
+
+def test_fragments_cut_from_one_canvas_join_at_zero_cost():
+    # Fragments cut at the stride from one canvas share their overlap exactly, so
+    # every table is 0 for that pair (and not for the wrong orientation).
+    gen = np.random.default_rng(3)
+    canvas_m = gen.random((3, 2, 18, 18)).astype(np.float16)  # spectra blocks, 1.5 fragments
+    canvas_t = gen.random((4, 36, 36)).astype(np.float16)  # textureness blocks
+    spectra = np.stack([canvas_m[..., :12, :12], canvas_m[..., :12, 6:], canvas_m[..., 6:, :12]])
+    texture = np.stack([canvas_t[..., :24, :24], canvas_t[..., :24, 12:], canvas_t[..., 12:, :24]])
+    candidates = np.array([[0], [1], [2]])
+    edges = np.array([[0, 1], [0, 2], [0, 2]])
+    horizontal = np.array([True, False, True])
+    tables = pair_tables(candidates, edges, horizontal, spectra, texture)
+    for table in (tables.dc, tables.rest, tables.tex):
+        assert table[0, 0, 0] == 0.0
+        assert table[1, 0, 0] == 0.0
+        assert table[2, 0, 0] > 0.0
+
+
+def test_smoothness_recombines_the_three_tables():
+    candidates, edges, horizontal, spectra, texture = tables_setup(k=5)
+    tables = pair_tables(candidates, edges, horizontal, spectra, texture)
+    w = tables.smoothness(100.0, 1e4)
+    np.testing.assert_allclose(w, tables.dc + 100.0 * tables.rest + 1e4 * tables.tex, rtol=1e-15)
+    assert np.array_equal(tables.smoothness(0, 0), tables.dc)
+    assert tables.dc.shape == (len(edges), 5, 5)
+    for table in (tables.dc, tables.rest, tables.tex):
+        assert np.all(table >= 0)
+    with pytest.raises(ValueError, match="sigma must be >= 0"):
+        tables.smoothness(-1.0, 1.0)
+    with pytest.raises(ValueError, match="read-only"):
+        tables.dc[0, 0, 0] = 1.0
+
+
+def test_pair_tables_without_edges_and_with_dc_only():
+    spectra, texture = random_database(0, n_bins=1)
+    empty = pair_tables([[0, 1]], np.zeros((0, 2), int), np.zeros(0, bool), spectra, texture)
+    assert empty.dc.shape == (0, 2, 2)
+    tables = pair_tables([[0, 1], [2, 3]], [[0, 1]], [True], spectra, texture)
+    assert np.array_equal(tables.rest, np.zeros((1, 2, 2)))  # one bin: DC only
+    assert np.all(tables.dc > 0)
+
+
+def test_pair_tables_reports_progress_and_can_be_cancelled():
+    candidates, edges, horizontal, spectra, texture = tables_setup(k=5)
+    seen = []
+    pair_tables(
+        candidates, edges, horizontal, spectra, texture, progress=lambda f, m: seen.append(f)
+    )
+    assert seen[-1] == 1.0
+    assert seen == sorted(seen)
+    token = CancelToken()
+    token.cancel()
+    with pytest.raises(Cancelled):
+        pair_tables(candidates, edges, horizontal, spectra, texture, progress=token)
+
+
+def test_pair_tables_bad_inputs():
+    candidates, edges, horizontal, spectra, texture = tables_setup(k=5)
+    with pytest.raises(ValueError, match="candidates must be fragment ids"):
+        pair_tables(candidates + 100, edges, horizontal, spectra, texture)
+    with pytest.raises(ValueError, match="spectra must have shape"):
+        pair_tables(candidates, edges, horizontal, spectra[..., :6], texture)
+    with pytest.raises(ValueError, match="horizontal must have shape"):
+        pair_tables(candidates, edges, horizontal[:-1], spectra, texture)
+    with pytest.raises(ValueError, match="edges must hold node indices"):
+        pair_tables(candidates, edges + 10, horizontal, spectra, texture)
+    bad = spectra.copy()
+    bad[candidates[0, 0], 1, 0, 0, -1] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        pair_tables(candidates, edges, horizontal, bad, texture)
+    assert np.isnan(bad[candidates[0, 0], 1, 0, 0, -1])  # input untouched
+
+
+# ------------------------------------------------------------------------ energy
+
+
+def test_energy_is_eq4_written_out():
+    gen = np.random.default_rng(5)
+    unary, pairwise, edges = random_problem(gen, (2, 3), 4)
+    labels = gen.integers(0, 4, 6)
+    expected = sum(unary[p, labels[p]] for p in range(6)) + 0.7 * sum(
+        pairwise[e, labels[p], labels[q]] for e, (p, q) in enumerate(edges)
+    )
+    assert energy(labels, unary, pairwise, edges, 0.7) == pytest.approx(expected, rel=1e-14)
+
+
+# ----------------------------------------------------------------------- solvers
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_expansion_never_raises_the_energy(seed):
+    gen = np.random.default_rng(seed)
+    unary, pairwise, edges = random_problem(gen, (5, 6), 8)
+    init = gen.integers(0, 8, 30)
+    run = alpha_expansion(unary, pairwise, edges, 1.5, init=init)
+    assert np.all(np.diff(run.energies) <= 0)
+    assert run.energies[0] == energy(init, unary, pairwise, edges, 1.5)
+    assert run.energy == energy(run.labels, unary, pairwise, edges, 1.5)
+    assert run.energy < run.energies[0]
+    assert 0.1 < run.nonsubmodular < 0.7  # random tables: many truncated terms
+
+
+def submodular_two_label(gen, shape):
+    unary, pairwise, edges = random_problem(gen, shape, 2)
+    deficit = pairwise[:, 0, 0] + pairwise[:, 1, 1] - pairwise[:, 0, 1] - pairwise[:, 1, 0]
+    pairwise[:, 0, 1] += np.maximum(deficit, 0) + 0.1 * gen.random(len(edges))
+    return unary, pairwise, edges
+
+
+def test_two_label_submodular_expansion_equals_brute_force_from_any_start():
+    # With two labels the alpha = 0 move is exact over the labellings below the start
+    # and the alpha = 1 move exact over those above its result; by submodularity the
+    # latter set holds a global minimiser, so one sweep reaches the optimum.
+    gen = np.random.default_rng(7)
+    for _ in range(40):
+        unary, pairwise, edges = submodular_two_label(gen, (3, 3))
+        init = gen.integers(0, 2, 9)
+        run = alpha_expansion(unary, pairwise, edges, 2.0, init=init)
+        labels, best = brute_force(unary, pairwise, edges, 2.0)
+        assert run.nonsubmodular == 0.0
+        assert np.array_equal(run.labels, labels)
+        assert run.energy == best
+
+
+def optimum_statistics(metric, lam, n=100, seed=11):
+    """Fraction of tiny 3 x 2, 4-label problems solved optimally, and the gaps."""
+    gen = np.random.default_rng(seed)
+    hits = {"expansion": 0, "solve": 0, "icm": 0}
+    gaps = {"expansion": [], "solve": []}
+    ratios = []
+    for _ in range(n):
+        unary, pairwise, edges = random_problem(gen, (3, 2), 4, metric=metric)
+        _, best = brute_force(unary, pairwise, edges, lam)
+        runs = {
+            "expansion": alpha_expansion(unary, pairwise, edges, lam).energy,
+            "solve": solve(unary, pairwise, edges, lam).energy,
+            "icm": icm(unary, pairwise, edges, lam).energy,
+        }
+        assert min(runs.values()) >= best - 1e-12
+        for name, value in runs.items():
+            hits[name] += value <= best + 1e-12 * best
+        for name in gaps:
+            gaps[name].append((runs[name] - best) / best)
+        ratios.append(runs["expansion"] / best)
+    fractions = {name: h / n for name, h in hits.items()}
+    mean_gaps = {name: float(np.mean(g)) for name, g in gaps.items()}
+    print(f"\n{metric or 'non-metric'} lam={lam}: optimal {fractions}, mean gap {mean_gaps}")
+    return fractions, mean_gaps, max(ratios)
+
+
+@pytest.mark.parametrize(("metric", "bound"), [("potts", 2.0), ("truncated", 4.0)])
+def test_metric_problems_nearly_always_optimal_and_within_the_bound(metric, bound):
+    # Expansion on a metric is exact per move (no truncation) and reaches a local
+    # minimum within 2c of the optimum (Boykov et al. 2001; c = 1 for Potts, 2 for
+    # min(|a - b|, 2)); it is not exact in general, but on these tiny problems it
+    # misses the optimum rarely (measured: 98 % for both from the argmin, 100 % with
+    # solve()'s two starts; ICM 27-30 %).
+    fractions, gaps, worst = optimum_statistics(metric, 1.0)
+    assert worst <= bound
+    assert fractions["expansion"] >= 0.95
+    assert fractions["solve"] >= fractions["expansion"]
+    assert fractions["icm"] < 0.5  # the baseline is far weaker
+    assert gaps["expansion"] < 0.005
+
+
+def test_non_metric_problems_gap_to_brute_force_is_reported():
+    # Per-node candidate labels make W non-metric; the truncated moves are a
+    # heuristic. Measured on these 100 problems (3 x 2 nodes, 4 labels, uniform
+    # tables, lam = 1): expansion from the argmin optimal in 56 %, solve() (two
+    # starts) in 73 %, ICM in 50 %; mean relative gaps 4.6 % and 1.6 %. (The
+    # research notes measured 31 % on their own random problems.) Deterministic:
+    # the tolerances only absorb round-off deciding a near-tie.
+    fractions, gaps, _ = optimum_statistics(None, 1.0)
+    assert fractions["expansion"] == pytest.approx(0.56, abs=0.02)
+    assert fractions["solve"] == pytest.approx(0.73, abs=0.02)
+    assert fractions["icm"] == pytest.approx(0.50, abs=0.02)
+    assert gaps["expansion"] == pytest.approx(0.046, abs=0.005)
+    assert gaps["solve"] == pytest.approx(0.016, abs=0.005)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_solve_never_worse_than_icm(seed):
+    gen = np.random.default_rng(100 + seed)
+    unary, pairwise, edges = random_problem(gen, (6, 7), 10)
+    result = solve(unary, pairwise, edges, 1.0)
+    baseline = icm(unary, pairwise, edges, 1.0)
+    assert result.icm_energy == baseline.energy
+    assert result.energy <= result.icm_energy
+    assert result.energy == energy(result.labels, unary, pairwise, edges, 1.0)
+    assert np.all(np.diff(result.energies) <= 0)
+    assert np.all(np.diff(baseline.energies) <= 0)
+    assert result.start in ("argmin", "icm")
+    assert set(result.timings) == {"icm", "expansion_argmin", "expansion_icm"}
+
+
+def test_icm_ends_in_a_single_node_local_minimum():
+    gen = np.random.default_rng(9)
+    unary, pairwise, edges = random_problem(gen, (4, 4), 5)
+    run = icm(unary, pairwise, edges, 1.0)
+    for p in range(16):
+        for label in range(5):
+            changed = run.labels.copy()
+            changed[p] = label
+            assert energy(changed, unary, pairwise, edges, 1.0) >= run.energy - 1e-12
+
+
+def test_lam_zero_gives_the_unary_argmin():
+    gen = np.random.default_rng(4)
+    unary, pairwise, edges = random_problem(gen, (4, 5), 6)
+    argmin = np.argmin(unary, axis=1)
+    assert np.array_equal(alpha_expansion(unary, pairwise, edges, 0.0).labels, argmin)
+    start = gen.integers(0, 6, 20)
+    assert np.array_equal(alpha_expansion(unary, pairwise, edges, 0, init=start).labels, argmin)
+    assert np.array_equal(icm(unary, pairwise, edges, 0.0, init=start).labels, argmin)
+    assert np.array_equal(solve(unary, pairwise, edges, 0.0).labels, argmin)
+
+
+def test_single_node_without_edges():
+    unary = np.array([[0.3, 0.1, 0.2]])
+    pairwise = np.zeros((0, 3, 3))
+    edges = np.zeros((0, 2), int)
+    result = solve(unary, pairwise, edges, 1.0)
+    assert result.labels.tolist() == [1]
+    assert result.energy == 0.1
+
+
+def test_solvers_leave_their_inputs_untouched():
+    gen = np.random.default_rng(2)
+    unary, pairwise, edges = random_problem(gen, (3, 3), 4)
+    init = gen.integers(0, 4, 9)
+    copies = [a.copy() for a in (unary, pairwise, edges, init)]
+    alpha_expansion(unary, pairwise, edges, 1.0, init=init)
+    icm(unary, pairwise, edges, 1.0, init=init)
+    for before, after in zip(copies, (unary, pairwise, edges, init)):
+        assert np.array_equal(before, after)
+
+
+def test_solve_reports_progress_and_can_be_cancelled():
+    gen = np.random.default_rng(6)
+    unary, pairwise, edges = random_problem(gen, (3, 4), 5)
+    seen = []
+    solve(unary, pairwise, edges, 1.0, progress=lambda f, m: seen.append((f, m)))
+    assert any("ICM" in m for _, m in seen)
+    assert any("expansion" in m for _, m in seen)
+    assert all(0.0 <= f <= 1.0 for f, _ in seen)
+    token = CancelToken()
+    token.cancel()
+    with pytest.raises(Cancelled):
+        alpha_expansion(unary, pairwise, edges, 1.0, progress=token)
+
+
+def test_brute_force_refuses_big_problems():
+    gen = np.random.default_rng(0)
+    unary, pairwise, edges = random_problem(gen, (4, 4), 10)
+    with pytest.raises(ValueError, match=r"K\*\*P = 10\*\*16"):
+        brute_force(unary, pairwise, edges, 1.0)
+
+
+def test_solvers_refuse_bad_inputs():
+    gen = np.random.default_rng(1)
+    unary, pairwise, edges = random_problem(gen, (2, 3), 4)
+    with pytest.raises(ValueError, match="pairwise must have shape"):
+        solve(unary, pairwise[:, :3, :3], edges, 1.0)
+    with pytest.raises(ValueError, match="pairwise must have shape"):
+        alpha_expansion(unary, pairwise[:-1], edges, 1.0)
+    nan_unary = unary.copy()
+    nan_unary[0, 0] = np.nan
+    with pytest.raises(ValueError, match="unary contains 1 NaN"):
+        alpha_expansion(nan_unary, pairwise, edges, 1.0)
+    with pytest.raises(ValueError, match="lam must be >= 0"):
+        icm(unary, pairwise, edges, -0.1)
+    with pytest.raises(ValueError, match="edges must hold node indices"):
+        energy(np.zeros(6, int), unary, pairwise, edges + 6, 1.0)
+    with pytest.raises(ValueError, match="edges must join two different nodes"):
+        energy(np.zeros(6, int), unary, pairwise, np.zeros_like(edges), 1.0)
+    with pytest.raises(ValueError, match=r"init must be label indices in \[0, 3\]"):
+        alpha_expansion(unary, pairwise, edges, 1.0, init=np.full(6, 4))
+    with pytest.raises(ValueError, match="labels must have shape"):
+        energy(np.zeros(5, int), unary, pairwise, edges, 1.0)
+    with pytest.raises(ValueError, match="max_sweeps must be an integer >= 1"):
+        solve(unary, pairwise, edges, 1.0, max_sweeps=0)
