@@ -2,16 +2,19 @@
 
 from ._direction import direction_field, resample_stroke, stroke_tangents
 from ._draw import arrow_heads, quiver_segments, scalar_to_rgba
+from ._files import load_strokes, save_strokes
 from ._paint import flood_fill, paint_disk, paint_segment
 
 __all__ = [
     "arrow_heads",
     "direction_field",
     "flood_fill",
+    "load_strokes",
     "paint_disk",
     "paint_segment",
     "quiver_segments",
     "resample_stroke",
+    "save_strokes",
     "scalar_to_rgba",
     "stroke_tangents",
 ]

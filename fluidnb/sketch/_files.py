@@ -1,0 +1,113 @@
+"""Flow strokes on disk: a small JSON file the app saves and the command line reads.
+
+Format (``fluidnb.strokes``, version 1)::
+
+    {
+        "format": "fluidnb.strokes",
+        "version": 1,
+        "shape": [H, W],
+        "strokes": [[[row, col], [row, col], ...], ...],
+    }
+
+Coordinates are (row, col) pixels of the image (docs/conventions.md), each stroke
+drawn along the flow; ``shape`` is the image's size, so strokes drawn on one image
+are not silently applied to another of a different size.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .._validation import check_array, check_int
+
+__all__ = ["load_strokes", "save_strokes"]
+
+_FORMAT = "fluidnb.strokes"
+_VERSION = 1
+
+
+def save_strokes(path, strokes, shape):
+    """Write strokes and the image size they belong to as JSON; returns the path.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ``.json`` file.
+    strokes : sequence of array_like, each shape (n_i, 2)
+        Polylines in (row, col) pixels.
+    shape : tuple of int
+        The image's (H, W).
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> p = os.path.join(tempfile.mkdtemp(), "s.json")
+    >>> _ = save_strokes(p, [[[10, 2], [10, 30]]], (20, 32))
+    >>> strokes, shape = load_strokes(p)
+    >>> strokes[0].tolist(), shape
+    ([[10.0, 2.0], [10.0, 30.0]], (20, 32))
+    """
+    h = check_int("shape[0]", shape[0], 1)
+    w = check_int("shape[1]", shape[1], 1)
+    out = []
+    for i, s in enumerate(strokes):
+        arr = check_array(f"strokes[{i}]", s, ndim=2, dtype_kinds="iuf")
+        if arr.shape[1] != 2:
+            raise ValueError(f"strokes[{i}] must have shape (n, 2) as (row, col), got {arr.shape}")
+        out.append([[float(r), float(c)] for r, c in arr])
+    data = {"format": _FORMAT, "version": _VERSION, "shape": [h, w], "strokes": out}
+    path = Path(os.fspath(path))
+    path.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+    return path
+
+
+def load_strokes(path, shape=None):
+    """Read strokes written by :func:`save_strokes` (or the app).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The ``.json`` file.
+    shape : tuple of int, optional
+        The image's (H, W); if given, it must match the size the strokes were drawn on.
+
+    Returns
+    -------
+    strokes : list of ndarray, each shape (n_i, 2), float64
+    shape : tuple of int
+        The (H, W) the strokes belong to.
+
+    Raises
+    ------
+    ValueError
+        For a missing or unreadable file, another format, or a size mismatch.
+    """
+    path = Path(os.fspath(path))
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ValueError(f"strokes: no such file {str(path)!r}") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"strokes: cannot read {str(path)!r} as JSON ({exc})") from None
+    if not isinstance(data, dict) or data.get("format") != _FORMAT:
+        raise ValueError(f"strokes: {str(path)!r} is not a fluidnb strokes file")
+    if data.get("version") != _VERSION:
+        raise ValueError(
+            f"strokes: {str(path)!r} has version {data.get('version')!r}; this fluidnb reads "
+            f"version {_VERSION}"
+        )
+    try:
+        size = (int(data["shape"][0]), int(data["shape"][1]))
+        strokes = [np.asarray(s, dtype=np.float64).reshape(-1, 2) for s in data["strokes"]]
+    except (KeyError, TypeError, ValueError, IndexError) as exc:
+        raise ValueError(f"strokes: {str(path)!r} is damaged ({exc})") from None
+    if shape is not None and tuple(shape)[:2] != size:
+        raise ValueError(
+            f"strokes in {str(path)!r} were drawn on a {size[0]} x {size[1]} image; this "
+            f"image is {shape[0]} x {shape[1]}"
+        )
+    return strokes, size
