@@ -28,5 +28,5 @@ def test_bad_strokes_files_are_refused(tmp_path):
     p = save_strokes(tmp_path / "s.json", [[[0, 0], [1, 1]]], (20, 30))
     with pytest.raises(ValueError, match="drawn on a 20 x 30 image"):
         load_strokes(p, (30, 20))
-    with pytest.raises(ValueError, match=r"strokes\[0\] must have shape"):
+    with pytest.raises(ValueError, match=r"strokes\[0\] must have 2 dimensions"):
         save_strokes(tmp_path / "t.json", [[0, 1, 2]], (5, 5))
