@@ -21,6 +21,7 @@ _COMMAND_MODULES = [
     "fluidnb.cli._fire",
     "fluidnb.cli._turbulence",
     "fluidnb.cli._videodb",
+    "fluidnb.cli._animate",
 ]
 
 
