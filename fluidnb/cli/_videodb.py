@@ -47,7 +47,11 @@ def register(sub):
         default=None,
         help="build (or find in the cache) a starter database instead",
     )
-    b.add_argument("--quick", action="store_true", help="the small starter databases")
+    b.add_argument(
+        "--quick",
+        action="store_true",
+        help="the small starter databases (also when FLUIDNB_QUICK is set)",
+    )
     b.add_argument("--rebuild", action="store_true", help="rebuild a cached starter database")
     b.add_argument("--resume", action="store_true", help="continue an interrupted build in OUT")
     b.add_argument("--seed", type=int, default=0, help="seed of the codebook (default 0)")
@@ -111,7 +115,7 @@ def _build(args):
         kinds = _STARTERS if args.starter == "all" else (args.starter,)
         for kind in kinds:
             db = starter_database(
-                kind, quick=args.quick, rebuild=args.rebuild, progress=TextProgress()
+                kind, quick=args.quick or None, rebuild=args.rebuild, progress=TextProgress()
             )
             print(f"{kind}: {db.n_fragments} fragments from {len(db.clips)} clips in {db.path}")
         return 0
@@ -166,7 +170,7 @@ def _info(args):
 
     path = args.db
     if args.db in _STARTERS:
-        path = starter_path(args.db, quick=args.quick)
+        path = starter_path(args.db, quick=args.quick or None)
         if not path.exists():
             quick = " --quick" if args.quick else ""
             raise ValueError(
