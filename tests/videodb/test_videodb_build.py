@@ -309,6 +309,27 @@ def test_read_video_reads_files_folders_and_clips(tmp_path):
         assert v.frames.shape == (6, 50, 60, 3)
         assert v.frames.dtype == np.uint8
     assert read_video(tmp_path / "c.gif").fps == pytest.approx(12, rel=0.1)
+    webm = _encode_webm(tmp_path / "c.webm", clip)
+    v = read_video(webm)
+    assert v.frames.shape == (6, 50, 60, 3)
+    assert v.sha256.startswith("sha256:")
+    # A large video is scaled by ffmpeg on the way in.
+    assert read_video(webm, max_side=30).frames.shape == (6, 25, 30, 3)
     big = read_video(moving_texture(4, shape=(100, 200), frames=2), max_side=100)
     assert big.frames.shape == (2, 50, 100, 3)
     assert big.scaled == 0.5
+
+
+def _encode_webm(path, clip):
+    """A WebM (VP9) file, as a user's browser recording would be."""
+    import subprocess
+
+    import imageio_ffmpeg
+
+    frames = clip.to_uint8()
+    h, w = frames.shape[1:3]
+    cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-loglevel", "error", "-y"]
+    cmd += ["-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{w}x{h}", "-r", "12", "-i", "pipe:0"]
+    cmd += ["-c:v", "libvpx-vp9", "-pix_fmt", "yuv420p", str(path)]
+    subprocess.run(cmd, input=frames.tobytes(), check=True, capture_output=True)
+    return path
