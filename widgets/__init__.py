@@ -4,7 +4,8 @@ Reusable pieces every method's app is made of: :class:`DrawingCanvas` (strokes, 
 points over an image), :class:`FramePlayer` (play and export a clip),
 :class:`ParamPanel` (sliders from a parameter dataclass) and :class:`App` (all of them
 with a run button, progress, cancel and a live preview), and one app per method
-(:class:`FlickerApp`, :class:`FrostApp`, :class:`FireApp`, :class:`TurbulenceApp`).
+(:class:`FlickerApp`, :class:`FrostApp`, :class:`FireApp`, :class:`TurbulenceApp`,
+:class:`VideoDBApp`).
 No algorithm lives here: everything calls :mod:`fluidnb`.
 """
 
@@ -16,6 +17,7 @@ from ._frost import FrostApp
 from ._panel import ParamPanel
 from ._player import FramePlayer
 from ._turbulence import TurbulenceApp
+from ._videodb import VideoDBApp
 
 __all__ = [
     "App",
@@ -26,4 +28,5 @@ __all__ = [
     "FrostApp",
     "ParamPanel",
     "TurbulenceApp",
+    "VideoDBApp",
 ]

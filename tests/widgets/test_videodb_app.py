@@ -1,0 +1,418 @@
+"""The video-database app driven from Python, with the same calls the front end makes.
+
+The database is the quick water starter (two small clips, ~150 fragments; built once
+per test session in the private cache, seconds), the photo the stream shrunk to 160
+pixels: a run takes about a second.
+"""
+
+import datetime as dt
+import io
+import json
+import threading
+
+import ipywidgets as W
+import numpy as np
+import pytest
+from PIL import Image
+
+from fluidnb import data
+from fluidnb.sketch import save_strokes
+from fluidnb.videodb import AnimateParams, starter_database
+from fluidnb.widgets import VideoDBApp
+from fluidnb.widgets import _videodb as module
+from tests.support.frontend import canvas_event, client_ready, mouse_drag
+
+ROW = 62  # a band across the stream photo at 160 px (125 x 160)
+STROKE = [[ROW, 15], [ROW, 80], [ROW, 145]]
+
+
+@pytest.fixture(scope="module")
+def db():
+    return starter_database("water", quick=True)
+
+
+@pytest.fixture
+def app(db):
+    a = VideoDBApp("stream", size=160, db=db)
+    a.panel.set("candidates", 30)
+    a.resolve_interval = 0.0
+    yield a
+    a.close()
+
+
+def drag_on(app, points, tool, layer):
+    """Select a tool and drag through image (row, col) points as the browser would."""
+    app.select(tool, layer)
+    mouse_drag(app.canvas, [app.canvas.to_canvas(*p) for p in points])
+
+
+def draw_scene(app):
+    """Matte band, a left-to-right stroke and a speed patch, all through mouse events."""
+    app.canvas.brush_radius = 22
+    drag_on(app, [[ROW, 10], [ROW, 150]], "brush", "matte")
+    drag_on(app, STROKE, "stroke", "flow")
+    app._speed.value = 2.5
+    app.canvas.brush_radius = 8
+    drag_on(app, [[ROW, 60], [ROW, 100]], "brush", "speed")
+
+
+def test_the_panel_has_the_papers_sliders_with_symbols_and_equations(app):
+    controls = app.panel.controls
+    assert set(controls) == {"sigma", "lam", "rho", "candidates", "shutter", "tau", "loop"}
+    defaults = AnimateParams()
+    assert (defaults.sigma, defaults.lam, defaults.rho) == (100.0, 0.01, 1e4)
+    for name, eq in (("sigma", "Eq. (2)"), ("lam", "Eq. (4)"), ("rho", "Eq. (6)")):
+        control = controls[name]
+        assert type(control).__name__ == "FloatLogSlider"
+        assert control.value == getattr(defaults, name)
+        assert eq in control.tooltip
+        assert "\\" in control.description  # the paper's symbol, in LaTeX
+    # N belongs to the database: shown beside the panel, not a slider.
+    assert "N = <b>32</b>" in app._n_label.value
+
+
+def test_matte_brush_and_eraser_from_mouse_events(app):
+    assert app.canvas.tool == "brush"
+    assert app.canvas.layer == "matte"
+    app.canvas.brush_radius = 10
+    mouse_drag(app.canvas, [app.canvas.to_canvas(ROW, c) for c in (20, 80, 140)])
+    matte = app.matte()
+    assert matte.dtype == np.float32
+    assert set(np.unique(matte)) == {0.0, 1.0}
+    assert matte[ROW, 20:141].all()
+    assert not matte[ROW + 15 :].any()
+    drag_on(app, [[ROW, 80]], "eraser", "matte")
+    assert not app.matte()[ROW, 80]
+    assert app.matte()[ROW, 30]
+    app.canvas.undo("matte")
+    assert app.matte()[ROW, 80]
+
+
+def test_stroke_shows_its_arrow_while_dragging_and_the_quiver_follows(app, monkeypatch):
+    app.canvas.brush_radius = 22
+    drag_on(app, [[ROW, 10], [ROW, 150]], "brush", "matte")
+    assert app.quiver_segments == 0
+    heads = []
+    real = module.arrow_heads
+    monkeypatch.setattr(module, "arrow_heads", lambda *a, **k: heads.append(a) or real(*a, **k))
+    app.select("stroke", "flow")
+    c = app.canvas
+    canvas_event(c, "mouse_down", *c.to_canvas(ROW, 15))
+    canvas_event(c, "mouse_move", *c.to_canvas(ROW, 50))
+    canvas_event(c, "mouse_move", *c.to_canvas(ROW, 90))
+    # Before the release: the live stroke is drawn with an arrow head at its end.
+    assert heads, "no arrow head drawn on the stroke in progress"
+    x, y = c.to_canvas(ROW, 90)
+    np.testing.assert_allclose(heads[-1][0][-1], [x, y])
+    canvas_event(c, "mouse_up", *c.to_canvas(ROW, 145))
+    assert len(app.strokes()) == 1
+    # The quiver: unit field pointing right, arrows only over the matte.
+    field = app.direction_field()
+    np.testing.assert_allclose(field[ROW, 80], [0, 1], atol=1e-3)
+    assert app.quiver_segments > 10
+    first = app.quiver_segments
+    # A second stroke elsewhere, downwards: the field bends there; undo restores it.
+    app.canvas.brush_radius = 15
+    drag_on(app, [[15, 120], [110, 120]], "brush", "matte")
+    drag_on(app, [[20, 130], [105, 130]], "stroke", "flow")
+    assert app.direction_field()[60, 130, 0] > 0.5  # dy > 0: downwards
+    assert app.quiver_segments > first
+    app.canvas.undo("flow")
+    np.testing.assert_allclose(app.direction_field()[ROW, 80], [0, 1], atol=1e-3)
+    app._show_quiver.value = False
+    assert app.quiver_segments == 0
+    app._show_quiver.value = True
+    assert app.quiver_segments > 0
+    app._clear_buttons["flow"].click()
+    assert app.strokes() == []
+    assert app.quiver_segments == 0
+
+
+def test_speed_brush_paints_px_per_frame_and_the_matte_brush_stays_binary(app):
+    app.select("brush", "speed")
+    assert app._speed.layout.display == ""  # the px/frame slider shows for speed
+    shown = [w for box in app.canvas.children if isinstance(box, W.HBox) for w in box.children]
+    assert app.canvas._value_slider not in shown  # its browser view would snap the value
+    app._speed.value = 3.0
+    app.canvas.brush_radius = 6
+    mouse_drag(app.canvas, [app.canvas.to_canvas(ROW, c) for c in (40, 90)])
+    speed = app.speed_map()
+    assert speed.dtype == np.float32
+    assert speed[ROW, 40:91] == pytest.approx(3.0)
+    assert set(np.unique(speed)) == {0.0, np.float32(3.0)}
+    # Back on the matte, the brush paints "inside" whatever the speed slider says.
+    app.select("brush", "matte")
+    assert app._speed.layout.display == "none"
+    mouse_drag(app.canvas, [app.canvas.to_canvas(ROW, 60)])
+    assert app.matte()[ROW, 60] == 1.0
+    app.paint_speed([[20, 20]], speed=0.5, radius=3)
+    assert app.speed_map()[20, 20] == pytest.approx(0.5)
+    assert app.speed_map()[ROW, 40] == pytest.approx(3.0)
+    with pytest.raises(ValueError, match="speed must be in"):
+        app.paint_speed([[20, 20]], speed=50)
+
+
+def test_run_moves_the_photo_inside_the_matte_only(app):
+    draw_scene(app)
+    clip = app.run(timeout=120)
+    assert "done" in app.status, app.status
+    assert app.player.clip is clip
+    frames = clip.frames
+    assert frames.shape == (24, 125, 160, 3)  # N = 32 frames, 8 cross-faded for the loop
+    assert clip.metadata["method"] == "videodb"
+    assert clip.metadata["params"]["candidates"] == 30
+    inside = app.matte() > 0
+    change = np.abs(np.diff(frames, axis=0)).max(axis=-1)  # (T - 1, H, W)
+    assert change[:, inside].mean() > 2e-3, "the fluid does not move"
+    assert (change[:, ~inside] == 0).all(), "pixels outside the matte move"
+    np.testing.assert_array_equal(
+        frames[:, ~inside], np.broadcast_to(app.photo[~inside], frames[:, ~inside].shape)
+    )
+    assert (app.retrievals, app.resolves, app.renders) == (1, 0, 1)
+    # The views: map with one colour per source clip used, a legend, the energy plot.
+    a = app.assignment
+    assert app.map.assignment is a
+    names = {app.assignment.db.clips[k]["name"] for k in a.db.clip_of(a.fragments)}
+    assert all(name in app.map.legend.value for name in names)
+    picture = app.map.picture()
+    assert picture.shape == (app.map.canvas.height, app.map.canvas.width, 3)
+    assert "fluidnb-vdb-energy-plot" in app.energy.value
+    assert f"data-icm='{a.solution.icm_energy:.6g}'" in app.energy.value
+    assert not app._render_button.disabled
+    assert not app._use_speed_button.disabled
+    # The drawn direction was honoured: every assigned fragment moves rightwards.
+    assert (a.db.mean_motion[a.fragments][:, 1] > 0).all()
+
+
+def test_moving_sigma_resolves_from_the_kept_tables(app, monkeypatch):
+    calls = []
+    real = module.assign
+    monkeypatch.setattr(module, "assign", lambda *a, **k: calls.append(1) or real(*a, **k))
+    draw_scene(app)
+    app.run(timeout=120)
+    first = app.assignment
+    arrows, energy = app.map.motion_segments(), app.energy.value
+    for sigma in (300.0, 1e3, 3e3, 1e4):  # a drag: several values, the latest wins
+        app.panel.set("sigma", sigma)
+    app.wait_resolve()
+    a = app.assignment
+    assert a is not first
+    assert a.params.sigma == 1e4
+    assert a.tables is first.tables  # re-combined, not recomputed
+    np.testing.assert_array_equal(a.candidates, first.candidates)
+    assert len(calls) == 1
+    assert app.retrievals == 1
+    assert 1 <= app.resolves <= 4
+    assert (a.labels != first.labels).any()
+    assert "re-solved from the kept tables" in app.status
+    # The assignment view changed with it.
+    assert app.map.assignment is a
+    assert not np.array_equal(app.map.motion_segments(), arrows)
+    assert app.energy.value != energy
+    # Render makes the clip of this assignment, still without a new retrieval.
+    clip = app.render_clip(timeout=120)
+    assert clip.metadata["params"]["sigma"] == 1e4
+    assert clip.metadata["energy"] == pytest.approx(a.solution.energy)
+    assert (len(calls), app.retrievals, app.renders) == (1, 1, 2)
+    # Candidates need a new retrieval: said, and Run does it.
+    app.panel.set("candidates", 20)
+    assert "press Run" in app.status
+    app.run(timeout=120)
+    assert len(calls) == 2
+    assert app.assignment.candidates.shape[1] == 20
+
+
+def test_use_the_results_speed_map_fills_the_speed_layer(app):
+    with pytest.raises(ValueError, match="press Run first"):
+        app.use_result_speed()
+    draw_scene(app)
+    app.run(timeout=120)
+    before = app.speed_map()
+    loaded = app.use_result_speed()
+    speed = app.speed_map()
+    inside = app.matte() > 0
+    expected = np.where(inside, app.assignment.speed_map(), 0)
+    np.testing.assert_allclose(speed, expected, atol=1e-5)
+    assert (speed[~inside] == 0).all()
+    assert speed[inside].max() > 0.3
+    np.testing.assert_array_equal(loaded, speed)
+    assert (app.canvas.tool, app.canvas.layer) == ("brush", "speed")
+    assert "speed layer now holds the result's speed" in app.status
+    app.canvas.undo("speed")
+    np.testing.assert_array_equal(app.speed_map(), before)
+
+
+def test_cancel_stops_the_run_and_keeps_everything(app):
+    draw_scene(app)
+    drawn = (app.matte(), app.strokes(), app.speed_map())
+    assert app.start()
+    app.cancel()
+    app.wait(60)
+    assert "cancelled" in app.status
+    assert app.assignment is None
+    assert app.player.clip is None
+    assert app.retrievals == 0
+    np.testing.assert_array_equal(app.matte(), drawn[0])
+    np.testing.assert_array_equal(app.strokes()[0], drawn[1][0])
+    np.testing.assert_array_equal(app.speed_map(), drawn[2])
+    assert not app._run_button.disabled
+    assert app._cancel_button.disabled
+    assert app.run(timeout=120) is not None  # and it runs afterwards
+
+
+def test_cancel_lands_while_the_library_works(app, monkeypatch):
+    started = threading.Event()
+
+    def slow_assign(*args, progress=None, **kwargs):
+        started.set()
+        while True:  # reports progress like the library; Cancel raises in it
+            progress(0.5, "working")
+            threading.Event().wait(0.01)
+
+    monkeypatch.setattr(module, "assign", slow_assign)
+    draw_scene(app)
+    assert app.start()
+    assert started.wait(30)
+    assert app.running
+    app.cancel()
+    app.wait(10)
+    assert not app.running
+    assert "cancelled" in app.status
+
+
+def test_an_empty_matte_says_so_and_loses_nothing(app):
+    drag_on(app, STROKE, "stroke", "flow")
+    app.paint_speed([[ROW, 50], [ROW, 90]], speed=2.0, radius=5)
+    strokes, speed, version = app.strokes(), app.speed_map(), app.canvas.version
+    app._run_button.click()
+    assert not app.running
+    assert "matte is empty" in app.status
+    assert "brush" in app.status
+    assert app.start() is False
+    assert len(app.strokes()) == 1
+    np.testing.assert_array_equal(app.strokes()[0], strokes[0])
+    np.testing.assert_array_equal(app.speed_map(), speed)
+    assert app.canvas.version == version
+    assert app.retrievals == 0
+
+
+def test_a_bad_database_folder_is_said_and_nothing_is_lost(app, tmp_path):
+    draw_scene(app)
+    app.set_database(tmp_path / "nowhere")
+    assert app._db_pick.value == "folder"
+    assert "read from the database" in app._n_label.value
+    app.run(timeout=30)
+    assert "does not exist" in app.status
+    assert app.matte().any()
+    assert len(app.strokes()) == 1
+
+
+def test_a_database_folder_opens_and_shows_its_N(app, db):
+    app.set_database(db.path)
+    opened = app.database()
+    assert opened.n_fragments == db.n_fragments
+    assert f"{db.n_fragments} fragments" in app._n_label.value
+
+
+def test_strokes_save_and_load_round_trip(app, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # the file box is relative to the notebook's folder
+    drag_on(app, STROKE, "stroke", "flow")
+    drag_on(app, [[100, 150], [100, 20]], "stroke", "flow")
+    strokes = app.strokes()
+    app._strokes_file.value = "flow.json"
+    app._save_button.click()
+    saved = json.loads((tmp_path / "flow.json").read_text())
+    assert saved["format"] == "fluidnb.strokes"
+    assert saved["shape"] == [125, 160]
+    app._clear_buttons["flow"].click()
+    assert app.strokes() == []
+    app._load_button.click()
+    assert "loaded 2 strokes" in app.status
+    for got, want in zip(app.strokes(), strokes):
+        np.testing.assert_allclose(got, want)
+    assert app.quiver_segments > 0
+    # Strokes drawn on another image size are refused, in words; nothing is lost.
+    save_strokes(tmp_path / "other.json", [[[1, 1], [5, 5]]], (40, 40))
+    app._strokes_file.value = "other.json"
+    app._load_button.click()
+    assert "40 x 40 image" in app.status
+    assert len(app.strokes()) == 2
+
+
+def test_a_click_on_the_map_shows_the_database_fragment(app):
+    draw_scene(app)
+    app.run(timeout=120)
+    a = app.assignment
+    i = len(a.target) // 2
+    r, c = a.target.positions[i] + 24
+    s = app.map.scale
+    canvas_event(app.map, "mouse_down", (c + 0.5) * s, (r + 0.5) * s)
+    assert app.map.selected == i
+    info = app.state()["selected"]
+    assert info["fragment"] == int(a.fragments[i])
+    assert info["clip_name"] in app.map.caption.value
+    strip = Image.open(io.BytesIO(app.map.strip.value))
+    assert strip.size == (5 * 60 + 4 * 4, 60)  # the mean image and four frames
+    # A re-solve refreshes the shown fragment with the new assignment's choice.
+    app.panel.set("sigma", 1e4)
+    app.wait_resolve()
+    assert app.state()["selected"]["fragment"] == int(app.assignment.fragments[i])
+    # Headless, the same: a place no fragment covers shows nothing.
+    assert app.pick_fragment(124, 80) is None
+    assert app.map.selected == i
+    j = len(a.target) - 1
+    assert app.pick_fragment(*(a.target.positions[j] + 24))["index"] == j
+    assert app.map.selected == j
+    client_ready(app.map)  # a new front end (Voila, a reload) gets the map redrawn
+
+
+def test_choosing_the_fire_photo_takes_its_matte_and_database():
+    app = VideoDBApp("stream", size=128, quick=True)
+    try:
+        assert app._db_pick.value == "water"
+        assert app.panel.params.tau == 0.0
+        app.draw_stroke([[40, 10], [40, 100]])
+        app._photo_pick.value = "fire"
+        assert app.photo_name == "fire"
+        assert app.photo.shape == (128, 61, 3)
+        # An RGBA cut-out: its alpha is the matte (soft edge kept for the run).
+        alpha = data.sample("fire", size=128, return_alpha=True)[1]
+        np.testing.assert_array_equal(app.canvas.get_mask("matte"), alpha > 0.5)
+        assert 0 < app.matte()[alpha > 0.5].min() <= 1
+        assert app.strokes() == []  # a new photo, a new drawing
+        assert app._db_pick.value == "fire"
+        assert app.panel.params.tau == 0.5  # fire moves its outline (Sec. 6)
+        assert "N = <b>32</b>" in app._n_label.value
+    finally:
+        app.close()
+
+
+def upload(name, content):
+    """One file as the FileUpload widget holds it after the browser sends it."""
+    return {
+        "name": name,
+        "type": "image/png",
+        "size": len(content),
+        "content": memoryview(content),
+        "last_modified": dt.datetime(2026, 1, 1, tzinfo=dt.timezone.utc),
+    }
+
+
+def test_an_uploaded_rgba_cut_out_brings_its_matte():
+    app = VideoDBApp("stream", size=128, quick=True)
+    try:
+        rgba = np.zeros((90, 120, 4), np.uint8)
+        rgba[..., :3] = 120
+        rgba[20:70, 30:100, 3] = 255
+        buf = io.BytesIO()
+        Image.fromarray(rgba).save(buf, format="png")
+        app._upload.value = (upload("cut.png", buf.getvalue()),)
+        assert app.photo_name == "upload"
+        assert app._photo_pick.value == "upload"
+        assert app.photo.shape == (90, 120, 3)
+        assert app.canvas.get_mask("matte").sum() == 50 * 70
+        app._upload.value = (upload("junk.png", b"not an image"),)
+        assert "could not read the upload" in app.status
+        assert app.photo.shape == (90, 120, 3)
+    finally:
+        app.close()

@@ -1,0 +1,1398 @@
+r"""The video-database app: mask a photo, draw its flow, paint its speed, watch it move.
+
+Okabe, Anjyo & Onai (2011) animate one still image of fluid from a database of fluid
+videos: the photo is cut into 48 x 48 fragments, each gets candidates by appearance
+(Eq. 1), an MRF (Eq. 4-6) picks one per fragment, and the frames are rendered from
+the chosen fragments' motion. Here every step is a call into :mod:`fluidnb.videodb`
+and :mod:`fluidnb.sketch`; the widget only gathers what the user drew and shows what
+came back.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import html
+import io
+import os
+import threading
+import time
+import traceback
+
+import ipywidgets as W
+import numpy as np
+from ipycanvas import MultiCanvas, hold_canvas
+from PIL import Image
+from traitlets import Any, Int
+
+from fluidnb import Progress, as_image, to_uint8
+from fluidnb.fields import resize
+from fluidnb.sketch import arrow_heads, direction_field, load_strokes, quiver_segments, save_strokes
+from fluidnb.videodb import (
+    FRAGMENT,
+    STARTER_KINDS,
+    STRIDE,
+    VERSIONS,
+    AnimateParams,
+    VideoDatabase,
+    assign,
+    open_database,
+    render,
+    starter_database,
+    starter_params,
+    starter_path,
+)
+
+from ._app import App
+from ._canvas import DrawingCanvas, _css
+from ._panel import ParamPanel
+
+__all__ = ["SPEED_MAX", "VideoDBApp"]
+
+#: The speed (px/frame) painted by a full-value brush: the speed layer stores
+#: ``speed / SPEED_MAX`` in [0, 1] (0 = not painted). The starter databases' fragments
+#: move up to ~4 px/frame.
+SPEED_MAX = 5.0
+
+#: The bundled photos offered, and the database each suits.
+PHOTOS = {"stream": "water", "clouds": "smoke", "fire": "fire", "lake": "water"}
+
+# The fields the panel shows (the rest keep their values: max_angle, max_speed_ratio,
+# denoise, cell).
+_HIDDEN = ("max_angle", "max_speed_ratio", "denoise", "cell")
+_SOLVE_FIELDS = ("sigma", "lam", "rho")
+_RETRIEVAL_FIELDS = ("candidates", "max_angle", "max_speed_ratio")
+
+# Source-clip colours of the assignment map (Okabe & Ito's colour-blind-safe set,
+# then a few more), RGB 0-255.
+_PALETTE = np.array(
+    [
+        (0, 114, 178),
+        (230, 159, 0),
+        (0, 158, 115),
+        (204, 121, 167),
+        (86, 180, 233),
+        (213, 94, 0),
+        (240, 228, 66),
+        (120, 94, 240),
+        (170, 170, 170),
+        (140, 86, 75),
+        (23, 190, 207),
+        (188, 189, 34),
+    ],
+    np.uint8,
+)
+_QUIVER = "rgba(255, 214, 10, 0.95)"
+_MAP_WIDTH = 320
+_TILE = 60  # pixels per tile of the fragment view
+
+
+def clip_colour(index):
+    """RGB 0-255 of a source clip on the assignment map (cycles after 12 clips)."""
+    return tuple(int(v) for v in _PALETTE[int(index) % len(_PALETTE)])
+
+
+def _running_loop():
+    try:
+        return asyncio.get_running_loop()
+    except RuntimeError:
+        return None
+
+
+class _FlowCanvas(DrawingCanvas):
+    """The drawing canvas with the app's brush rules and an arrow on the live stroke.
+
+    The speed brush's value comes from the app's px/frame slider and the matte brush
+    always paints "inside", so the canvas's own 0..1 value slider is not shown. It is
+    taken out of the layout, not merely hidden: a displayed slider snaps the value to
+    its 0.05 grid in the browser and sends it back (2 px/frame would become 2.1).
+    """
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        for box in self.children:
+            if isinstance(box, W.HBox) and self._value_slider in box.children:
+                box.children = tuple(c for c in box.children if c is not self._value_slider)
+        # Narrower tool buttons: the toolbar fits the canvas column.
+        self._tool_buttons.style.button_width = "88px"
+
+    def _sync_layer_choices(self):
+        super()._sync_layer_choices()
+        # Hide the layer choice (strokes have one layer) without giving up its room:
+        # the canvas must not jump under the mouse when the tool changes.
+        layout = self._layer_pick.layout
+        hidden = layout.display == "none"
+        layout.display = ""
+        layout.visibility = "hidden" if hidden else "visible"
+
+    def _draw_live_stroke(self):
+        # The stroke in progress carries its arrow head, so the direction is seen
+        # while dragging, not only after the release.
+        pts = np.array([self.to_canvas(*p) for p in self._current])
+        layer = self._overlay
+        with hold_canvas():
+            layer.clear()
+            self._draw_overlay_segments()
+            layer.stroke_style = _css(self.layers[self.layer].color)
+            layer.line_width = self._pen
+            layer.line_cap = "round"
+            layer.line_join = "round"
+            layer.stroke_lines(pts.tolist())
+            for tip, end in arrow_heads(pts, size=4 * self._pen):
+                layer.stroke_line(*tip, *end)
+
+
+class _AssignmentMap(W.VBox):
+    """Which source clip each target fragment came from; a click shows that fragment."""
+
+    def __init__(self, width=_MAP_WIDTH):
+        self.width = int(width)
+        self.photo = None
+        self._shown = None
+        self.assignment = None
+        self.selected = None  #: index of the picked target fragment, or None
+        self.on_pick = None  #: called with the picked index
+        self.canvas = MultiCanvas(2, width=self.width, height=int(0.75 * self.width))
+        self.canvas.layout.width = "100%"
+        self.canvas.layout.max_width = f"{self.width}px"
+        self.canvas.layout.height = "auto"
+        self.canvas.add_class("fluidnb-vdb-map")
+        self.canvas.on_mouse_down(self._clicked)
+        # Voila drops drawing sent while the notebook runs: redraw for every new view.
+        self.canvas.on_client_ready(self.redraw)
+        self.legend = W.HTML()
+        self.legend.add_class("fluidnb-vdb-legend")
+        self.caption = W.HTML(layout=W.Layout(max_width=f"{self.width}px"))
+        self.caption.add_class("fluidnb-vdb-fragment")
+        self.strip = W.Image(format="png", layout=W.Layout(display="none"))
+        self.strip.add_class("fluidnb-vdb-fragment-frames")
+        super().__init__([self.canvas, self.legend, self.caption, self.strip])
+        self.add_class("fluidnb-vdb-mapbox")
+
+    @property
+    def scale(self):
+        """Canvas pixels per image pixel."""
+        return self.canvas.width / self.photo.shape[1]
+
+    def set_photo(self, photo):
+        self.photo = photo
+        self._shown = None
+        self.assignment = None
+        self.selected = None
+        h, w = photo.shape[:2]
+        self.canvas.width = self.width
+        self.canvas.height = max(1, round(h * self.width / w))
+        self.strip.layout.display = "none"
+        self.caption.value = ""
+        self.legend.value = (
+            "<span style='opacity:0.7'>Press Run: each fragment is coloured by the "
+            "source clip it came from; click one to see it.</span>"
+        )
+        self.redraw()
+
+    def set_assignment(self, assignment):
+        self.assignment = assignment
+        if self.selected is not None and self.selected >= len(assignment.target):
+            self.selected = None
+        self.legend.value = self._legend()
+        self.redraw()
+        if self.selected is not None and self.on_pick is not None:
+            self.on_pick(self.selected)
+
+    # ------------------------------------------------------------------ drawing
+    def picture(self):
+        """The map as RGB uint8 at canvas size: the photo tinted by source clip."""
+        ch, cw = self.canvas.height, self.canvas.width
+        if self._shown is None or self._shown.shape[:2] != (ch, cw):
+            rgb = self.photo
+            shown = resize(rgb, (ch, cw)) if (ch, cw) != rgb.shape[:2] else rgb
+            self._shown = np.clip(shown, 0, 1)
+        shown = self._shown
+        out = 0.35 * shown
+        if self.assignment is not None:
+            clips = self.assignment.clip_map()
+            h, w = clips.shape
+            rows = np.minimum((np.arange(ch) * h / ch).astype(int), h - 1)
+            cols = np.minimum((np.arange(cw) * w / cw).astype(int), w - 1)
+            k = clips[rows][:, cols]
+            inside = k >= 0
+            colour = _PALETTE[np.where(inside, k, 0) % len(_PALETTE)] / 255.0
+            out = np.where(inside[..., None], 0.4 * shown + 0.6 * colour, out)
+        return to_uint8(out)
+
+    def redraw(self, *_):
+        if self.photo is None:
+            return
+        with hold_canvas():
+            self.canvas[0].put_image_data(self.picture(), 0, 0)
+            self._draw_marks()
+
+    def _draw_marks(self):
+        layer = self.canvas[1]
+        layer.clear()
+        a = self.assignment
+        if a is None:
+            return
+        s = self.scale
+        pos = a.target.positions.astype(float)
+        # Cell outlines (each fragment owns the 24 x 24 cell at its centre).
+        layer.stroke_style = "rgba(0, 0, 0, 0.35)"
+        layer.line_width = 1
+        q = STRIDE / 2
+        for r, c in pos:
+            layer.stroke_rect((c + q) * s, (r + q) * s, STRIDE * s, STRIDE * s)
+        layer.stroke_style = "rgba(255, 255, 255, 0.95)"
+        layer.line_width = 1.5
+        for seg in (self.motion_segments()[..., ::-1] + 0.5) * s:  # (row, col) -> (x, y)
+            layer.stroke_line(*seg[0], *seg[1])
+            for tip, end in arrow_heads(seg, size=3.5):
+                layer.stroke_line(*tip, *end)
+        if self.selected is not None:
+            r, c = pos[self.selected]
+            layer.stroke_style = "rgba(255, 214, 10, 1)"
+            layer.line_width = 2
+            layer.stroke_rect(c * s, r * s, FRAGMENT * s, FRAGMENT * s)
+
+    def motion_segments(self):
+        """The assigned fragments' mean motion as arrows (k, 2, 2) (row, col) in the image.
+
+        One per target fragment that moves, centred on it; the fastest spans 0.9 of a
+        24-pixel cell.
+        """
+        a = self.assignment
+        if a is None:
+            return np.empty((0, 2, 2))
+        motion = a.db.mean_motion[a.fragments].astype(float)
+        speed = np.linalg.norm(motion, axis=1)
+        keep = speed > 1e-6
+        if not keep.any():
+            return np.empty((0, 2, 2))
+        vec = motion[keep] / speed.max() * 0.9 * STRIDE
+        centre = a.target.positions[keep] + FRAGMENT / 2 - 0.5
+        return np.stack([centre - vec / 2, centre + vec / 2], axis=1)
+
+    def _legend(self):
+        a = self.assignment
+        clips = a.db.clip_of(a.fragments)
+        used, counts = np.unique(clips, return_counts=True)
+        items = []
+        for k, n in zip(used, counts):
+            r, g, b = clip_colour(k)
+            name = html.escape(str(a.db.clips[int(k)]["name"]))
+            items.append(
+                f"<span class='fluidnb-vdb-clip' data-clip='{int(k)}' style='display:inline-flex;"
+                "align-items:center;margin-right:10px;white-space:nowrap'>"
+                f"<span style='display:inline-block;width:11px;height:11px;margin-right:4px;"
+                f"background:rgb({r},{g},{b});border:1px solid rgba(127,127,127,0.6)'></span>"
+                f"{name} ({n})</span>"
+            )
+        return (
+            f"<div style='font-size:12px;line-height:1.6;max-width:{self.width}px'>"
+            f"{''.join(items)}</div>"
+        )
+
+    # ------------------------------------------------------------------ picking
+    def fragment_at(self, row, col):
+        """The target fragment whose cell holds image pixel (row, col), or None."""
+        if self.assignment is None:
+            return None
+        centre = self.assignment.target.positions + FRAGMENT / 2 - 0.5
+        d = np.abs(centre - np.array([row, col], float)).max(axis=1)
+        i = int(np.argmin(d))
+        return i if d[i] <= FRAGMENT / 2 else None
+
+    def _clicked(self, x, y):
+        if self.photo is None:
+            return
+        s = self.scale
+        i = self.fragment_at(y / s - 0.5, x / s - 0.5)
+        if i is None:
+            return
+        self.selected = i
+        with hold_canvas():
+            self._draw_marks()
+        if self.on_pick is not None:
+            self.on_pick(i)
+
+
+class VideoDBApp(App):
+    r"""Animate a still photo of fluid from a video database (Okabe, Anjyo & Onai 2011).
+
+    On the photo (a bundled one or an upload; an RGBA cut-out's alpha is its matte):
+
+    * **brush**, layer *matte*: paint the fluid region (the eraser removes it);
+    * **stroke**: draw the flow's direction; each stroke shows an arrow while you
+      drag, and the interpolated direction field
+      (:func:`fluidnb.sketch.direction_field`) appears as a yellow quiver over the
+      matte, updated as strokes change;
+    * **brush**, layer *speed*: paint the speed map with the *speed* slider's value in
+      px/frame (white, translucent; unpainted = no constraint); after a run, *Use the
+      result's speed map* loads :meth:`~fluidnb.videodb.Assignment.speed_map` there
+      for editing, as the paper advises;
+    * Undo, and Clear per layer; the strokes can be saved and loaded
+      (:func:`fluidnb.sketch.save_strokes` JSON).
+
+    The panel holds :math:`\sigma` (Eq. 2), :math:`\lambda` (Eq. 4), :math:`\rho`
+    (Eq. 6) on log scales at the paper's values, the candidate count, and the
+    rendering's shutter, :math:`\tau` and loop; ``N`` (frames per fragment) belongs
+    to the database and is shown beside it. **Run** retrieves candidates, solves the
+    MRF and renders the clip (:func:`fluidnb.videodb.assign` then
+    :func:`~fluidnb.videodb.render`, with progress and Cancel). After a run, moving
+    :math:`\sigma`, :math:`\lambda` or :math:`\rho` re-solves from the kept tables
+    (:meth:`~fluidnb.videodb.Assignment.resolve`: no new retrieval) and updates the
+    assignment map and the energy plot live (throttled, the latest value wins);
+    **Render** makes the clip of the current assignment.
+
+    Views: the clip in the player (play, loop, GIF/MP4 export); the assignment map
+    (each fragment tinted by its source clip, with the assigned motion as arrows and
+    a legend; a click shows the database fragment it got: mean image and frames);
+    the energy of Eq. (4) per alpha-expansion sweep with ICM's as a reference line.
+
+    Headless driving (what the tests and notebooks do)::
+
+        app = VideoDBApp("stream", db="water")
+        app.paint_matte([[300, 40], [300, 300]], radius=30)  # (row, col) points
+        app.draw_stroke([[300, 40], [300, 300]])  # along the flow
+        app.paint_speed([[320, 100], [320, 200]], speed=3.0)  # px/frame
+        app.panel.set("candidates", 50)
+        clip = app.run(timeout=300)  # press Run and wait -> fluidnb.Clip
+        app.panel.set("sigma", 1e3)  # re-solves from the kept tables...
+        app.wait_resolve()  # ...in the background
+        app.render_clip(timeout=120)  # press Render and wait -> Clip
+        app.use_result_speed()  # the result's speed into the speed layer
+        app.pick_fragment(300, 150)  # what a click on the map shows
+        app.state()  # counters, energies, labels... as a dict
+
+    plus :meth:`select` (tool and layer), :meth:`matte`, :meth:`strokes`,
+    :meth:`speed_map`, :meth:`direction_field`, :meth:`set_photo`,
+    :meth:`set_database`, :meth:`save_strokes` / :meth:`load_strokes`,
+    :meth:`start` / :meth:`cancel` / :meth:`wait`, and the counters
+    :attr:`retrievals`, :attr:`resolves`, :attr:`renders`.
+
+    Parameters
+    ----------
+    photo : str, array_like, path or PIL image
+        A bundled photo's name (``"stream"``, ``"clouds"``, ``"fire"``, ``"lake"``) or
+        an image; with an alpha channel (or ``matte``) the matte layer starts from it.
+    matte : array_like, shape (H, W), optional
+        A matte to start with (> 0.5 is inside; soft edges are kept for the run).
+    db : str, path or VideoDatabase, optional
+        ``"water"``, ``"smoke"``, ``"fire"`` (starter databases, built on first use
+        and cached), a database folder, or an opened database. Default: the kind the
+        photo suits (water for an upload).
+    params : AnimateParams, optional
+        Starting parameters (default :meth:`AnimateParams.for_kind` of the database).
+    quick : bool, optional
+        The small starter databases and a 256-pixel photo (default: on when the
+        environment variable ``FLUIDNB_QUICK`` is set, as in CI).
+    size : int, optional
+        Longest side of the photo worked on (default 480, 256 with ``quick``); larger
+        photos are shrunk.
+    display_size : int
+        Longest side of the drawing canvas on screen.
+
+    Examples
+    --------
+    >>> app = VideoDBApp("stream", size=96, db="water", quick=True)
+    >>> app.paint_matte([[40, 10], [40, 80]], radius=12)
+    >>> app.draw_stroke([[40, 10], [40, 80]])
+    >>> dy, dx = app.direction_field()[40, 40]  # a unit (dy, dx) field, pointing right
+    >>> bool(abs(dy) < 0.01 and dx > 0.99)
+    True
+    >>> app.close()
+    """
+
+    #: Retrievals made (each Run: candidates by Eq. 1 and the pair tables).
+    retrievals = Int(0)
+    #: Re-solves from kept tables (a sigma, lambda or rho change after a run).
+    resolves = Int(0)
+    #: Clips rendered (by Run or Render).
+    renders = Int(0)
+    #: The current :class:`fluidnb.videodb.Assignment` (None before the first run).
+    assignment = Any(None, allow_none=True)
+
+    def __init__(
+        self,
+        photo="stream",
+        *,
+        matte=None,
+        db=None,
+        params=None,
+        quick=None,
+        size=None,
+        display_size=480,
+    ):
+        if quick is None:
+            quick = os.environ.get("FLUIDNB_QUICK", "") not in ("", "0")
+        self.quick = bool(quick)
+        self.size = int(size or (256 if self.quick else 480))
+        self._display_size = int(display_size)
+        self.animation = None  #: The last rendered :class:`fluidnb.videodb.Animation`.
+        self._base = None  # the assignment of the last retrieval (its tables are reused)
+        self._databases = {}
+        self._given_db = None
+        self._run_version = None  # canvas version the current assignment was made from
+        self._field_key = None
+        self._field = None
+        self._loop = _running_loop()
+        self._main_thread = threading.get_ident()
+        self._resolve_lock = threading.Condition()
+        self._resolve_requested = 0
+        self._resolve_done = 0
+        self._resolve_thread = None
+        self.resolve_interval = 0.1  #: Least seconds between two live re-solves.
+        self.quiver_segments = 0  #: Arrows of the direction field on the canvas now.
+
+        name = photo if isinstance(photo, str) and photo in PHOTOS else None
+        self.photo, self.photo_alpha = self._load_photo(photo, matte)
+        self.photo_name = name or "upload"
+
+        # ---------------------------------------------------------------- inputs
+        self._photo_pick = W.Dropdown(
+            options=[*PHOTOS, *([] if name else ["upload"])],
+            value=name or "upload",
+            description="photo",
+            layout=W.Layout(width="170px"),
+        )
+        self._upload = W.FileUpload(accept="image/*", multiple=False, description="Upload")
+        db_options = [(f"{k} (starter)", k) for k in STARTER_KINDS]
+        db_options.append(("a database folder…", "folder"))
+        if isinstance(db, VideoDatabase):
+            self._given_db = db
+            db_options.insert(0, (f"given: {db.kind}, {db.n_fragments} fragments", "given"))
+            choice, path = "given", ""
+        elif db is None:
+            choice, path = PHOTOS.get(name, "water"), ""
+        elif isinstance(db, str) and db in STARTER_KINDS:
+            choice, path = db, ""
+        else:
+            choice, path = "folder", os.fspath(db)
+        self._db_pick = W.Dropdown(
+            options=db_options, value=choice, description="database", layout=W.Layout(width="300px")
+        )
+        self._db_path = W.Text(
+            value=path,
+            placeholder="path/to/database",
+            layout=W.Layout(width="300px", display="" if choice == "folder" else "none"),
+        )
+        self._n_label = W.HTML()
+
+        canvas = self._make_canvas()
+        if params is None:
+            params = AnimateParams.for_kind(self._kind_of_choice(choice))
+        panel = ParamPanel(params, exclude=_HIDDEN)
+
+        self._speed = W.FloatSlider(
+            value=2.0,
+            min=0.25,
+            max=SPEED_MAX,
+            step=0.25,
+            description="speed",
+            readout_format=".2f",
+            tooltip="speed brush value in px/frame (seed Fig. 8-c); 0 = not painted",
+            layout=W.Layout(width="260px"),
+        )
+        self._speed_unit = W.HTML("<span style='opacity:0.7'>px/frame</span>")
+        self._clear_buttons = {
+            layer: W.Button(
+                description=f"Clear {label}",
+                icon="trash",
+                tooltip=f"erase every {label} drawn (undoable)",
+                layout=W.Layout(width="125px"),
+            )
+            for layer, label in (("matte", "matte"), ("flow", "flow"), ("speed", "speed"))
+        }
+        self._show_quiver = W.Checkbox(
+            value=True,
+            description="direction field",
+            indent=False,
+            tooltip="show the strokes' interpolated direction as a quiver",
+            layout=W.Layout(width="130px"),
+        )
+        self._strokes_file = W.Text(
+            value="strokes.json",
+            description="strokes",
+            tooltip="the strokes file (fluidnb.strokes JSON) Save writes and Load reads",
+            style={"description_width": "52px"},
+            layout=W.Layout(width="170px"),
+        )
+        self._save_button = W.Button(description="Save", icon="save", layout=W.Layout(width="72px"))
+        self._load_button = W.Button(
+            description="Load", icon="folder-open", layout=W.Layout(width="72px")
+        )
+        self._render_button = W.Button(
+            description="Render",
+            icon="film",
+            tooltip="make the clip from the current assignment (after moving σ, λ, ρ)",
+            disabled=True,
+        )
+        self._use_speed_button = W.Button(
+            description="Use the result's speed map",
+            icon="tachometer",
+            tooltip="load the assigned motion's speed into the speed layer for editing",
+            disabled=True,
+            layout=W.Layout(width="220px"),
+        )
+        self.map = _AssignmentMap()
+        self.map.on_pick = self._show_fragment
+        self.energy = W.HTML()
+        self.stats = W.HTML()
+        for wid, cls in [
+            (self._photo_pick, "fluidnb-photo"),
+            (self._upload, "fluidnb-upload"),
+            (self._db_pick, "fluidnb-vdb-db"),
+            (self._db_path, "fluidnb-vdb-db-path"),
+            (self._n_label, "fluidnb-vdb-N"),
+            (self._speed, "fluidnb-vdb-speed"),
+            (self._show_quiver, "fluidnb-vdb-show-quiver"),
+            (self._strokes_file, "fluidnb-vdb-strokes-file"),
+            (self._save_button, "fluidnb-vdb-save-strokes"),
+            (self._load_button, "fluidnb-vdb-load-strokes"),
+            (self._render_button, "fluidnb-vdb-render"),
+            (self._use_speed_button, "fluidnb-vdb-use-speed"),
+            (self.energy, "fluidnb-vdb-energy"),
+            (self.stats, "fluidnb-vdb-stats"),
+        ]:
+            wid.add_class(cls)
+        for layer, button in self._clear_buttons.items():
+            button.add_class(f"fluidnb-vdb-clear-{layer}")
+            button.on_click(lambda _, layer=layer: self.canvas.clear(layer))
+
+        hint = W.HTML(
+            "<div style='opacity:0.75;max-width:430px;font-size:12px;line-height:1.4'>"
+            "<b>brush</b> on <i>matte</i>: paint the fluid · <b>stroke</b>: draw the flow "
+            "(arrows; the yellow quiver is the interpolated direction) · <b>brush</b> on "
+            "<i>speed</i>: paint px/frame (white) · Run, then move σ, λ, ρ to re-solve "
+            "live and Render the clip.</div>"
+        )
+        super().__init__(
+            panel=panel,
+            run=self._run_task,
+            canvas=canvas,
+            title="Fluid animation from one image — Okabe, Anjyo & Onai (video database)",
+            extra=[
+                W.HBox([self._render_button, self._use_speed_button]),
+                W.HTML("<b>energy (Eq. 4) per sweep</b>", layout=W.Layout(margin="0.6em 0 0 0")),
+                self.energy,
+                self.stats,
+                hint,
+            ],
+        )
+
+        # The layout: the photo's inputs and N above the panel, the drawing tools
+        # under the canvas (a column as wide as the canvas, so the panel stays beside
+        # it), and the results (clip | assignment map) in a row under both.
+        wrap = {"flex_flow": "row wrap", "align_items": "center"}
+        self._left = W.VBox(
+            [
+                canvas,
+                W.HBox([self._speed, self._speed_unit], layout=W.Layout(**wrap)),
+                W.HBox(list(self._clear_buttons.values()), layout=W.Layout(**wrap)),
+                W.HBox(
+                    [self._show_quiver, self._strokes_file, self._save_button, self._load_button],
+                    layout=W.Layout(**wrap),
+                ),
+            ],
+            layout=W.Layout(width=self._left_width(canvas)),
+        )
+        title, top, player = self.children
+        side = top.children[-1]
+        side.children = (
+            W.HBox([self._photo_pick, self._upload]),
+            W.HBox([self._db_pick, self._db_path], layout=W.Layout(flex_flow="row wrap")),
+            self._n_label,
+            *side.children,
+        )
+        side.layout.width = "450px"
+        top.children = (self._left, side)
+
+        def column(heading, *widgets):
+            return W.VBox(
+                [W.HTML(f"<b>{html.escape(heading)}</b>"), *widgets],
+                layout=W.Layout(margin="0 1.5em 0.6em 0"),
+            )
+
+        self.results = W.HBox(
+            [
+                column("clip", player),
+                column("assignment: the source clip of each fragment (click one)", self.map),
+            ],
+            layout=W.Layout(flex_flow="row wrap", align_items="flex-start", margin="0.8em 0 0 0"),
+        )
+        self.results.add_class("fluidnb-vdb-results")
+        self.children = (title, top, self.results)
+        self.add_class("fluidnb-vdb-app")
+
+        # ---------------------------------------------------------------- wiring
+        self._photo_pick.observe(self._photo_picked, "value")
+        self._upload.observe(self._uploaded, "value")
+        self._db_pick.observe(self._db_picked, "value")
+        self._db_path.observe(lambda _: self._show_n(), "value")
+        self._speed.observe(lambda _: self._sync_brush(), "value")
+        self._show_quiver.observe(lambda _: self._update_quiver(), "value")
+        self._save_button.on_click(lambda _: self._save_clicked())
+        self._load_button.on_click(lambda _: self._load_clicked())
+        self._render_button.on_click(lambda _: self.start_render())
+        self._use_speed_button.on_click(lambda _: self.use_result_speed())
+        self.panel.observe(self._panel_changed, "params")
+        self.observe(lambda _: self._show_stats(), ["retrievals", "resolves", "renders"])
+        self._wire_canvas(canvas)
+        self.map.set_photo(self.photo)
+        self._show_n()
+        self._show_energy()
+        self._show_stats()
+
+    # ------------------------------------------------------------------ photo
+    def _load_photo(self, photo, matte=None):
+        from fluidnb import data
+
+        if isinstance(photo, str) and photo in PHOTOS:
+            image, alpha = data.sample(photo, return_alpha=True)
+            if max(image.shape[:2]) > self.size:
+                image, alpha = data.sample(photo, size=self.size, return_alpha=True)
+        else:
+            if isinstance(photo, Image.Image) and max(photo.size) > self.size:
+                photo = photo.copy()
+                photo.thumbnail((self.size, self.size), Image.LANCZOS)
+            image, alpha = as_image(photo, mode="rgb", name="photo", return_alpha=True)
+            if max(image.shape[:2]) > self.size:
+                h, w = image.shape[:2]
+                f = self.size / max(h, w)
+                new = (max(1, round(h * f)), max(1, round(w * f)))
+                image = resize(image, new)
+                alpha = None if alpha is None else resize(alpha, new)
+        if min(image.shape[:2]) < FRAGMENT:
+            raise ValueError(
+                f"photo must be at least {FRAGMENT} x {FRAGMENT} pixels (one fragment), got "
+                f"{image.shape[0]} x {image.shape[1]}"
+            )
+        if matte is not None:
+            alpha = as_image(matte, mode="grey", name="matte")
+            if alpha.shape != image.shape[:2]:
+                raise ValueError(
+                    f"matte must have the photo's size {image.shape[:2]}, got {alpha.shape}"
+                )
+        return np.ascontiguousarray(image, np.float32), alpha
+
+    def _make_canvas(self):
+        canvas = _FlowCanvas(
+            self.photo,
+            strokes=["flow"],
+            masks=["matte"],
+            maps=["speed"],
+            display_size=self._display_size,
+        )
+        speed = canvas.layers["speed"]
+        speed.color, speed.opacity = (1.0, 1.0, 1.0), 0.95  # grey levels: white = fast
+        canvas.brush_radius = max(2.0, max(self.photo.shape[:2]) / 24)
+        if self.photo_alpha is not None:
+            canvas.set_mask(self.photo_alpha > 0.5, "matte")
+        canvas.select("brush", "matte")
+        return canvas
+
+    @staticmethod
+    def _left_width(canvas):
+        """Width of the drawing column: the canvas's, and room for the tools."""
+        return f"{max(canvas.canvas.width, 440)}px"
+
+    def _wire_canvas(self, canvas):
+        canvas.observe(self._drawing_changed, "version")
+        canvas.observe(lambda _: self._sync_brush(), ["tool", "layer"])
+        self._field_key = self._field = None
+        self._sync_brush()
+        self._update_quiver()
+
+    def set_photo(self, photo, matte=None):
+        """Use another photo: a bundled name or an image (the drawing starts afresh).
+
+        Returns False (and says why in the status line) if the image is refused.
+        """
+        if self.running:
+            self.say("wait for the run to finish (or cancel it) before changing the photo")
+            return False
+        try:
+            image, alpha = self._load_photo(photo, matte)
+        except ValueError as exc:
+            self.say(str(exc), "error")
+            return False
+        name = photo if isinstance(photo, str) and photo in PHOTOS else "upload"
+        self.photo, self.photo_alpha, self.photo_name = image, alpha, name
+        old = self.canvas
+        canvas = self._make_canvas()
+        self._left.children = tuple(canvas if c is old else c for c in self._left.children)
+        self._left.layout.width = self._left_width(canvas)
+        self.canvas = canvas
+        old.close()
+        self._wire_canvas(canvas)
+        self._forget_result()
+        self.map.set_photo(self.photo)
+        if name == "upload" and "upload" not in self._photo_pick.options:
+            self._photo_pick.options = [*PHOTOS, "upload"]
+        if self._photo_pick.value != name:
+            self._photo_pick.value = name
+        if name in PHOTOS and self._db_pick.value in STARTER_KINDS:
+            self.set_database(PHOTOS[name])
+        h, w = image.shape[:2]
+        self.say(f"photo {name}: {w} x {h} pixels; paint its matte")
+        return True
+
+    def _photo_picked(self, change):
+        if change["new"] != self.photo_name and change["new"] in PHOTOS:
+            self.set_photo(change["new"])
+
+    def _uploaded(self, change):
+        files = change["new"]
+        if not files:
+            return
+        try:
+            image = Image.open(io.BytesIO(bytes(files[0]["content"])))
+            image.load()
+        except Exception as exc:  # a broken or foreign file: say so, keep the photo
+            self.say(f"could not read the upload: {exc}", "error")
+            return
+        self.set_photo(image)
+
+    def _forget_result(self):
+        self.assignment = None
+        self._base = None
+        self._run_version = None
+        self._render_button.disabled = True
+        self._use_speed_button.disabled = True
+        self._show_energy()
+
+    # ------------------------------------------------------------------ database
+    @staticmethod
+    def _kind_of_choice(choice):
+        return choice if choice in STARTER_KINDS else "water"
+
+    def set_database(self, db):
+        """Choose the database: a starter kind, a folder, or an opened database."""
+        if isinstance(db, VideoDatabase):
+            self._given_db = db
+            label = (f"given: {db.kind}, {db.n_fragments} fragments", "given")
+            self._db_pick.options = [label, *[o for o in self._db_pick.options if o[1] != "given"]]
+            self._db_pick.value = "given"
+        elif isinstance(db, str) and db in STARTER_KINDS:
+            self._db_pick.value = db
+        else:
+            self._db_path.value = os.fspath(db)
+            self._db_pick.value = "folder"
+        self._show_n()
+
+    def _db_picked(self, change):
+        choice = change["new"]
+        self._db_path.layout.display = "" if choice == "folder" else "none"
+        kind = self._given_db.kind if choice == "given" else self._kind_of_choice(choice)
+        tau = AnimateParams.for_kind(kind).tau
+        if "tau" in self.panel.controls and self.panel.params.tau != tau:
+            self.panel.set("tau", tau)  # fire and smoke move their outline (Sec. 6)
+        self._show_n()
+        if self.assignment is not None:
+            self.say("the database changed: press Run for a new retrieval")
+
+    def _db_key(self):
+        choice = self._db_pick.value
+        if choice == "given":
+            return ("given",)
+        if choice == "folder":
+            return ("folder", os.path.abspath(os.path.expanduser(self._db_path.value.strip())))
+        return ("starter", choice, self.quick)
+
+    def database(self, progress=None):
+        """The chosen database, opened (a starter one is built on first use, cached)."""
+        key = self._db_key()
+        if key[0] == "given":
+            return self._given_db
+        db = self._databases.get(key)
+        if db is None:
+            if key[0] == "folder":
+                if not self._db_path.value.strip():
+                    raise ValueError("database folder is empty: type the path of a video database")
+                if not os.path.isdir(key[1]):
+                    raise ValueError(f"database folder {key[1]!r} does not exist")
+                db = open_database(key[1], progress=progress)
+            else:
+                db = starter_database(key[1], quick=self.quick, progress=progress)
+            self._databases[key] = db
+        self._show_n(db)
+        return db
+
+    def _show_n(self, db=None):
+        key = self._db_key()
+        if db is None:
+            db = self._given_db if key[0] == "given" else self._databases.get(key)
+        style = "font-size:12px;opacity:0.85;line-height:1.4;display:inline-block"
+        if db is not None:
+            text = (
+                f"N = <b>{db.params.N}</b> frames per fragment (the database's) · "
+                f"{db.n_fragments} fragments, {len(db.clips)} clips"
+            )
+        elif key[0] == "starter":
+            built = starter_path(key[1], quick=self.quick).exists()
+            when = "cached" if built else "built on the first Run, then cached"
+            size = "quick" if self.quick else "full"
+            text = (
+                f"N = <b>{starter_params().N}</b> frames per fragment (the database's) · "
+                f"{size} starter database, {when}"
+            )
+        else:
+            text = "N (frames per fragment): read from the database when it opens"
+        self._n_label.value = f"<span style='{style}'>{text}</span>"
+
+    # ------------------------------------------------------------------ drawing
+    def select(self, tool, layer=None):
+        """Choose the tool (stroke, brush, eraser, fill) and layer (matte, flow, speed)."""
+        self.canvas.select(tool, layer)
+
+    def _sync_brush(self):
+        c = self.canvas
+        speed = c.layer == "speed" and c.tool in ("brush", "fill")
+        self._speed.layout.display = "" if speed else "none"
+        self._speed_unit.layout.display = "" if speed else "none"
+        c.brush_value = self._speed.value / SPEED_MAX if c.layer == "speed" else 1.0
+
+    def paint_matte(self, points, *, radius=None):
+        """Paint the matte along ``points`` ((row, col) image pixels) with the brush."""
+        self.canvas.paint(points, radius=radius, layer="matte")
+
+    def erase_matte(self, points, *, radius=None):
+        """Erase the matte along ``points`` with the eraser."""
+        self.canvas.paint(points, radius=radius, layer="matte", erase=True)
+
+    def draw_stroke(self, points):
+        """Draw one flow stroke through ``points`` ((row, col)), in the flow's direction."""
+        self.canvas.draw_stroke(points, layer="flow")
+
+    def paint_speed(self, points, speed=None, *, radius=None):
+        """Paint the speed map along ``points`` with ``speed`` px/frame (the slider's)."""
+        if speed is not None:
+            if not 0 < speed <= SPEED_MAX:
+                raise ValueError(f"speed must be in (0, {SPEED_MAX:g}] px/frame, got {speed}")
+            self._speed.value = float(speed)
+        self.canvas.select("brush", "speed")
+        self.canvas.paint(points, radius=radius, value=self._speed.value / SPEED_MAX)
+
+    def set_matte(self, matte):
+        """Replace the matte (bool or > 0.5 inside; undoable)."""
+        self.canvas.set_mask(np.asarray(matte), "matte")
+
+    def set_strokes(self, strokes):
+        """Replace the flow strokes, each an (n, 2) (row, col) array (undoable)."""
+        self.canvas.set_strokes(strokes, "flow")
+
+    def set_speed(self, speed):
+        """Replace the speed map, (H, W) px/frame, 0 = not painted (undoable)."""
+        arr = np.asarray(speed, np.float32)
+        if arr.size and (arr.min() < 0 or arr.max() > SPEED_MAX):
+            raise ValueError(
+                f"speed must lie in [0, {SPEED_MAX:g}] px/frame, got [{arr.min():g}, {arr.max():g}]"
+            )
+        self.canvas.set_map(arr / SPEED_MAX, "speed")
+
+    def matte(self):
+        """The matte a run uses, float32 (H, W) in [0, 1].
+
+        The painted mask; where it covers the photo's own soft alpha (an RGBA
+        cut-out), that alpha's values, so the edge stays soft.
+        """
+        painted = self.canvas.get_mask("matte")
+        m = painted.astype(np.float32)
+        if self.photo_alpha is not None:
+            m = np.where(painted & (self.photo_alpha > 0), self.photo_alpha, m)
+        return m.astype(np.float32)
+
+    def strokes(self):
+        """The flow strokes: a list of (n, 2) (row, col) arrays."""
+        return self.canvas.get_strokes("flow")
+
+    def speed_map(self):
+        """The painted speed in px/frame, float32 (H, W); 0 where not painted."""
+        return self.canvas.get_map("speed") * np.float32(SPEED_MAX)
+
+    def direction_field(self):
+        """The strokes' interpolated unit direction field (H, W, 2) (dy, dx), or None."""
+        strokes = self.strokes()
+        if not strokes:
+            return None
+        key = tuple(s.tobytes() for s in strokes)
+        if key != self._field_key:
+            self._field = direction_field(strokes, self.photo.shape[:2])
+            self._field_key = key
+        return self._field
+
+    def _update_quiver(self):
+        try:
+            field = self.direction_field() if self._show_quiver.value else None
+        except ValueError as exc:
+            self.say(str(exc), "error")
+            field = None
+        if field is None:
+            self.quiver_segments = 0
+            self.canvas.show_segments(None)
+            return
+        matte = self.canvas.get_mask("matte")
+        if matte.any():  # the field matters only where the fluid is
+            field = field * matte[..., None]
+        step = max(8, round(max(self.photo.shape[:2]) / 16))
+        segments = quiver_segments(field, step=step, length=0.7 * step)
+        self.quiver_segments = len(segments)
+        self.canvas.show_segments(segments if len(segments) else None, _QUIVER)
+
+    def _drawing_changed(self, change):
+        self._update_quiver()
+        if self._run_version is not None and change["new"] != self._run_version:
+            self._run_version = None
+            if not self.running:
+                self.say("the drawing changed since the run: press Run for a new retrieval")
+
+    # ------------------------------------------------------------------ strokes file
+    def save_strokes(self, path=None):
+        """Write the strokes as a ``fluidnb.strokes`` JSON file; returns the path."""
+        path = path or self._strokes_file.value.strip() or "strokes.json"
+        out = save_strokes(path, self.strokes(), self.photo.shape[:2])
+        self.say(f"saved {len(self.strokes())} strokes to {out}", "ok")
+        return out
+
+    def load_strokes(self, path=None):
+        """Replace the strokes by those of a JSON file (undoable); ValueError if refused."""
+        path = path or self._strokes_file.value.strip() or "strokes.json"
+        strokes, _ = load_strokes(path, shape=self.photo.shape[:2])
+        self.set_strokes(strokes)
+        self.say(f"loaded {len(strokes)} strokes from {path}", "ok")
+        return strokes
+
+    def _save_clicked(self):
+        try:
+            self.save_strokes()
+        except (ValueError, OSError) as exc:
+            self.say(f"could not save the strokes: {exc}", "error")
+
+    def _load_clicked(self):
+        try:
+            self.load_strokes()
+        except ValueError as exc:
+            self.say(str(exc), "error")
+
+    # ------------------------------------------------------------------ run
+    def _inputs(self):
+        """What the user drew, as the library takes it; ValueError in plain words."""
+        matte = self.matte()
+        if not (matte > 0).any():
+            raise ValueError(
+                "matte is empty: paint the fluid region on the photo with the brush "
+                "(layer matte); your strokes and speed are kept"
+            )
+        strokes = self.strokes() or None
+        speed = self.speed_map()
+        return matte, strokes, (speed if speed.any() else None)
+
+    @property
+    def _busy_widgets(self):
+        # Render stays clickable (refused while busy) so a failed run cannot leave it
+        # enabled without an assignment.
+        return (self._photo_pick, self._upload, self._db_pick, self._db_path, self._load_button)
+
+    def start(self):
+        """Retrieve, solve and render in the worker (what **Run** does).
+
+        Returns False (and says why) when nothing starts: a run is going on, the
+        parameters are invalid, or the matte is empty.
+        """
+        if self.running:
+            return False
+        try:
+            inputs = self._inputs()
+        except ValueError as exc:
+            self.say(str(exc), "error")
+            return False
+        version = self.canvas.version
+        image = self.photo
+
+        def task(params, progress):
+            return self._run_task(params, progress, inputs, image, version)
+
+        return self.start_task(
+            task, self._ran, message="retrieving candidates…", busy=self._busy_widgets
+        )
+
+    def _run_task(self, params, progress, inputs=None, image=None, version=None):
+        matte, strokes, speed = self._inputs() if inputs is None else inputs
+        image = self.photo if image is None else image
+        opening, assigning, rendering = Progress(progress).split(0.15, 0.65)
+        db = self.database(progress=opening)
+        a = assign(image, matte, db, params, direction=strokes, speed=speed, progress=assigning)
+        self.retrievals += 1
+        animation = render(a, params, progress=rendering)
+        self.renders += 1
+        self._base = a
+        self.animation = animation
+        self.assignment = a
+        self._run_version = version
+        return animation.clip
+
+    def _ran(self, clip, seconds):
+        self._show_clip(clip, seconds)
+        self._on_main(self._show_assignment)
+        self._render_button.disabled = False
+        self._use_speed_button.disabled = False
+        a = self.assignment
+        self.request_resolve()  # a slider moved during the run gets its re-solve
+        return (
+            f"done in {seconds:.1f} s: {len(a.target)} fragments, {a.candidates.shape[1]} "
+            f"candidates each, energy {a.solution.energy:.4g} after {a.solution.sweeps} "
+            f"sweeps (ICM {a.solution.icm_energy:.4g}); {len(clip)} frames"
+        )
+
+    def start_render(self):
+        """Render the clip of the current assignment in the worker (what **Render** does)."""
+        if self.running:
+            return False
+        if self.assignment is None:
+            self.say("nothing to render yet: press Run first", "error")
+            return False
+        return self.start_task(
+            self._render_task, self._rendered, message="rendering…", busy=self._busy_widgets
+        )
+
+    def _render_task(self, params, progress):
+        self.wait_resolve()
+        a = self.assignment
+        # The assignment's own sigma, lambda, rho (they made it); the panel's rendering
+        # settings.
+        params = params.replace(**{k: getattr(a.params, k) for k in _SOLVE_FIELDS})
+        animation = render(a, params, progress=progress)
+        self.renders += 1
+        self.animation = animation
+        return animation.clip
+
+    def _rendered(self, clip, seconds):
+        self._show_clip(clip, seconds)
+        self._render_button.disabled = False
+        self._use_speed_button.disabled = False
+        return f"rendered in {seconds:.1f} s: {len(clip)} frames"
+
+    def render_clip(self, timeout=None):
+        """Press Render and wait (headless); returns the clip."""
+        if self.start_render():
+            self.wait(timeout)
+        return self.result
+
+    # ------------------------------------------------------------------ re-solve
+    def _panel_changed(self, change):
+        new, base = change["new"], self._base
+        if base is None:
+            return
+        if any(getattr(new, k) != getattr(base.params, k) for k in _RETRIEVAL_FIELDS):
+            self.say("candidates changed: press Run for a new retrieval")
+        if any(getattr(new, k) != getattr(self.assignment.params, k) for k in _SOLVE_FIELDS):
+            self.request_resolve()
+
+    def request_resolve(self):
+        """Re-solve for the panel's sigma, lambda, rho in the background (latest wins)."""
+        if self._closed:
+            return
+        with self._resolve_lock:
+            self._resolve_requested += 1
+            self._resolve_lock.notify_all()
+            if self._resolve_thread is None:
+                self._resolve_thread = threading.Thread(
+                    target=self._resolve_loop, name="fluidnb-resolve", daemon=True
+                )
+                self._resolve_thread.start()
+
+    def _resolve_loop(self):
+        while True:
+            with self._resolve_lock:
+                while self._resolve_done >= self._resolve_requested and not self._closed:
+                    self._resolve_lock.wait()
+                if self._closed:
+                    return
+                target = self._resolve_requested
+            started = time.monotonic()
+            try:
+                self._resolve_once()
+            except ValueError as exc:
+                self.say(str(exc), "error")
+            except Exception as exc:  # shown, never raised into the kernel
+                self.say(f"re-solve failed: {type(exc).__name__}: {exc}", "error")
+                traceback.print_exc()
+            with self._resolve_lock:
+                self._resolve_done = max(self._resolve_done, target)
+                self._resolve_lock.notify_all()
+            time.sleep(max(0.0, self.resolve_interval - (time.monotonic() - started)))
+
+    def _resolve_once(self):
+        base, current, params = self._base, self.assignment, self.panel.params
+        if base is None or current is None:
+            return
+        wanted = {k: getattr(params, k) for k in _SOLVE_FIELDS}
+        if all(getattr(current.params, k) == v for k, v in wanted.items()):
+            return
+        started = time.perf_counter()
+        new = base.resolve(**wanted)
+        if self._base is not base:  # a run replaced the tables meanwhile
+            return
+        changed = int((new.labels != current.labels).sum())
+        self.assignment = new
+        self.resolves += 1
+        self._on_main(self._show_assignment)
+        if not self.running:
+            self.say(
+                f"re-solved from the kept tables in {time.perf_counter() - started:.2f} s "
+                f"(σ={new.params.sigma:.3g}, λ={new.params.lam:.3g}, ρ={new.params.rho:.3g}): "
+                f"{changed} of {len(new.labels)} fragments changed; press Render for the clip"
+            )
+
+    def wait_resolve(self, timeout=30):
+        """Block until every re-solve asked for so far is done (for scripts and tests)."""
+        deadline = time.monotonic() + timeout
+        with self._resolve_lock:
+            target = self._resolve_requested
+            while self._resolve_done < target:
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    raise TimeoutError("the re-solve did not finish in time")
+                self._resolve_lock.wait(left)
+
+    # ------------------------------------------------------------------ results
+    def use_result_speed(self):
+        """Load the result's speed map (px/frame, inside the matte) into the speed layer.
+
+        The paper's advice: start from the speed the assignment produced and edit it.
+        Returns the speed layer's new map (px/frame); ValueError before the first run.
+        """
+        if self.assignment is None:
+            raise ValueError("there is no result yet: press Run first")
+        speed = self.assignment.speed_map()
+        if speed.shape != self.photo.shape[:2]:
+            raise ValueError("the result belongs to another photo: press Run first")
+        speed = np.where(self.matte() > 0, speed, 0.0).astype(np.float32)
+        clipped = float(speed.max()) > SPEED_MAX
+        speed = np.minimum(speed, SPEED_MAX)
+        self.set_speed(speed)
+        self.select("brush", "speed")
+        note = f" (clipped at {SPEED_MAX:g})" if clipped else ""
+        self.say(
+            f"the speed layer now holds the result's speed, up to {speed.max():.2f} "
+            f"px/frame{note}: edit it and press Run"
+        )
+        return self.speed_map()
+
+    def pick_fragment(self, row, col):
+        """Show the database fragment given to the target fragment at (row, col).
+
+        What a click on the assignment map does; returns its description (a dict) or
+        None where no fragment takes part.
+        """
+        i = self.map.fragment_at(row, col)
+        if i is None:
+            return None
+        self.map.selected = i
+        self.map.redraw()
+        return self._show_fragment(i)
+
+    def fragment_info(self, i):
+        """What the assignment gave target fragment ``i`` (a dict of plain values)."""
+        a = self.assignment
+        fid = int(a.fragments[i])
+        clip, version, first, row, col = (int(v) for v in a.db.source[fid])
+        flip, scale, angle = VERSIONS[version]
+        label = int(a.labels[i])
+        dy, dx = (float(v) for v in a.db.mean_motion[fid])
+        return {
+            "index": int(i),
+            "position": [int(v) for v in a.target.positions[i]],
+            "fragment": fid,
+            "clip": clip,
+            "clip_name": str(a.db.clips[clip]["name"]),
+            "version": {"flip": bool(flip), "scale": float(scale), "angle": float(angle)},
+            "frames": [first, first + a.db.params.N - 1],
+            "source_position": [row, col],
+            "mean_motion": [dy, dx],
+            "rank": label,
+            "score": float(a.scores[i, label]) / 324.0,
+        }
+
+    def _show_fragment(self, i):
+        info = self.fragment_info(i)
+        db = self.assignment.db
+        n = db.params.N
+        mean = db.mean_images([info["fragment"]])[0]
+        picks = np.linspace(0, n - 1, 4).round().astype(int)
+        frames = db.fragment_frames([info["fragment"]])[0][picks]
+        self.map.strip.value = _strip_png([mean, *frames])
+        self.map.strip.layout.display = ""
+        v = info["version"]
+        flip = "flipped, " if v["flip"] else ""
+        dy, dx = info["mean_motion"]
+        self.map.caption.value = (
+            "<div style='font-size:12px;line-height:1.4'>"
+            f"fragment <b>{info['fragment']}</b> from <b>{html.escape(info['clip_name'])}</b> "
+            f"({flip}scale {v['scale']:g}, {v['angle']:g}°), frames {info['frames'][0]}–"
+            f"{info['frames'][1]}; mean motion ({dy:.2f}, {dx:.2f}) px/frame (dy, dx); "
+            f"candidate {info['rank'] + 1} of {self.assignment.candidates.shape[1]}, "
+            f"I = {info['score']:.2f}.<br><span style='opacity:0.75'>mean image A, then "
+            f"frames {', '.join(str(p) for p in picks)}</span></div>"
+        )
+        return info
+
+    def _show_assignment(self):
+        a = self.assignment
+        if a is None or a.target.shape != self.photo.shape[:2]:
+            return
+        self.map.set_assignment(a)
+        self._show_energy()
+
+    def _show_energy(self):
+        a = self.assignment
+        if a is None:
+            self.energy.value = (
+                "<div style='opacity:0.75;font-size:12px;line-height:1.4'>The energy of "
+                "Eq. (4) after each alpha-expansion sweep appears here after a run, with "
+                "ICM's as a reference.</div>"
+            )
+            return
+        s = a.solution
+        self.energy.value = _energy_svg(np.asarray(s.energies, float), float(s.icm_energy)) + (
+            "<div style='font-size:12px;line-height:1.4'>"
+            f"alpha-expansion: E = {s.energy:.5g} after {s.sweeps} sweeps (from the "
+            f"{html.escape(s.start)} start) · ICM: {s.icm_energy:.5g}<br>"
+            f"σ = {a.params.sigma:.3g}, λ = {a.params.lam:.3g}, ρ = {a.params.rho:.3g}</div>"
+        )
+
+    def _show_stats(self):
+        self.stats.value = (
+            "<div style='font-size:12px;opacity:0.85;margin-top:4px'>"
+            f"retrievals <b class='fluidnb-vdb-retrievals'>{self.retrievals}</b> · "
+            f"re-solves <b class='fluidnb-vdb-resolves'>{self.resolves}</b> · "
+            f"renders <b class='fluidnb-vdb-renders'>{self.renders}</b></div>"
+        )
+
+    def state(self):
+        """A summary of the app as plain values (for tests and notebooks to record)."""
+        a, clip = self.assignment, self.result
+        out = {
+            "status": self.status,
+            "running": self.running,
+            "photo": self.photo_name,
+            "shape": list(self.photo.shape[:2]),
+            "database": self._db_pick.value,
+            "tool": self.canvas.tool,
+            "layer": self.canvas.layer,
+            "retrievals": self.retrievals,
+            "resolves": self.resolves,
+            "renders": self.renders,
+            "matte_pixels": int(self.canvas.get_mask("matte").sum()),
+            "strokes": [s.tolist() for s in self.strokes()],
+            "speed_pixels": int((self.speed_map() > 0).sum()),
+            "speed_max": float(self.speed_map().max()),
+            "quiver_segments": self.quiver_segments,
+            "params": self.panel.params.to_dict(),
+            "frames": None if clip is None else len(clip),
+        }
+        if a is not None:
+            out.update(
+                fragments=len(a.target),
+                labels=a.labels.tolist(),
+                clips=a.db.clip_of(a.fragments).tolist(),
+                tables=id(a.tables),
+                energy=float(a.solution.energy),
+                energies=[float(e) for e in a.energies],
+                icm_energy=float(a.solution.icm_energy),
+                solved_with={k: float(getattr(a.params, k)) for k in _SOLVE_FIELDS},
+                N=a.db.params.N,
+            )
+        if self.map.selected is not None and a is not None:
+            out["selected"] = self.fragment_info(self.map.selected)
+        return out
+
+    # ------------------------------------------------------------------ plumbing
+    def _on_main(self, fn):
+        """Run ``fn`` on the kernel's main thread (ipycanvas drawing is not thread-safe).
+
+        Without a running event loop (a script, the tests), run it here.
+        """
+        loop = self._loop
+        if loop is None or loop.is_closed() or threading.get_ident() == self._main_thread:
+            fn()
+            return
+
+        def call():
+            try:
+                fn()
+            except Exception:
+                traceback.print_exc()
+
+        loop.call_soon_threadsafe(call)
+
+    def close(self):
+        """Stop the workers and close the widgets."""
+        self._closed = True
+        lock = getattr(self, "_resolve_lock", None)
+        if lock is not None:
+            with lock:
+                lock.notify_all()
+        if hasattr(self, "map"):
+            self.map.close()
+        super().close()
+
+
+def _strip_png(images):
+    """Tiles side by side (float RGB (48, 48, 3) each) as a PNG with transparent gaps."""
+    gap = 4
+    n = len(images)
+    out = np.zeros((_TILE, n * _TILE + (n - 1) * gap, 4), np.uint8)
+    for k, img in enumerate(images):
+        x = k * (_TILE + gap)
+        out[:, x : x + _TILE, :3] = to_uint8(np.clip(resize(img, (_TILE, _TILE)), 0, 1))
+        out[:, x : x + _TILE, 3] = 255
+    buf = io.BytesIO()
+    Image.fromarray(out).save(buf, format="png")
+    return buf.getvalue()
+
+
+def _energy_svg(energies, icm, width=280, height=150):
+    """A small line plot (inline SVG, theme colours) of the energy after each sweep."""
+    left, right, top, bottom = 52, 10, 10, 26
+    values = np.append(energies, icm)
+    lo, hi = float(values.min()), float(values.max())
+    pad = 0.08 * (hi - lo) if hi > lo else max(abs(hi), 1.0) * 0.05
+    lo, hi = lo - pad, hi + pad
+    n = len(energies)
+
+    def x(i):
+        return left + (i / max(n - 1, 1)) * (width - left - right)
+
+    def y(v):
+        return top + (hi - v) / (hi - lo) * (height - top - bottom)
+
+    pts = " ".join(f"{x(i):.1f},{y(v):.1f}" for i, v in enumerate(energies))
+    dots = "".join(
+        f"<circle cx='{x(i):.1f}' cy='{y(v):.1f}' r='3' fill='var(--jp-brand-color1, #1976d2)'/>"
+        for i, v in enumerate(energies)
+    )
+    ticks = "".join(
+        f"<text x='{x(i):.1f}' y='{height - 10}' text-anchor='middle'>{i}</text>" for i in range(n)
+    )
+    axis = "stroke='currentColor' stroke-opacity='0.5'"
+    return (
+        f"<svg class='fluidnb-vdb-energy-plot' width='{width}' height='{height}' "
+        "style='color:var(--jp-ui-font-color1, #333);font-size:10px' "
+        f"data-energies='{','.join(f'{e:.6g}' for e in energies)}' data-icm='{icm:.6g}'>"
+        f"<line x1='{left}' y1='{top}' x2='{left}' y2='{height - bottom}' {axis}/>"
+        f"<line x1='{left}' y1='{height - bottom}' x2='{width - right}' y2='{height - bottom}' "
+        f"{axis}/>"
+        f"<text x='{left - 4}' y='{y(hi - pad) + 3:.1f}' text-anchor='end' "
+        f"fill='currentColor'>{hi - pad:.4g}</text>"
+        f"<text x='{left - 4}' y='{y(lo + pad) + 3:.1f}' text-anchor='end' "
+        f"fill='currentColor'>{lo + pad:.4g}</text>"
+        f"<g fill='currentColor' fill-opacity='0.8'>{ticks}</g>"
+        f"<text x='{width - right}' y='{height - 1}' text-anchor='end' fill='currentColor' "
+        "fill-opacity='0.8'>sweep</text>"
+        f"<line x1='{left}' y1='{y(icm):.1f}' x2='{width - right}' y2='{y(icm):.1f}' "
+        "stroke='var(--jp-warn-color1, #f57c00)' stroke-width='1.5' stroke-dasharray='5,4'/>"
+        f"<text x='{width - right}' y='{y(icm) - 4:.1f}' text-anchor='end' "
+        "fill='var(--jp-warn-color1, #f57c00)'>ICM</text>"
+        f"<polyline points='{pts}' fill='none' stroke='var(--jp-brand-color1, #1976d2)' "
+        "stroke-width='2'/>"
+        f"{dots}</svg>"
+    )
