@@ -103,8 +103,11 @@ class FramePlayer(W.VBox):
         if clip is None:
             self.info.value = "<i>no clip yet</i>"
             self.image.value = b""
+            # An empty image shows as a broken-image icon: hide it until there is a clip.
+            self.image.layout.display = "none"
             return
         h, w = clip.shape
+        self.image.layout.display = None
         self.image.layout.width = f"{self.display_width}px"
         # Tiny grids are enlarged by the browser; keep their cells crisp.
         self.image.layout.object_fit = "contain"
