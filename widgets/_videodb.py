@@ -91,7 +91,20 @@ def clip_colour(index):
     return tuple(int(v) for v in _PALETTE[int(index) % len(_PALETTE)])
 
 
-def _running_loop():
+def _kernel_loop():
+    """The kernel's running event loop, or None outside a kernel (scripts, tests).
+
+    Only a kernel's loop serves callbacks while a worker thread waits on it: in a
+    plain process another library may leave a loop "running" in the main thread
+    that never runs what is queued on it (Playwright's sync API does).
+    """
+    try:
+        from IPython import get_ipython
+    except ImportError:  # pragma: no cover - IPython comes with ipywidgets
+        return None
+    shell = get_ipython()
+    if shell is None or getattr(shell, "kernel", None) is None:
+        return None
     try:
         return asyncio.get_running_loop()
     except RuntimeError:
@@ -433,7 +446,7 @@ class VideoDBApp(App):
         self._run_version = None  # canvas version the current assignment was made from
         self._field_key = None
         self._field = None
-        self._loop = _running_loop()
+        self._loop = _kernel_loop()
         self._main_thread = threading.get_ident()
         self._resolve_lock = threading.Condition()
         self._resolve_requested = 0
@@ -1312,7 +1325,7 @@ class VideoDBApp(App):
         Without a running event loop (a script, the tests), run it here.
         """
         loop = self._loop
-        if loop is None or loop.is_closed() or threading.get_ident() == self._main_thread:
+        if loop is None or not loop.is_running() or threading.get_ident() == self._main_thread:
             fn()
             return
 
