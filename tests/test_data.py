@@ -227,3 +227,36 @@ def test_data_dir_holds_the_records():
     assert d.is_absolute()
     assert (d / "sources.json").is_file()
     assert (d / "SOURCES.md").is_file()
+
+
+def test_stream_region_covers_the_water_and_not_the_rocks():
+    photo = data.sample("stream")
+    matte = data.region("stream")
+    assert matte.shape == photo.shape[:2]
+    assert matte.dtype == np.float32
+    assert matte.min() == 0.0
+    assert matte.max() == pytest.approx(1.0)
+    # Hand-checked points of the 480 x 376 photo, (row, col): water of the cascade and
+    # of the pool; the big rock on the right and the moss at the top left.
+    for r, c in [(120, 230), (250, 200), (350, 100)]:
+        assert matte[r, c] == pytest.approx(1.0), (r, c)
+    for r, c in [(200, 400), (20, 20), (300, 440)]:
+        assert matte[r, c] == 0.0, (r, c)
+    # A soft edge: values strictly between 0 and 1 along the outline only.
+    edge = (matte > 0.02) & (matte < 0.98)
+    assert 0 < edge.mean() < 0.08  # the outline is ~1,300 px long, the edge ~5 px wide
+
+
+def test_region_follows_the_sample_size():
+    for size in (240, (100, 200)):
+        matte = data.region("stream", size=size)
+        assert matte.shape == data.sample("stream", size=size).shape[:2]
+    small, full = data.region("stream", size=240), data.region("stream")
+    assert abs(small.mean() - full.mean()) < 0.01
+
+
+def test_region_of_a_sample_without_one_is_refused():
+    with pytest.raises(ValueError, match=r"no drawn region.*stream"):
+        data.region("checker")
+    with pytest.raises(ValueError, match="unknown sample"):
+        data.region("nope")
