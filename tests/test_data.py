@@ -247,6 +247,15 @@ def test_stream_region_covers_the_water_and_not_the_rocks():
     assert 0 < edge.mean() < 0.08  # the outline is ~1,300 px long, the edge ~5 px wide
 
 
+def test_clouds_region_covers_the_cloud_and_not_the_sky_or_the_rocks():
+    matte = data.region("clouds")
+    assert matte.shape == data.sample("clouds").shape[:2]
+    for r, c in [(150, 150), (200, 250), (140, 320), (90, 100)]:  # cloud, wisps
+        assert matte[r, c] > 0.999, (r, c)
+    for r, c in [(20, 240), (60, 420), (280, 60), (200, 420), (100, 250)]:  # sky, rock
+        assert matte[r, c] == 0.0, (r, c)
+
+
 def test_region_follows_the_sample_size():
     for size in (240, (100, 200)):
         matte = data.region("stream", size=size)
@@ -256,7 +265,7 @@ def test_region_follows_the_sample_size():
 
 
 def test_region_of_a_sample_without_one_is_refused():
-    with pytest.raises(ValueError, match=r"no drawn region.*stream"):
+    with pytest.raises(ValueError, match=r"no drawn region.*stream, clouds"):
         data.region("checker")
     with pytest.raises(ValueError, match="unknown sample"):
         data.region("nope")

@@ -25,17 +25,24 @@ _SOURCES = "sources.json"
 _MAX_SIDE = 4096  # a guard against typing an extra zero, not a limit of the code
 
 #: The fluid in a sample photograph, drawn by hand: (x, y) polygon vertices on the
-#: photograph at its own size. What a user would paint with the app's matte brush.
+#: photograph at its own size, and the Gaussian sigma of the edge in its pixels. What a
+#: user would paint with the app's matte brush.
 _REGIONS = {
     # The stream's water: the cascades down the middle and the pool at the bottom.
-    "stream": [
+    "stream": ([
         (250, 45), (345, 40), (355, 95), (300, 100), (270, 110), (255, 160), (250, 200),
         (240, 240), (245, 262), (300, 290), (330, 330), (300, 360), (285, 376), (15, 376),
         (20, 340), (60, 328), (120, 300), (60, 282), (45, 250), (70, 230), (110, 215),
         (100, 192), (140, 180), (170, 160), (185, 130), (180, 100), (200, 80), (230, 60),
-    ],
+    ], 2.0),
+    # The cloud between the two peaks, wisps included (a smoke matte is soft).
+    "clouds": ([
+        (48, 108), (54, 78), (78, 54), (108, 42), (140, 40), (162, 56), (174, 84),
+        (198, 92), (214, 118), (238, 134), (262, 126), (300, 138), (326, 114), (358, 114),
+        (374, 134), (352, 158), (332, 172), (318, 196), (290, 215), (262, 232), (240, 237),
+        (215, 229), (185, 213), (150, 199), (120, 190), (96, 170), (72, 146), (56, 128),
+    ], 4.0),
 }  # fmt: skip
-_REGION_SOFTNESS = 2.0  # Gaussian sigma of the region's edge, pixels of the photo's own size
 
 
 def data_dir():
@@ -284,15 +291,17 @@ def region(name, *, size=None):
     Parameters
     ----------
     name : str
-        A photograph with a drawn region: ``"stream"``.
+        A photograph with a drawn region: ``"stream"`` (the water) or ``"clouds"`` (the
+        cloud). (The ``"fire"`` photograph has its own alpha: ``sample(...,
+        return_alpha=True)``.)
     size : int or (int, int), optional
         As in :func:`sample`; the region matches ``sample(name, size=size)``.
 
     Returns
     -------
     ndarray, shape (H, W), float32
-        1 inside the fluid, 0 outside, with a Gaussian edge about 2 pixels wide (at the
-        photograph's own size, scaled with it).
+        1 inside the fluid, 0 outside, with a Gaussian edge (2 pixels for the water, 4
+        for the cloud, at the photograph's own size, scaled with it).
 
     Raises
     ------
@@ -317,7 +326,8 @@ def region(name, *, size=None):
     own = tuple(_photos()[name]["shape"][:2])
     h, w = _target_shape(size, own)
     scale = np.array([h / own[0], w / own[1]])
-    rows_cols = np.array(_REGIONS[name], float)[:, ::-1] * scale  # (x, y) -> (row, col)
+    polygon, softness = _REGIONS[name]
+    rows_cols = np.array(polygon, float)[:, ::-1] * scale  # (x, y) -> (row, col)
     inside = polygon2mask((h, w), rows_cols).astype(np.float32)
-    matte = ndi.gaussian_filter(inside, _REGION_SOFTNESS * scale)
+    matte = ndi.gaussian_filter(inside, softness * scale)
     return np.clip(matte, 0.0, 1.0).astype(np.float32)
