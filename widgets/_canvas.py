@@ -338,6 +338,8 @@ class DrawingCanvas(W.VBox):
             layer.global_composite_operation = "source-over"
 
     def _draw_live_stroke(self):
+        # Drawn as a finished stroke is (_draw_strokes), arrow head included, so the
+        # direction is seen while dragging, not only after the release.
         pts = np.array([self.to_canvas(*p) for p in self._current])
         layer = self._overlay
         with hold_canvas():
@@ -345,7 +347,11 @@ class DrawingCanvas(W.VBox):
             self._draw_overlay_segments()
             layer.stroke_style = _css(self.layers[self.layer].color)
             layer.line_width = self._pen
+            layer.line_cap = "round"
+            layer.line_join = "round"
             layer.stroke_lines(pts.tolist())
+            for tip, end in arrow_heads(pts, size=4 * self._pen):
+                layer.stroke_line(*tip, *end)
 
     def _changed(self, message=""):
         self.redraw()

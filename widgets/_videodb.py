@@ -43,7 +43,7 @@ from fluidnb.videodb import (
 )
 
 from ._app import App
-from ._canvas import DrawingCanvas, _css
+from ._canvas import DrawingCanvas
 from ._panel import ParamPanel
 
 __all__ = ["SPEED_MAX", "VideoDBApp"]
@@ -112,7 +112,7 @@ def _kernel_loop():
 
 
 class _FlowCanvas(DrawingCanvas):
-    """The drawing canvas with the app's brush rules and an arrow on the live stroke.
+    """The drawing canvas with the app's brush rules.
 
     The speed brush's value comes from the app's px/frame slider and the matte brush
     always paints "inside", so the canvas's own 0..1 value slider is not shown. It is
@@ -136,22 +136,6 @@ class _FlowCanvas(DrawingCanvas):
         hidden = layout.display == "none"
         layout.display = ""
         layout.visibility = "hidden" if hidden else "visible"
-
-    def _draw_live_stroke(self):
-        # The stroke in progress carries its arrow head, so the direction is seen
-        # while dragging, not only after the release.
-        pts = np.array([self.to_canvas(*p) for p in self._current])
-        layer = self._overlay
-        with hold_canvas():
-            layer.clear()
-            self._draw_overlay_segments()
-            layer.stroke_style = _css(self.layers[self.layer].color)
-            layer.line_width = self._pen
-            layer.line_cap = "round"
-            layer.line_join = "round"
-            layer.stroke_lines(pts.tolist())
-            for tip, end in arrow_heads(pts, size=4 * self._pen):
-                layer.stroke_line(*tip, *end)
 
 
 class _AssignmentMap(W.VBox):

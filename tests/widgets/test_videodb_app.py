@@ -19,6 +19,7 @@ from fluidnb import data
 from fluidnb.sketch import save_strokes
 from fluidnb.videodb import AnimateParams, starter_database
 from fluidnb.widgets import VideoDBApp
+from fluidnb.widgets import _canvas as canvas_module
 from fluidnb.widgets import _videodb as module
 from tests.support.frontend import canvas_event, client_ready, mouse_drag
 
@@ -93,8 +94,10 @@ def test_stroke_shows_its_arrow_while_dragging_and_the_quiver_follows(app, monke
     drag_on(app, [[ROW, 10], [ROW, 150]], "brush", "matte")
     assert app.quiver_segments == 0
     heads = []
-    real = module.arrow_heads
-    monkeypatch.setattr(module, "arrow_heads", lambda *a, **k: heads.append(a) or real(*a, **k))
+    real = canvas_module.arrow_heads  # the canvas draws every stroke's head, live ones too
+    monkeypatch.setattr(
+        canvas_module, "arrow_heads", lambda *a, **k: heads.append(a) or real(*a, **k)
+    )
     app.select("stroke", "flow")
     c = app.canvas
     canvas_event(c, "mouse_down", *c.to_canvas(ROW, 15))
