@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+
 from ._common import add_params_options
 
 _STARTERS = ("water", "smoke", "fire")
@@ -94,14 +96,18 @@ def _add_parallel_options(parser):
     )
 
 
+@contextlib.contextmanager
 def _client(args):
+    """The dask.distributed Client of ``--scheduler`` (closed afterwards), or None."""
     if not args.scheduler:
-        return None
+        yield None
+        return
     try:
         from distributed import Client
     except ImportError:
         raise ValueError("--scheduler needs dask.distributed: pip install distributed") from None
-    return Client(args.scheduler)
+    with Client(args.scheduler) as client:
+        yield client
 
 
 def _build(args):
@@ -124,8 +130,7 @@ def _build(args):
     if not args.kind:
         raise ValueError("--kind is required: water, smoke, fire or your own label")
     params = params_from_args(DatabaseParams, args)
-    client = _client(args)
-    try:
+    with _client(args) as client:
         db = build_database(
             args.sources,
             args.out,
@@ -137,9 +142,6 @@ def _build(args):
             resume=args.resume,
             progress=TextProgress(),
         )
-    finally:
-        if client is not None:
-            client.close()
     print(db.summary())
     return 0
 
@@ -148,8 +150,7 @@ def _add(args):
     from .._progress import TextProgress
     from ..videodb import add_clips
 
-    client = _client(args)
-    try:
+    with _client(args) as client:
         db = add_clips(
             args.db,
             args.sources,
@@ -158,9 +159,6 @@ def _add(args):
             resume=args.resume,
             progress=TextProgress(),
         )
-    finally:
-        if client is not None:
-            client.close()
     print(db.summary())
     return 0
 
