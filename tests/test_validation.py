@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from fluidnb._random import rng
+from fluidnb._random import resolve_seed, rng
 from fluidnb._validation import (
     check_array,
     check_choice,
@@ -94,3 +94,18 @@ def test_rng_seeding():
     for bad in (-1, 1.5, "3", True):
         with pytest.raises(ValueError, match="seed must be None, a non-negative integer"):
             rng(bad)
+
+
+def test_resolve_seed_records_a_remakeable_int():
+    assert resolve_seed(7) == 7
+    fresh = resolve_seed(None)
+    assert isinstance(fresh, int)
+    assert 0 <= fresh < 2**31
+    # None draws new entropy each time (two equal draws: 1 in 2**31)
+    assert resolve_seed(None) != fresh or resolve_seed(None) != fresh
+    # a Generator gives an int drawn from its stream: same stream, same int
+    assert resolve_seed(np.random.default_rng(3)) == resolve_seed(np.random.default_rng(3))
+    assert resolve_seed(np.random.default_rng(3)) != resolve_seed(np.random.default_rng(4))
+    for bad in (-1, 1.5, "3", True):
+        with pytest.raises(ValueError, match="seed must be None, a non-negative integer"):
+            resolve_seed(bad)
