@@ -28,6 +28,7 @@ import base64
 import contextlib
 import io
 import json
+import logging
 import math
 import os
 import re
@@ -526,6 +527,10 @@ def read_video(path, *, max_side=None, what=None):
     return frames, float(meta.get("fps") or 0.0), scale
 
 
+def _scaling_is_intended(record):
+    return not record.getMessage().startswith("The frame size for reading")
+
+
 def _ffmpeg_read(path, output_params=None, *, frames=True):
     """Return (metadata dict, RGB24 bytes of all frames or None, None) or an error text.
 
@@ -534,6 +539,10 @@ def _ffmpeg_read(path, output_params=None, *, frames=True):
     """
     import imageio_ffmpeg
 
+    if output_params:
+        # We asked ffmpeg to scale: imageio-ffmpeg's warning that the frames differ in
+        # size from the source's is expected, not news for the user.
+        logging.getLogger("imageio_ffmpeg").addFilter(_scaling_is_intended)
     reader = imageio_ffmpeg.read_frames(str(path), output_params=output_params)
     try:
         meta = next(reader)
