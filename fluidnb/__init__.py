@@ -1,9 +1,9 @@
 """fluidnb: five published fluid-animation methods as a fast, tested library.
 
-The library (this package) depends only on numpy, scipy, scikit-image, PyMaxflow,
-imageio, Pillow and matplotlib; the interactive layer is the separate subpackage
-:mod:`fluidnb.widgets`, which this package never imports. See docs/conventions.md for
-the array, vector-field, parameter, seeding and error conventions.
+The library (this package) never imports Jupyter; the interactive layer is the separate
+subpackage :mod:`fluidnb.widgets`, built on top of it. See docs/conventions.md for the
+array, clip and result, vector-field, parameter, random-seed, citation and error
+conventions, and the README's References for the five papers.
 """
 
 import importlib

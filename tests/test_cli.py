@@ -81,5 +81,32 @@ def test_params_options_follow_field_names():
         params_from_args(Demo, parser.parse_args(["--rth", "2"]))
 
 
-def test_parser_builds():
-    assert build_parser().prog == "fluidnb"
+COMMANDS = [
+    "info",
+    "sample",
+    "convert",
+    "flicker",
+    "frost",
+    "simulate",
+    "fire",
+    "turbulence",
+    "videodb",
+    "animate",
+]
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_every_command_is_registered_with_its_help(command, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main([command, "--help"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.startswith(f"usage: fluidnb {command} ")
+
+
+def test_parser_routes_commands_to_their_handlers(capsys):
+    args = build_parser().parse_args(["convert", "in.npz", "-o", "out.gif"])
+    assert (args.command, args.func.__name__) == ("convert", "_convert")
+    with pytest.raises(SystemExit) as exc:
+        main(["no-such-command"])
+    assert exc.value.code == 2
+    assert "invalid choice" in capsys.readouterr().err

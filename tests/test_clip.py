@@ -1,4 +1,4 @@
-"""Tests for fluidnb._clip: the Clip value type, its files and its inline display."""
+"""Tests for fluidnb._clip (the Clip value type) and fluidnb._media (its files and display)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from fluidnb import _clip
+from fluidnb import _media
 from fluidnb._clip import Clip, load_clip
 
 # ---------------------------------------------------------------------- helpers
@@ -312,6 +312,14 @@ def test_npz_without_frames_is_refused(tmp_path):
         Clip.load(path)
 
 
+def test_npy_named_npz_is_refused(tmp_path):
+    path = tmp_path / "array.npz"
+    with open(path, "wb") as f:
+        np.save(f, np.zeros((2, 3, 3)))
+    with pytest.raises(ValueError, match=r"array\.npz.*not an \.npz archive"):
+        Clip.load(path)
+
+
 def test_npz_with_bad_frames_is_refused(tmp_path):
     path = tmp_path / "bad.npz"
     np.savez(path, frames=np.full((2, 3, 3), 2.0), fps=8.0)
@@ -450,6 +458,42 @@ def test_mp4_odd_size_grey_and_fractional_fps(tmp_path):
     assert np.abs(back.frames - clip.frames).mean() < 0.05
 
 
+def test_mp4_fps_and_metadata_live_in_a_json_sidecar(tmp_path):
+    clip = smooth_clip(t=6, h=15, w=21, fps=7.5, metadata=METADATA)
+    path = clip.save(tmp_path / "clip.mp4")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["clip.mp4", "clip.mp4.json"]
+    info = json.loads((tmp_path / "clip.mp4.json").read_text(encoding="utf-8"))
+    assert info["fps"] == 7.5
+    assert info["shape"] == [15, 21]
+    assert info["metadata"] == clip.metadata
+    # Without its sidecar the video still loads: the stream's fps, no metadata, and
+    # the even-size padding (16 x 22) is not known to be padding.
+    (tmp_path / "clip.mp4.json").unlink()
+    back = Clip.load(path)
+    assert back.fps == 7.5
+    assert back.metadata == {}
+    assert back.frames.shape == (6, 16, 22, 3)
+
+
+def test_truncated_mp4_is_refused(tmp_path):
+    path = smooth_clip(t=24, h=32, w=32).save(tmp_path / "cut.mp4")
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+    with pytest.raises(ValueError, match=r"cut\.mp4.*truncated"):
+        Clip.load(path)
+
+
+def test_damaged_mp4_sidecar_is_refused(tmp_path):
+    path = random_clip((3, 8, 8)).save(tmp_path / "x.mp4")
+    sidecar = tmp_path / "x.mp4.json"
+    sidecar.write_text("{not json", encoding="utf-8")
+    with pytest.raises(ValueError, match=r"x\.mp4\.json"):
+        Clip.load(path)
+    sidecar.write_text(json.dumps({"format": "fluidnb.Clip", "fps": -1}), encoding="utf-8")
+    with pytest.raises(ValueError, match=r"x\.mp4\.json.*damaged.*fps"):
+        Clip.load(path)
+
+
 def test_save_quality_is_validated(tmp_path):
     with pytest.raises(ValueError, match="quality"):
         random_clip((2, 4, 4)).save(tmp_path / "q.mp4", quality=0)
@@ -462,7 +506,7 @@ def test_failed_encode_leaves_no_file(tmp_path, monkeypatch):
     def broken(*args, **kwargs):
         raise OSError("encoder exploded")
 
-    monkeypatch.setattr(_clip, "_encode_mp4", broken)
+    monkeypatch.setattr(_media, "_encode_mp4", broken)
     with pytest.raises(OSError, match="exploded"):
         random_clip((2, 4, 4)).save(tmp_path / "x.mp4")
     assert not list(tmp_path.iterdir())
@@ -485,6 +529,37 @@ def test_corrupt_file_is_refused(tmp_path, name):
     path = tmp_path / name
     path.write_bytes(b"this is not a clip at all" * 10)
     with pytest.raises(ValueError, match=re.escape(name)):
+        Clip.load(path)
+
+
+@pytest.mark.parametrize("name", ["x.npz", "x.gif", "x.mp4"])
+def test_truncated_or_empty_file_is_refused(tmp_path, name):
+    path = smooth_clip(t=8).save(tmp_path / name)
+    data = path.read_bytes()
+    for cut in (data[: len(data) // 3], b""):
+        path.write_bytes(cut)
+        with pytest.raises(ValueError, match=re.escape(name)):
+            Clip.load(path)
+
+
+def test_damaged_clip_information_is_refused(tmp_path):
+    folder = random_clip((2, 4, 4)).save(tmp_path / "seq")
+    (folder / "clip.json").write_text("[1, 2", encoding="utf-8")
+    with pytest.raises(ValueError, match=r"clip\.json.*Clip\.save"):
+        Clip.load(folder)
+    bad = {"format": "fluidnb.Clip", "fps": 8.0, "metadata": ["not", "a", "dict"]}
+    (folder / "clip.json").write_text(json.dumps(bad), encoding="utf-8")
+    with pytest.raises(ValueError, match=r"seq.*metadata must be a dict"):
+        Clip.load(folder)
+    path = tmp_path / "bad.gif"
+    Image.fromarray(np.zeros((4, 4), dtype=np.uint8)).save(
+        path, comment=json.dumps({"format": "fluidnb.Clip", "fps": "fast"})
+    )
+    with pytest.raises(ValueError, match=r"bad\.gif.*damaged.*fps"):
+        Clip.load(path)
+    path = tmp_path / "meta.npz"
+    np.savez(path, frames=np.zeros((1, 2, 2)), fps=8.0, metadata=np.array("{oops"))
+    with pytest.raises(ValueError, match=r"meta\.npz.*metadata"):
         Clip.load(path)
 
 
@@ -533,7 +608,7 @@ def test_repr_html_falls_back_to_gif(monkeypatch):
     def broken(*args, **kwargs):
         raise OSError("no ffmpeg here")
 
-    monkeypatch.setattr(_clip, "_encode_mp4", broken)
+    monkeypatch.setattr(_media, "_encode_mp4", broken)
     html = smooth_clip(t=4)._repr_html_()
     assert "<video" not in html
     assert "data:image/gif;base64," in html

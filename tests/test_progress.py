@@ -5,8 +5,15 @@ import pytest
 from fluidnb import Cancelled, CancelToken, Progress, TextProgress
 
 
-def test_progress_none_is_free():
-    Progress(None)(0.5, "x")
+def test_progress_none_reports_nothing_anywhere(capsys):
+    report = Progress(None)
+    assert report.callback is None
+    assert report(0.5, "x") is None
+    first, second = report.split(0.5)
+    assert first.callback is None
+    assert second.sub(0.2, 0.4).callback is None
+    second(1.0, "done")
+    assert capsys.readouterr() == ("", "")
 
 
 def test_progress_substages_map_into_parent_range():

@@ -53,7 +53,7 @@ def register(sub):
         "--strokes",
         default=None,
         metavar="STROKES.json",
-        help="flow strokes: the direction the fluid moves (seed Fig. 8-a)",
+        help="flow strokes: the direction the fluid moves (Okabe et al., Fig. 8-a)",
     )
     p.add_argument(
         "--speed",

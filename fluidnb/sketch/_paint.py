@@ -92,19 +92,19 @@ def paint_segment(array, start, end, radius, value):
     return box
 
 
-def flood_fill(array, seed_point, value, *, tolerance=None):
-    """Fill the connected region of equal values around ``seed_point``; a new array.
+def flood_fill(array, start, value, *, tolerance=None):
+    """Fill the connected region of equal values around ``start``; a new array.
 
     Parameters
     ----------
     array : ndarray, shape (H, W)
         The map (not modified).
-    seed_point : (int, int)
+    start : (int, int)
         (row, col) where the fill starts; rounded to the nearest pixel.
     value : float or bool
         The fill value.
     tolerance : float, optional
-        Also fill neighbours whose value differs from the seed's by at most this.
+        Also fill neighbours whose value differs from the start pixel's by at most this.
 
     Returns
     -------
@@ -112,10 +112,8 @@ def flood_fill(array, seed_point, value, *, tolerance=None):
         The filled copy (4-connected fill, as in paint programs).
     """
     _check_target(array)
-    r, c = (int(round(float(v))) for v in seed_point)
+    r, c = (int(round(float(v))) for v in start)
     h, w = array.shape
     if not (0 <= r < h and 0 <= c < w):
-        raise ValueError(
-            f"seed_point must lie inside the map (0..{h - 1}, 0..{w - 1}), got {(r, c)}"
-        )
+        raise ValueError(f"start must lie inside the map (0..{h - 1}, 0..{w - 1}), got {(r, c)}")
     return _sk_flood_fill(array, (r, c), value, connectivity=1, tolerance=tolerance)

@@ -1,6 +1,6 @@
 r"""Animating a single fluid image from a database of fluid videos (Okabe et al. 2011).
 
-The database (seed section 4): fluid clips, each flipped, scaled and rotated, cut into
+The database (Okabe et al., sec. 4): fluid clips, each flipped, scaled and rotated, cut into
 48 x 48-pixel fragments of ``N`` frames; per fragment its mean image, dense-SIFT
 visual words, mean motion, motion power spectra and textureness, in a zarr store
 (:func:`build_database`, :func:`open_database`, :func:`starter_database`).

@@ -1,4 +1,4 @@
-r"""Animating one fluid image from a video database (seed sections 5-6).
+r"""Animating one fluid image from a video database (Okabe et al., secs. 5-6).
 
 :func:`animate` = :func:`assign` + :func:`render`:
 
@@ -7,7 +7,7 @@ r"""Animating one fluid image from a video database (seed sections 5-6).
    take part;
 2. **candidates** (Eq. 1): each target fragment's visual words, the top-``k`` database
    fragments by spatial-pyramid histogram intersection, after dropping those whose mean
-   motion disagrees with the user's direction / speed (seed Fig. 8);
+   motion disagrees with the user's direction / speed (Okabe et al., Fig. 8);
 3. **MRF** (Eq. 4-6): :math:`V_p = 1 - I` (the paper writes :math:`V_p = I`, which a
    minimisation would turn into a reward for dissimilarity), :math:`W_{pq}` from the
    motion spectra and textureness over the overlap; three tables per edge kept, so a
@@ -54,7 +54,7 @@ _SCORE_MAX = 324
 
 @dataclass(frozen=True, eq=False)
 class Target:
-    """The target image cut into fragments as the database's (seed section 5).
+    """The target image cut into fragments as the database's (Okabe et al., sec. 5).
 
     Attributes
     ----------
@@ -92,7 +92,7 @@ class Target:
 
 
 def cut_target(image, matte=None):
-    """Cut a target image into the fragments that take part (seed section 5, Fig. 2-i).
+    """Cut a target image into the fragments that take part (Okabe et al., sec. 5, Fig. 2-i).
 
     Parameters
     ----------
@@ -185,7 +185,7 @@ def _as_database(db, progress=None):
 
 
 def fragment_motion(target, direction=None, speed=None):
-    """The user's motion over each target fragment (seed section 5, Fig. 8).
+    """The user's motion over each target fragment (Okabe et al., sec. 5, Fig. 8).
 
     Parameters
     ----------
@@ -252,7 +252,7 @@ def _fragment_means(target, field):
 
 @dataclass(frozen=True, eq=False)
 class Assignment:
-    r"""Which database fragment animates each target fragment (seed section 5).
+    r"""Which database fragment animates each target fragment (Okabe et al., sec. 5).
 
     Made by :func:`assign`. It keeps the candidates, the data term and the three
     smoothness tables, so :meth:`resolve` re-solves for other :math:`\sigma`,
@@ -393,7 +393,7 @@ def _blend_vectors(target, vectors):
 def assign(
     image, matte=None, db="water", params=None, *, direction=None, speed=None, progress=None
 ):
-    r"""Choose a database fragment for every fragment of the target (seed section 5).
+    r"""Choose a database fragment for every fragment of the target (Okabe et al., sec. 5).
 
     Parameters
     ----------
@@ -407,9 +407,9 @@ def assign(
     params : AnimateParams, optional
         Default :meth:`AnimateParams.for_kind` of the database's kind.
     direction : strokes or ndarray (H, W, 2), optional
-        The flow direction (seed Fig. 8-a, b); see :func:`fragment_motion`.
+        The flow direction (Okabe et al., Fig. 8-a, b); see :func:`fragment_motion`.
     speed : ndarray (H, W), optional
-        The speed map in px/frame, 0 where not painted (seed Fig. 8-c).
+        The speed map in px/frame, 0 where not painted (Okabe et al., Fig. 8-c).
     progress : callable, optional
         ``progress(fraction, message)``; raise :class:`fluidnb.Cancelled` to stop.
 
@@ -498,7 +498,7 @@ _MARGIN = 12
 
 @dataclass(frozen=True, eq=False)
 class Animation:
-    """An animated fluid image and how it was made (seed sections 5-6).
+    """An animated fluid image and how it was made (Okabe et al., secs. 5-6).
 
     Attributes
     ----------
@@ -523,7 +523,7 @@ class Animation:
 
 
 def render(assignment, params=None, *, background=None, fps=24.0, progress=None):
-    r"""Render the animation of an assignment (seed section 6).
+    r"""Render the animation of an assignment (Okabe et al., sec. 6).
 
     1. Rebuild every assigned fragment's frames from its source clip (with 12 px of
        context) and its difference frames :math:`D_i = F_i - A` (luminance);

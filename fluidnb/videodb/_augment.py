@@ -1,6 +1,6 @@
-r"""The 18 augmented versions of a database clip (seed section 4, Fig. 4-a).
+r"""The 18 augmented versions of a database clip (Okabe et al., sec. 4, Fig. 4-a).
 
-To multiply its videos the seed [1]_ flips each one horizontally, scales it to 50, 75 and
+To multiply its videos the paper [1]_ flips each one horizontally, scales it to 50, 75 and
 100 % and rotates it by -22.5, 0 and +22.5 degrees, then cuts every version into
 48 x 48 fragments. Here a version is an index into :data:`VERSIONS`
 (``9 * flip + 3 * scale_index + angle_index``; 7 is the clip itself).
@@ -169,7 +169,7 @@ def version_coordinates(shape, version, *, origin=(0, 0), size=None):
 
 
 def sample_version(frames, version, *, origin=(0, 0), size=None):
-    r"""A version's pixels of a clip: flipped, scaled, rotated (seed Fig. 4-a).
+    r"""A version's pixels of a clip: flipped, scaled, rotated (Okabe et al., Fig. 4-a).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Building a video database (seed section 4): clips in, fragments and features out.
+"""Building a video database (Okabe et al., sec. 4): clips in, fragments and features out.
 
 The build runs in four stages, each of which can be interrupted and resumed:
 
@@ -55,7 +55,7 @@ _STATE = "state.json"
 
 
 def clip_fragments(frames, params=None, *, clip=0, versions=None):
-    """Cut one clip into fragments and compute their features (seed section 4).
+    """Cut one clip into fragments and compute their features (Okabe et al., sec. 4).
 
     Windows of ``N`` frames follow each other every ``N - window_overlap`` frames;
     within each window the optical flow is computed once on the clip and carried to
@@ -221,7 +221,7 @@ def build_database(
     resume=False,
     progress=None,
 ):
-    """Build a video database from fluid clips (seed section 4).
+    """Build a video database from fluid clips (Okabe et al., sec. 4).
 
     Parameters
     ----------
@@ -294,7 +294,7 @@ def build_database(
 
 
 def add_clips(db, sources, *, client=None, workers=None, resume=False, progress=None):
-    """Add clips to an existing database, with its codebook (seed section 4).
+    """Add clips to an existing database, with its codebook (Okabe et al., sec. 4).
 
     Parameters
     ----------

@@ -1,11 +1,11 @@
-r"""What a database keeps of each fragment (seed section 4-5, Fig. 5 and 7).
+r"""What a database keeps of each fragment (Okabe et al., secs. 4-5, Fig. 5 and 7).
 
 For one temporal window of one augmented version of a clip, every 48 x 48 fragment on
 the stride-24 grid gets:
 
 - its mean image :math:`A = \frac{1}{N}\sum_i F_i` (colour, rounded to 8 bits);
 - the moving-pixel mask: pixels whose flow magnitude, averaged over the window, exceeds
-  the threshold (seed Fig. 5-d); a fragment with no moving pixel is dropped;
+  the threshold (Okabe et al., Fig. 5-d); a fragment with no moving pixel is dropped;
 - its mean motion (over the window and its moving pixels) and the same mean per frame
   pair (the motion the render step warps the dynamic matte with);
 - the motion spectra :math:`\hat M(x)` over time of each flow component (Eq. 2),
@@ -18,7 +18,7 @@ the stride-24 grid gets:
   count as alike in Eq. (2));
 - its textureness :math:`T`: per frame a 4-level Laplacian pyramid, each band's
   magnitude brought back to full resolution and summed over the window's frames
-  (seed Fig. 7), averaged over 2 x 2-pixel blocks (24 x 24 x 4 per fragment).
+  (Okabe et al., Fig. 7), averaged over 2 x 2-pixel blocks (24 x 24 x 4 per fragment).
 
 Spectra and textureness are computed once over the whole version canvas and cut into
 fragments (the stride, 24, is a multiple of both block sizes), so neighbouring
@@ -121,7 +121,7 @@ def _power(blocks, n_bins):
 
 
 def textureness(frames):
-    r"""Laplacian-pyramid magnitudes summed over frames (seed Fig. 7), per 2 x 2 block.
+    r"""Laplacian-pyramid magnitudes summed over frames (Okabe et al., Fig. 7), per 2 x 2 block.
 
     Parameters
     ----------

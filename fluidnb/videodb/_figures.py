@@ -1,20 +1,20 @@
-r"""Teaching figures of the video-database method (seed 000, sections 4-6).
+r"""Teaching figures of the video-database method (Okabe et al., secs. 4-6).
 
 What the lesson (``notebooks/07_videodb.ipynb``) draws, as library functions so the
 notebook's cells stay short and the app can reuse them:
 
 - :func:`clip_fragments_figure`: a clip, its fragment grid, and one fragment's mean
-  image, difference frame, visual words, motion spectra and textureness (seed Fig. 2,
+  image, difference frame, visual words, motion spectra and textureness (Okabe et al., Fig. 2,
   4-b, 5);
 - :func:`fragment_figure`: the same panels for any fragment of a database;
-- :func:`versions_figure`: the 18 augmented versions of a clip (seed Fig. 4-a);
+- :func:`versions_figure`: the 18 augmented versions of a clip (Okabe et al., Fig. 4-a);
 - :func:`retrieval_figure`: a query fragment and its best candidates by histogram
   intersection (Eq. 1);
-- :func:`spectra_figure`: motion power spectra (Eq. 2, seed Fig. 6) and textureness
-  (seed Fig. 7) of a few fragments side by side;
+- :func:`spectra_figure`: motion power spectra (Eq. 2, Okabe et al., Fig. 6) and textureness
+  (Okabe et al., Fig. 7) of a few fragments side by side;
 - :func:`assignment_figure`, :func:`sweep_figure`: which source clip animates each
   target fragment and its mean motion, for one or several assignments (Eq. 4-6);
-- :func:`rendering_figure`: the rendering's stages (seed section 6);
+- :func:`rendering_figure`: the rendering's stages (Okabe et al., sec. 6);
 - :func:`mean_image_mosaic` and :func:`motion_coherence`: the numbers and pictures the
   figures are made of.
 
@@ -261,7 +261,7 @@ def _fragment_title(db, fragment):
 
 
 def fragment_figure(db, fragment, *, frame=0, figsize=(13, 3.1)):
-    r"""One database fragment as the method sees it (seed sections 4-5, Fig. 2, 5, 6, 7).
+    r"""One database fragment as the method sees it (Okabe et al., secs. 4-5, Fig. 2, 5, 6, 7).
 
     Parameters
     ----------
@@ -329,7 +329,7 @@ def _default_fragment(db, clip):
 
 
 def clip_fragments_figure(db, clip=None, *, fragment=None, frame=0, figsize=(13, 7.2)):
-    r"""A clip cut into fragments, and one fragment's features (seed section 4, Fig. 4-b, 5).
+    r"""A clip cut into fragments, and one fragment's features (Okabe et al., sec. 4, Fig. 4-b, 5).
 
     Parameters
     ----------
@@ -462,7 +462,7 @@ def clip_fragments_figure(db, clip=None, *, fragment=None, frame=0, figsize=(13,
 
 
 def versions_figure(db, clip=0, *, frame=0, figsize=(14, 4.4)):
-    r"""The 18 augmented versions of a clip (seed section 4, Fig. 4-a).
+    r"""The 18 augmented versions of a clip (Okabe et al., sec. 4, Fig. 4-a).
 
     Parameters
     ----------
@@ -586,7 +586,7 @@ def retrieval_figure(db, image, *, k=6, figsize=None):
 
 
 def spectra_figure(db, fragments, *, labels=None, figsize=None):
-    r"""Motion spectra (Eq. 2, seed Fig. 6) and textureness (seed Fig. 7) side by side.
+    r"""Motion spectra (Eq. 2, Fig. 6) and textureness (Fig. 7) side by side (Okabe et al.).
 
     Parameters
     ----------
@@ -605,7 +605,7 @@ def spectra_figure(db, fragments, *, labels=None, figsize=None):
         Left: each fragment's motion power per frequency bin (summed over dy and dx,
         averaged over the fragment; diamonds: the DC bin's power, i.e. the squared
         mean motion), on one log axis, so a calm fragment (DC only) and a turbulent one
-        (power at every frequency) tell apart at a glance, as in the seed's Fig. 6.
+        (power at every frequency) tell apart at a glance, as in the paper's Fig. 6.
         Right: per fragment its mean image and the four textureness levels, each level
         on one colour scale for all fragments, so contrast differences show (Fig. 7).
     """
@@ -690,7 +690,7 @@ def motion_coherence(assignment):
 
     The mean, over the MRF's edges (neighbouring target fragments), of the cosine of
     the angle between their assigned fragments' mean motions: 1 when all flow the
-    same way, about 0 when directions are random (seed section 7: a large
+    same way, about 0 when directions are random (Okabe et al., sec. 7: a large
     :math:`\sigma` ignores the mean motion and the motion turns random). Edges with a
     still fragment count as 0; a target of one fragment (no edge) gives 1.
 
@@ -840,7 +840,7 @@ def assignment_figure(
     zoom=False,
     figsize=(7.5, 6),
 ):
-    r"""Which database fragment animates each part of the target (seed section 5).
+    r"""Which database fragment animates each part of the target (Okabe et al., sec. 5).
 
     Parameters
     ----------
@@ -911,7 +911,7 @@ def assignment_figure(
 
 
 def sweep_figure(assignments, *, reference=None, background="clips", zoom=True, figsize=None):
-    r"""Several assignments side by side, with what changed (seed section 7, parameters).
+    r"""Several assignments side by side, with what changed (Okabe et al., sec. 7, parameters).
 
     Parameters
     ----------
@@ -981,7 +981,7 @@ def sweep_figure(assignments, *, reference=None, background="clips", zoom=True, 
 
 
 def rendering_figure(animation, *, frame=None, figsize=(13, 7.6)):
-    r"""The rendering's steps for one frame (seed section 6).
+    r"""The rendering's steps for one frame (Okabe et al., sec. 6).
 
     Parameters
     ----------

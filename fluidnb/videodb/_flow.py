@@ -1,6 +1,6 @@
-r"""Optical flow of a database clip (seed section 4, Fig. 5-b).
+r"""Optical flow of a database clip (Okabe et al., sec. 4, Fig. 5-b).
 
-The seed computes the motion of every video with OFLib's TV-L1 optical flow (Zach,
+The paper computes the motion of every video with OFLib's TV-L1 optical flow (Zach,
 Pock and Bischof 2007) with :math:`\theta = 1.0`, :math:`\lambda = 0.8` and 25
 iterations, "tuned so that the flow is not sensitive to the high-frequency motion of
 fluids and comes out relatively smooth". Two backends compute it here:
@@ -8,8 +8,8 @@ fluids and comes out relatively smooth". Two backends compute it here:
 - ``"dis"``: OpenCV's Dense Inverse Search (Kroeger et al. 2016), preset MEDIUM, on
   8-bit frames. Fast (10-15 ms a 320 x 180 pair, 20-40 ms at 640 x 360 on the
   2-core build machine) and deterministic; the default for building databases.
-- ``"tvl1"``: scikit-image's TV-L1 (the seed's model, Zach et al. 2007; Wedel et al.
-  2009) with the seed's parameters mapped as explained in :func:`optical_flow`:
+- ``"tvl1"``: scikit-image's TV-L1 (the paper's model, Zach et al. 2007; Wedel et al.
+  2009) with the paper's parameters mapped as explained in :func:`optical_flow`:
   1-2 s a 320 x 180 pair, about 100 times slower.
 
 The flow is computed once per source clip; the augmented versions get theirs by
@@ -36,11 +36,11 @@ __all__ = [
     "optical_flow",
 ]
 
-#: The seed's TV-L1 settings (section 4): :math:`\theta`, :math:`\lambda`, iterations.
+#: The paper's TV-L1 settings (section 4): :math:`\theta`, :math:`\lambda`, iterations.
 TVL1_THETA = 1.0
 TVL1_LAMBDA = 0.8
 TVL1_ITERATIONS = 25
-#: Warps per pyramid level; the seed does not give OFLib's, so scikit-image's default.
+#: Warps per pyramid level; the paper does not give OFLib's, so scikit-image's default.
 TVL1_WARPS = 5
 #: OFLib's :math:`\lambda` weighs grey levels in 0-255; our frames are in [0, 1].
 TVL1_INTENSITY_SCALE = 255.0
@@ -62,7 +62,7 @@ def optical_flow(frames, *, backend="dis", progress=None):
         Grey frames in [0, 1], ``T >= 2``, ``H, W >= 16``.
     backend : {"dis", "tvl1"}
         ``"dis"``: OpenCV's DIS flow [2]_ (preset MEDIUM) on the frames rounded to
-        8 bits. ``"tvl1"``: scikit-image's TV-L1 [3]_ [4]_ with the seed's settings
+        8 bits. ``"tvl1"``: scikit-image's TV-L1 [3]_ [4]_ with the paper's settings
         (see Notes).
     progress : callable, optional
         ``progress(fraction, message)``, called after every frame pair.
@@ -85,7 +85,7 @@ def optical_flow(frames, *, backend="dis", progress=None):
     result does not depend on OpenCV's thread count (checked with 1, 2 and the
     default), so no thread setting is touched.
 
-    **TV-L1 and the seed's parameters** [1]_. Zach et al. [3]_ minimise
+    **TV-L1 and the paper's parameters** [1]_. Zach et al. [3]_ minimise
     :math:`\int |\nabla u| + \frac{1}{2\theta}(u - v)^2 + \lambda |\rho(v)|` with the
     linearised residual :math:`\rho(v) = I_1(x + u_0) + \nabla I_1 \cdot (v - u_0) -
     I_0(x)`, alternating a pointwise thresholding step on :math:`v` (threshold
@@ -99,10 +99,10 @@ def optical_flow(frames, *, backend="dis", progress=None):
 
     The data term scales with the grey levels, so :math:`\lambda` is tied to them:
     on 0-255 images it equals :math:`255\lambda` on our [0, 1] frames. We read the
-    seed's :math:`\lambda = 0.8` as one on 0-255 grey levels (the scale of OpenCV's
+    paper's :math:`\lambda = 0.8` as one on 0-255 grey levels (the scale of OpenCV's
     and IPOL's TV-L1, whose default is :math:`\lambda = 0.15`) and pass
     ``attachment = 0.8 * 255 = 204``, ``tightness = 1.0``, ``num_iter = 25`` (the
-    seed's iteration count) and ``num_warp = 5`` (scikit-image's default; OFLib's is
+    paper's iteration count) and ``num_warp = 5`` (scikit-image's default; OFLib's is
     not given). Measured on synthetic textures whose flow is known exactly (48 x 64,
     tests/videodb/test_videodb_flow.py):
 
@@ -110,16 +110,16 @@ def optical_flow(frames, *, backend="dis", progress=None):
       a 2-degree rotation within 0.07 px (inside a 4-pixel border);
     - a sinusoidal shear keeps a gain of 0.88 at a wavelength of 64 px but only 0.37
       at 16 px (scikit-image's defaults: 0.94 and 0.52): smoother than the defaults,
-      "not sensitive to high-frequency motion", as the seed says;
+      "not sensitive to high-frequency motion", as the paper says;
     - reading :math:`\lambda = 0.8` on [0, 1] grey levels instead (``attachment =
       0.8``) makes the data term so weak that only near-rigid motion survives: gains
       0.0 and 0.31 at 16 and 64 px, and 0.4 px error on a 3-degree rotation. The
       motion of a 48 x 48 fragment would be flattened towards its mean, which the
       motion spectra (Eq. 2) could not use.
 
-    The seed does not say which OFLib it used. Zach's own GPU TV-L1 (GPU-KLT+FLOW)
+    The paper does not say which OFLib it used. Zach's own GPU TV-L1 (GPU-KLT+FLOW)
     divides its image derivatives by 255 before the thresholding step, i.e. weighs
-    :math:`\lambda` against [0, 1] grey levels; if that was the seed's library, its
+    :math:`\lambda` against [0, 1] grey levels; if that was the paper's library, its
     flows were smoother than these.
 
     References

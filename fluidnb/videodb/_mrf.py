@@ -1,4 +1,4 @@
-r"""The assignment MRF of the video-database method (seed 000, section 5, Eq. 2-6).
+r"""The assignment MRF of the video-database method (Okabe et al., sec. 5, Eq. 2-6).
 
 Every target fragment :math:`p` (a node of a 4-connected grid) takes one of its
 :math:`K` candidate database fragments (its labels, ranked by appearance, Eq. 1). The

@@ -1,4 +1,4 @@
-"""Parameters of the video-database method (seed 000, sections 4-6)."""
+"""Parameters of the video-database method (Okabe et al., secs. 4-6)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from .._params import Params, param
 
 __all__ = ["AUGMENTATIONS", "FLOW_BACKENDS", "AnimateParams", "DatabaseParams"]
 
-#: Optical-flow backends (seed section 4): ``"dis"`` is OpenCV's DIS flow (preset
+#: Optical-flow backends (Okabe et al., sec. 4): ``"dis"`` is OpenCV's DIS flow (preset
 #: MEDIUM; fast, the default for building), ``"tvl1"`` scikit-image's TV-L1 (the
 #: paper's model, OFLib's, ~50x slower).
 FLOW_BACKENDS = ("dis", "tvl1")
@@ -21,7 +21,7 @@ AUGMENTATIONS = ("paper", "flip", "none")
 
 @dataclass(frozen=True)
 class DatabaseParams(Params):
-    r"""How a video database is built (seed section 4).
+    r"""How a video database is built (Okabe et al., sec. 4).
 
     The fragment geometry is fixed (48 x 48 pixels, stride 24, a 9 x 9 dense-SIFT grid;
     see :mod:`fluidnb.videodb._geometry`); these are the choices left.
@@ -30,8 +30,8 @@ class DatabaseParams(Params):
     ----------
     N : int
         :math:`N`, frames per fragment: a fragment is a temporal window of ``N``
-        frames of its clip (our decision; the seed's fragments span a whole video).
-        Its mean image is :math:`A = \frac{1}{N}\sum_i F_i` (seed section 6) and its
+        frames of its clip (our decision; the paper's fragments span a whole video).
+        Its mean image is :math:`A = \frac{1}{N}\sum_i F_i` (Okabe et al., sec. 6) and its
         motion spectra have ``(N - 1) // 2 + 1`` frequency bins (Eq. 2's :math:`f = 1
         \ldots N/2`).
     window_overlap : int
@@ -44,9 +44,9 @@ class DatabaseParams(Params):
     motion_threshold : float
         A pixel moves "significantly" when its flow magnitude averaged over the
         window exceeds this (px/frame); other pixels are masked out of the motion
-        features, and fragments with no moving pixel are dropped (seed Fig. 5-d).
+        features, and fragments with no moving pixel are dropped (Okabe et al., Fig. 5-d).
     words : int
-        :math:`k`, visual words in the codebook (seed: 100, 200, 300 and 500 were
+        :math:`k`, visual words in the codebook (the paper: 100, 200, 300 and 500 were
         tried; 200 was best).
     codebook_samples : int
         At most this many SIFT descriptors, drawn with the build's seed, train the
@@ -143,44 +143,44 @@ class DatabaseParams(Params):
 
 @dataclass(frozen=True)
 class AnimateParams(Params):
-    r"""How a target image is animated from a database (seed sections 5-6).
+    r"""How a target image is animated from a database (Okabe et al., secs. 5-6).
 
     Attributes
     ----------
     sigma : float
         :math:`\sigma` of Eq. (2): the weight of the motion spectra's non-DC
         frequencies against the DC term (the mean motion). Large values ignore the
-        mean motion and the result's motion turns random (seed section 7).
+        mean motion and the result's motion turns random (Okabe et al., sec. 7).
     lam : float
         :math:`\lambda` of Eq. (4): the weight of the smoothness term against the data
-        term. The seed found it matters little.
+        term. The paper found it matters little.
     rho : float
         :math:`\rho` of Eq. (6): the weight of the textureness term against the
-        motion term (the seed uses :math:`\rho = 100\,\sigma`).
+        motion term (the paper uses :math:`\rho = 100\,\sigma`).
     candidates : int
         Database fragments kept per target fragment by appearance (Eq. 1): the labels
-        of the MRF (seed: 100).
+        of the MRF (the paper: 100).
     max_angle : float
         With a user direction: database fragments whose mean motion points more than
         this many degrees away from it are dropped before the top ``candidates``
-        are taken (seed section 5, Fig. 8).
+        are taken (Okabe et al., sec. 5, Fig. 8).
     max_speed_ratio : float
         With a user speed map: fragments whose mean speed differs from it by more
         than this factor (either way) are dropped.
     shutter : float
-        The pseudo shutter time of the approximate mean image (seed section 6), in
+        The pseudo shutter time of the approximate mean image (Okabe et al., sec. 6), in
         frames: the target is blurred along the assigned motion over ``shutter``
         frames' worth of movement, standing in for the fragments' mean images
         :math:`A`, which are blurred by the motion over their :math:`N` frames.
     denoise : float
         The extra Gaussian blur of the approximate mean image, in pixels per px/frame
-        of motion (seed section 6: "proportional to the motion's magnitude").
+        of motion (Okabe et al., sec. 6: "proportional to the motion's magnitude").
     cell : int
         Side in pixels of the grid cells in which each frame's histograms are matched
-        to the target's (seed section 6, after Heeger & Bergen).
+        to the target's (Okabe et al., sec. 6, after Heeger & Bergen).
     tau : float
         :math:`\tau` of the dynamic fluid boundary :math:`B_{i+1} = \tau W_i(B_i) +
-        (1 - \tau)\alpha` (seed section 6): 0 keeps the matte still (water seen
+        (1 - \tau)\alpha` (Okabe et al., sec. 6): 0 keeps the matte still (water seen
         from afar), larger values let fire and smoke move their outline.
     loop : int
         Frames cross-faded from the end of the clip into its start so it loops

@@ -1,4 +1,4 @@
-r"""Rendering building blocks of the video-database method (seed 000, section 6).
+r"""Rendering building blocks of the video-database method (Okabe et al., sec. 6).
 
 Every target fragment :math:`p` has been assigned a database fragment whose :math:`N`
 frames :math:`F_i` split into the mean image :math:`A = \frac{1}{N}\sum_i F_i` and the
@@ -300,7 +300,7 @@ def _layers(pos):
 def blend_differences(diffs, positions, canvas_shape, *, margin, levels=None, feather=FEATHER):
     r"""Blend the fragments' difference frames :math:`D_i` into one difference video.
 
-    Multi-band alpha blending (Burt & Adelson 1983) of all fragments (seed section 6,
+    Multi-band alpha blending (Burt & Adelson 1983) of all fragments (Okabe et al., sec. 6,
     Fig. 9): every band of every fragment's Laplacian pyramid is weighted by the
     Gaussian pyramid of its partition-of-unity weight (:func:`fragment_weights`), the
     weighted bands are summed and divided, level by level, by the sum of the weights'
@@ -524,7 +524,7 @@ def _variable_blur(image, sigma):
 def motion_blur(image, velocity, *, shutter, denoise):
     r"""The approximate mean image :math:`A`: the target blurred along its motion.
 
-    Seed section 6: the blended differences carry no colour, so they are added to an
+    Okabe et al., sec. 6: the blended differences carry no colour, so they are added to an
     image standing for the fragments' mean images :math:`A`, made from the target by a
     pseudo motion blur along the assigned motion (with a pseudo shutter time), plus a
     Gaussian blur whose size is proportional to the motion's magnitude, against noise.
@@ -684,9 +684,9 @@ class _Cells:
 
 
 def match_histograms_cells(frames, reference, weight, *, cell):
-    r"""Match each frame's appearance to the target's, cell by cell (seed section 6).
+    r"""Match each frame's appearance to the target's, cell by cell (Okabe et al., sec. 6).
 
-    The last step of the seed's rendering: on a uniform grid of ``cell x cell``
+    The last step of the paper's rendering: on a uniform grid of ``cell x cell``
     pixels, each frame's histogram is matched to the target's in every cell,
     independently per channel (Heeger & Bergen 1995), so the animation keeps the
     target's local colours. Only the fluid counts: every pixel enters the histograms
@@ -1057,13 +1057,13 @@ def _restore_area(b, area):
 def dynamic_matte(alpha, motion, *, tau):
     r"""The moving boundary of fire and smoke: :math:`B_{i+1} = \tau W_i(B_i) + (1 - \tau)\alpha`.
 
-    Seed section 6 ("dynamic fluid boundary", after Chuang et al. 2005): a static matte
+    Okabe et al., sec. 6 ("dynamic fluid boundary", after Chuang et al. 2005): a static matte
     makes flames and smoke look cut out, so the matte moves with the animation. Each
     step carries the previous matte along the animation's motion at frame :math:`i`
     (:math:`W_i`, a semi-Lagrangian warp, :func:`fluidnb.fields.advect`) and pulls it
     back towards the user's matte :math:`\alpha` by :math:`1 - \tau`, so it never
     drifts away. Each :math:`B_i` is then rescaled to the area (sum) of
-    :math:`\alpha`, keeping its values in [0, 1], as the seed keeps the area constant.
+    :math:`\alpha`, keeping its values in [0, 1], as the paper keeps the area constant.
 
     Parameters
     ----------
@@ -1132,7 +1132,7 @@ def inpaint_background(image, matte, *, dilate=2, radius=3.0):
     """Fill in the background hidden behind the fluid (beyond the paper).
 
     A moving boundary (:func:`dynamic_matte`) uncovers pixels that were behind the
-    fluid in the photograph; the seed cloned them by hand (Photoshop's stamp tool). By
+    fluid in the photograph; the paper's authors cloned them by hand (Photoshop's stamp tool). By
     default they are inpainted: every pixel with ``matte > 0``, grown by ``dilate``
     pixels to cover the fluid's soft fringe, is filled from its surroundings with
     Telea's fast-marching method (OpenCV's ``cv2.inpaint``, one channel at a time in 16
@@ -1261,7 +1261,7 @@ def loop_crossfade(frames, *, overlap):
 def composite(animated, background, matte):
     r"""Lay the animation over the background through the matte.
 
-    ``out = background + matte * (animated - background)`` per frame (seed section 6:
+    ``out = background + matte * (animated - background)`` per frame (Okabe et al., sec. 6:
     the animated fluid over the untouched image, or over the inpainted background
     with a moving matte). Where the matte is 0 the output is the background exactly.
 

@@ -1,4 +1,4 @@
-r"""Candidate retrieval: the database fragments most similar in appearance (seed section 5).
+r"""Candidate retrieval: the database fragments most similar in appearance (Okabe et al., sec. 5).
 
 For every target fragment the assignment keeps the :math:`K` = 100 database fragments
 whose spatial-pyramid histograms of visual words (:mod:`~fluidnb.videodb._words`)
@@ -25,7 +25,7 @@ fragments (a third of them at level 0 for uniformly used words); those (held by 
 least 1/12 of the fragments) are kept as dense rows of counts instead of lists,
 which a vectorised loop adds faster than a long list can be walked.
 
-User motion (seed section 5, Fig. 8): with a direction and/or speed over a target
+User motion (Okabe et al., sec. 5, Fig. 8): with a direction and/or speed over a target
 fragment, database fragments whose mean motion differs markedly are discarded *before*
 the top :math:`K` is taken. A fragment is eligible when
 
@@ -195,7 +195,7 @@ class HistogramIndex:
             :math:`K`, candidates per query (the paper: 100), ``1 <= k <= F``.
         direction : array_like, shape (Q, 2), optional
             Per query the user's flow direction (dy, dx) (any length, normalised
-            here), or a row of NaN for none (seed Fig. 8).
+            here), or a row of NaN for none (Okabe et al., Fig. 8).
         speed : array_like, shape (Q,), optional
             Per query the user's speed in px/frame (>= 0), or NaN for none.
         max_angle : float

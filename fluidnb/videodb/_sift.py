@@ -1,4 +1,4 @@
-r"""Dense SIFT on a fragment's 9 x 9 grid: the appearance descriptor (seed section 4).
+r"""Dense SIFT on a fragment's 9 x 9 grid: the appearance descriptor (Okabe et al., sec. 4).
 
 Every 48 x 48 fragment (its grey mean image :math:`A`) is described by 9 x 9 upright
 SIFT descriptors (Lowe 2004) on a regular grid, as VLFeat's dense SIFT computes them
@@ -116,7 +116,7 @@ def dense_sift(images):
     images : array_like, shape (B, 48, 48) or (48, 48)
         Grey fragments, floats in [0, 1] (computed as float32, like the images of
         the rest of the package). In the database these are the mean images
-        :math:`A = \frac{1}{N}\sum_i F_i` (seed section 4).
+        :math:`A = \frac{1}{N}\sum_i F_i` (Okabe et al., sec. 4).
 
     Returns
     -------

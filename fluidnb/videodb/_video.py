@@ -187,41 +187,16 @@ def _read_path(path, max_side):
 def _read_ffmpeg(path, max_side):
     """Decode a video with ffmpeg into uint8 RGB, scaled down on the way if it is big.
 
-    Our own pipe (as :meth:`fluidnb.Clip.load` does for MP4): ffmpeg's errors reach
-    the message, nothing leaks when a file is broken, and a large video is scaled by
-    ffmpeg (area averaging) before it ever fills memory at full size.
+    Through :func:`fluidnb._media.read_video` (imageio-ffmpeg's reader, as
+    :meth:`fluidnb.Clip.load` reads MP4): a large video is scaled by ffmpeg (area
+    averaging) before it ever fills memory at full size.
     """
-    import re
-    import subprocess
+    from .. import _media
 
-    from .._clip import _ffmpeg_base, _last_lines
-
-    what = f"source {str(path)!r}: cannot read it as a video"
-    probe = subprocess.run(
-        [*_ffmpeg_base(), "-i", str(path)], capture_output=True, stdin=subprocess.DEVNULL
+    frames, fps, scale = _media.read_video(
+        path, max_side=max_side, what=f"source {str(path)!r}: cannot read it as a video"
     )
-    log = probe.stderr.decode("utf-8", errors="replace")
-    size = re.search(r"Video:.*?, (\d+)x(\d+)", log)
-    if size is None:
-        raise ValueError(f"{what} ({_last_lines(log)})")
-    w, h = int(size.group(1)), int(size.group(2))
-    rate = re.search(r"Video:.*?, ([\d.]+) (?:fps|tbr)", log)
-    fps = float(rate.group(1)) if rate and float(rate.group(1)) > 0 else _DEFAULT_FPS
-    scale = 1.0
-    cmd = [*_ffmpeg_base(), "-loglevel", "error", "-i", str(path), "-map", "0:v:0"]
-    if max(h, w) > max_side:
-        scale = max_side / max(h, w)
-        w, h = max(1, round(w * scale)), max(1, round(h * scale))
-        cmd += ["-vf", f"scale={w}:{h}:flags=area"]
-    cmd += ["-f", "rawvideo", "-pix_fmt", "rgb24", "pipe:1"]
-    proc = subprocess.run(cmd, capture_output=True, stdin=subprocess.DEVNULL)
-    if proc.returncode != 0:
-        raise ValueError(f"{what} ({_last_lines(proc.stderr.decode('utf-8', 'replace'))})")
-    n = len(proc.stdout) // (w * h * 3)
-    if n == 0:
-        raise ValueError(f"source {str(path)!r}: the video has no frames")
-    frames = np.frombuffer(proc.stdout, np.uint8)[: n * w * h * 3].reshape(n, h, w, 3)
-    return frames.copy(), fps, scale
+    return frames.copy(), fps if fps > 0 else _DEFAULT_FPS, scale
 
 
 def _natural_key(name):

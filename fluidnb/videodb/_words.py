@@ -1,7 +1,7 @@
-r"""Visual words and spatial-pyramid histograms of the fragments (seed sections 4-5).
+r"""Visual words and spatial-pyramid histograms of the fragments (Okabe et al., secs. 4-5).
 
 - The codebook (:func:`fit_codebook`): the :math:`k` = 200 centres of the dense SIFT
-  descriptors found by repeated cluster bisectioning (the seed's choice, after
+  descriptors found by repeated cluster bisectioning (the paper's choice, after
   Steinbach et al. 2000: faster than k-means and as good), here scikit-learn's
   :class:`~sklearn.cluster.BisectingKMeans` on a seeded sample of at most ~1M
   descriptors.
@@ -12,7 +12,7 @@ r"""Visual words and spatial-pyramid histograms of the fragments (seed sections 
   descriptors (measured; see the tests for a small case where it does).
 - Histograms (:func:`pyramid_histograms`): the spatial pyramid of Lazebnik et al.
   (2006), levels 0-2, of a fragment's 9 x 9 word map, and their intersection
-  (:func:`intersection`, the seed's Eq. 1):
+  (:func:`intersection`, the paper's Eq. 1):
 
   .. math::
 
@@ -117,7 +117,7 @@ def fit_codebook(descriptors, k=200, *, max_samples=1_000_000, seed=0):
     descriptors : array_like, shape (..., D)
         Descriptors (uint8 dense SIFT, ``D = 128``), any leading shape.
     k : int
-        :math:`k`, the number of visual words (seed section 4: 200, the best of 100,
+        :math:`k`, the number of visual words (Okabe et al., sec. 4: 200, the best of 100,
         200, 300 and 500).
     max_samples : int
         At most this many rows, drawn without replacement with ``seed``, are

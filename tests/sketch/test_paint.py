@@ -43,7 +43,7 @@ def test_flood_fill_returns_copy():
     assert np.all(out[:, :3] == 0.5)
     assert np.all(out[:, 4:] == 0)
     assert np.all(a[:, :3] == 0)
-    with pytest.raises(ValueError, match="seed_point must lie inside"):
+    with pytest.raises(ValueError, match="start must lie inside"):
         flood_fill(a, (9, 0), 1)
 
 

@@ -1,4 +1,4 @@
-"""Animating a target from a database (seed sections 5-6): assignment and rendering."""
+"""Animating a target from a database (Okabe et al., secs. 5-6): assignment and rendering."""
 
 import json
 import shutil

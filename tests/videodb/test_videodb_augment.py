@@ -1,4 +1,4 @@
-"""The 18 augmented versions of a clip: geometry, sampling, flows (seed Fig. 4-a)."""
+"""The 18 augmented versions of a clip: geometry, sampling, flows (Okabe et al., Fig. 4-a)."""
 
 import math
 

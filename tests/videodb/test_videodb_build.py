@@ -1,4 +1,4 @@
-"""Building, resuming, growing and opening video databases (seed section 4)."""
+"""Building, resuming, growing and opening video databases (Okabe et al., sec. 4)."""
 
 import json
 from pathlib import Path

@@ -1,4 +1,4 @@
-"""Optical flow of database clips: DIS and the seed's TV-L1 (seed section 4, Fig. 5-b).
+"""Optical flow of database clips: DIS and the paper's TV-L1 (Okabe et al., sec. 4, Fig. 5-b).
 
 The synthetic clips are sums of sinusoids evaluated at exactly moved coordinates, so the
 true flow is known to the last bit (no interpolation in making them). Endpoint errors

@@ -1,4 +1,4 @@
-"""The assignment MRF (seed 000, section 5, Eq. 2-6): smoothness tables and solvers."""
+"""The assignment MRF (Okabe et al., sec. 5, Eq. 2-6): smoothness tables and solvers."""
 
 import numpy as np
 import pytest

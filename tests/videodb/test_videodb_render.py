@@ -1,4 +1,4 @@
-"""Rendering building blocks of the video-database method (seed section 6)."""
+"""Rendering building blocks of the video-database method (Okabe et al., sec. 6)."""
 
 import numpy as np
 import pytest

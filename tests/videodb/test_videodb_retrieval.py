@@ -1,4 +1,4 @@
-"""Exact top-K retrieval by histogram intersection, with the motion filter (seed section 5)."""
+"""Exact top-K retrieval by histogram intersection and the motion filter (Okabe et al., sec. 5)."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Dense SIFT on the 9 x 9 grid of a 48 x 48 fragment (seed section 4; Lowe 2004, VLFeat)."""
+"""Dense SIFT on the 9 x 9 grid of a 48 x 48 fragment (Okabe et al., sec. 4; Lowe 2004, VLFeat)."""
 
 import numpy as np
 import pytest

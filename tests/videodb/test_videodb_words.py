@@ -1,4 +1,4 @@
-"""Codebook, visual words and spatial-pyramid histograms (seed sections 4-5, Eq. 1)."""
+"""Codebook, visual words and spatial-pyramid histograms (Okabe et al., secs. 4-5, Eq. 1)."""
 
 import numpy as np
 import pytest

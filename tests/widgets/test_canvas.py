@@ -160,16 +160,21 @@ def test_version_counts_changes_for_observers():
     assert len(seen) == 2
 
 
-def test_client_ready_redraws_the_canvas():
+def test_client_ready_redraws_the_canvas(monkeypatch):
+    # Spy on the class before the canvas exists, so the callback under test is the one
+    # DrawingCanvas registers itself (a new front end, e.g. Voila, must get a redraw).
+    redrawn = []
+    original = DrawingCanvas.redraw
+
+    def spy(self):
+        redrawn.append(self)
+        original(self)
+
+    monkeypatch.setattr(DrawingCanvas, "redraw", spy)
     c = make()
-    sent = []
-    c.canvas._canvases[0].on_msg(lambda *a: None)  # keep ipycanvas quiet
-    original = c.redraw
-    c.redraw = lambda: (sent.append(1), original())
-    c.canvas._canvases[-1]._client_ready_callbacks.callbacks.clear()
-    c.canvas.on_client_ready(c.redraw)
+    assert redrawn == [c]  # drawn once when made
     client_ready(c)
-    assert sent == [1]
+    assert redrawn == [c, c]
 
 
 def test_show_segments_overlay_and_image_replacement():

@@ -1,0 +1,668 @@
+"""Clip files and inline display: the media I/O behind :meth:`fluidnb.Clip.save`.
+
+This module knows file formats and nothing about the :class:`~fluidnb.Clip` type:
+it writes and reads plain arrays, an fps and a metadata dict, and :mod:`fluidnb._clip`
+turns them into a clip (and validates them there).
+
+Formats, chosen by extension:
+
+- ``.npz``: exact ``float32`` frames, fps and metadata (numpy's own archive).
+- ``.gif``: 8-bit frames through Pillow; the fps and metadata travel in the GIF's
+  comment, which Pillow writes and reads (``im.info["comment"]``).
+- ``.mp4``: H.264 through the ffmpeg binary that imageio-ffmpeg ships. Size and fps
+  are read with :func:`imageio_ffmpeg.read_frames` (its first item is a metadata
+  dict); fps and metadata travel in a JSON file beside the video, ``NAME.mp4.json``
+  (a *sidecar*), because imageio-ffmpeg can write container tags but not read them
+  back. Without the sidecar a video still loads, with the stream's fps and no
+  metadata.
+- a folder: ``frame_00000.png``, ``frame_00001.png``, ... plus ``clip.json``.
+
+``clip.json``, the MP4 sidecar and the GIF comment hold the same JSON object (see
+:func:`file_info`), tagged ``"format": "fluidnb.Clip"`` so that a foreign file's
+comment or JSON is never mistaken for ours.
+"""
+
+from __future__ import annotations
+
+import base64
+import contextlib
+import io
+import json
+import logging
+import math
+import os
+import re
+import subprocess
+import tempfile
+import warnings
+import zipfile
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+
+from ._image import _read, to_uint8
+from ._validation import check_range
+
+__all__ = ["EXTENSIONS", "html_player", "read", "read_video", "write"]
+
+#: File extensions :func:`write` and :func:`read` know (a folder needs none).
+EXTENSIONS = (".gif", ".mp4", ".npz")
+_ALLOWED = "'.gif', '.mp4', '.npz', or a folder (no extension) for a PNG sequence"
+
+# The key that marks our JSON (GIF comment, MP4 sidecar, clip.json).
+_TAG = "fluidnb.Clip"
+
+# MP4 quality on imageio's 1-10 scale (10 best); 7 maps to x264 CRF 15, visually
+# lossless for smooth fluid frames at a modest size.
+DEFAULT_QUALITY = 7
+
+# Inline display: the longest side is brought into [_DISPLAY_MIN, _DISPLAY_MAX] px. Larger
+# clips are averaged down (a notebook cell cannot show more and the base64 payload grows
+# with the area); tiny simulation grids are enlarged (nearest) so they are visible.
+_DISPLAY_MAX = 480
+_DISPLAY_MIN = 128
+
+_PNG_NAME = re.compile(r"^frame_(\d+)\.png$")
+
+
+# ---------------------------------------------------------------------- paths
+
+
+def as_path(path):
+    """Return ``path`` as a :class:`~pathlib.Path`, or raise ValueError."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise ValueError(f"path must be a str or os.PathLike, got {type(path).__name__}")
+    return Path(path)
+
+
+def sidecar(path):
+    """Return the JSON file beside an MP4 that holds its fps and metadata."""
+    return path.with_name(path.name + ".json")
+
+
+def _write_atomically(path, write):
+    """Call ``write(tmp)`` for a temporary name next to ``path``, then rename it."""
+    # Keep the suffix: encoders choose the container from it.
+    tmp = path.with_name(f".{path.stem}.partial-{os.getpid()}{path.suffix}")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def file_info(frames, fps, metadata):
+    """The JSON object that GIF comments, MP4 sidecars and clip.json hold.
+
+    It lets :func:`read` restore exactly the fps, metadata, colour mode and (for
+    padded MP4s) the original size.
+    """
+    return {
+        "format": _TAG,
+        "fps": fps,
+        "n_frames": int(frames.shape[0]),
+        "shape": [int(frames.shape[1]), int(frames.shape[2])],
+        "color": frames.ndim == 4,
+        "metadata": metadata,
+    }
+
+
+# ---------------------------------------------------------------------- writing
+
+
+def write(path, frames, fps, metadata, *, quality=None):
+    """Write frames to ``path``; the format follows the extension (see the module).
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        A file ending in ``.gif``, ``.mp4`` or ``.npz``; an existing folder, or a path
+        without extension, for a PNG sequence.
+    frames : ndarray, shape (T, H, W) or (T, H, W, 3), float32 in [0, 1]
+    fps : float
+        Already validated (> 0).
+    metadata : dict
+        Plain JSON values (already validated).
+    quality : float, optional
+        MP4 quality, 1-10 (validated by the caller); default 7.
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+    """
+    suffix = path.suffix.lower()
+    if path.is_dir() or suffix == "":
+        _write_png_folder(path, frames, fps, metadata)
+        return path
+    if suffix not in EXTENSIONS:
+        raise ValueError(f"path must end in {_ALLOWED}; got {str(path)!r}")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    info = file_info(frames, fps, metadata)
+    if suffix == ".npz":
+        _write_atomically(path, lambda tmp: _write_npz(tmp, frames, fps, metadata))
+    elif suffix == ".gif":
+
+        def gif(tmp):
+            with open(tmp, "wb") as f:
+                _write_gif(f, to_uint8(frames), fps, comment=json.dumps(info))
+
+        _write_atomically(path, gif)
+    else:
+        q = DEFAULT_QUALITY if quality is None else quality
+        padded = _pad_even(to_uint8(frames))
+        _write_atomically(path, lambda tmp: _encode_mp4(tmp, padded, fps, q))
+        _write_json(sidecar(path), info)
+    return path
+
+
+def _write_json(path, info):
+    text = json.dumps(info, indent=2) + "\n"
+    _write_atomically(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+
+
+def _write_npz(tmp, frames, fps, metadata):
+    with open(tmp, "wb") as f:  # a file object: numpy would append ".npz" to a name
+        np.savez_compressed(
+            f,
+            frames=frames,
+            fps=np.float64(fps),
+            metadata=np.array(json.dumps(metadata)),
+            format=np.array(_TAG),
+        )
+
+
+def _write_png_folder(folder, frames, fps, metadata):
+    from PIL import Image
+
+    had_clip = (folder / "clip.json").is_file()
+    folder.mkdir(parents=True, exist_ok=True)
+    images = to_uint8(frames)
+    for t, frame in enumerate(images):
+        Image.fromarray(frame).save(folder / f"frame_{t:05d}.png")
+    if had_clip:
+        # Overwriting a longer clip: drop its extra frames so the folder holds one
+        # clip. Only our own frame_NNNNN.png names in a folder we wrote are touched.
+        for p in folder.iterdir():
+            m = _PNG_NAME.match(p.name)
+            if m and int(m.group(1)) >= len(images):
+                p.unlink()
+    _write_json(folder / "clip.json", file_info(frames, fps, metadata))
+
+
+def _gif_delay_ms(fps):
+    # GIF stores delays in hundredths of a second, and browsers play delays under
+    # 20 ms at 100 ms, so round to 10 ms and never go below 20 ms.
+    return max(20, round(100.0 / fps) * 10)
+
+
+def _write_gif(file, frames, fps, comment=None):
+    """Write uint8 frames as a looping GIF to a binary file object.
+
+    Grey frames are stored exactly (256 grey levels). Colour frames share one palette:
+    exact when the whole clip has at most 256 colours, otherwise 256 colours chosen
+    (octree) from up to 16 evenly spaced frames, without dithering. One palette keeps
+    colours from flickering between frames, and is several times faster than Pillow's
+    per-frame median cut; no dithering avoids crawling noise in the animation.
+    """
+    from PIL import Image
+
+    h, w = frames.shape[1:3]
+    if frames.ndim == 3:
+        images = [Image.fromarray(f) for f in frames]
+    else:
+        palette, indices = _exact_palette(frames)
+        if palette is not None:
+            images = []
+            for idx in indices:
+                im = Image.frombytes("P", (w, h), idx.tobytes())
+                im.putpalette(palette.tobytes())
+                images.append(im)
+        else:
+            picks = np.unique(np.linspace(0, len(frames) - 1, min(16, len(frames))).astype(int))
+            sample = Image.fromarray(np.concatenate(frames[picks], axis=0))
+            reference = sample.quantize(256, method=Image.Quantize.FASTOCTREE)
+            images = [
+                Image.fromarray(f).quantize(palette=reference, dither=Image.Dither.NONE)
+                for f in frames
+            ]
+    extra = {"comment": comment} if comment else {}
+    images[0].save(
+        file,
+        format="GIF",
+        save_all=True,
+        append_images=images[1:],
+        duration=_gif_delay_ms(fps),
+        loop=0,
+        **extra,
+    )
+
+
+def _exact_palette(frames):
+    """Return (palette (n, 3) uint8, indices (T, H, W) uint8) if <= 256 colours, else None."""
+    packed = (
+        (frames[..., 0].astype(np.uint32) << 16)
+        | (frames[..., 1].astype(np.uint32) << 8)
+        | frames[..., 2].astype(np.uint32)
+    )
+    # Most fluid clips have thousands of colours: the first frame usually says so
+    # cheaply, before sorting the whole clip.
+    if len(np.unique(packed[0])) > 256:
+        return None, None
+    colours, inverse = np.unique(packed, return_inverse=True)
+    if len(colours) > 256:
+        return None, None
+    palette = np.stack([colours >> 16, (colours >> 8) & 255, colours & 255], axis=-1)
+    return palette.astype(np.uint8), inverse.reshape(packed.shape).astype(np.uint8)
+
+
+def _pad_even(frames):
+    """Pad uint8 frames to an even height and width by repeating the edge.
+
+    H.264 in yuv420p (the pixel format every player takes) needs even sides.
+    """
+    h, w = frames.shape[1:3]
+    if h % 2 == 0 and w % 2 == 0:
+        return frames
+    pad = [(0, 0), (0, h % 2), (0, w % 2)] + [(0, 0)] * (frames.ndim - 3)
+    return np.pad(frames, pad, mode="edge")
+
+
+def _last_lines(log, n=3):
+    lines = [ln.strip() for ln in log.strip().splitlines() if ln.strip()]
+    return " / ".join(lines[-n:]) or "no message"
+
+
+def _encode_mp4(path, frames, fps, quality, *, preset="medium"):
+    """Encode even-sized uint8 frames to H.264/yuv420p MP4 by piping them to ffmpeg.
+
+    Our own pipe to imageio-ffmpeg's binary rather than
+    :func:`imageio_ffmpeg.write_frames`, which neither checks ffmpeg's exit status
+    nor captures its messages: here a failed encode raises OSError with ffmpeg's
+    words, and nothing (pipes, warnings) leaks.
+    """
+    import imageio_ffmpeg
+
+    h, w = frames.shape[1:3]
+    rate = Fraction(fps).limit_denominator(100_000)
+    # imageio's 1-10 quality scale, mapped to x264's CRF the way imageio does.
+    crf = int((1.0 - quality / 10.0) * 51)
+    # -nostdin: ffmpeg otherwise listens to the terminal for keystrokes.
+    cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-nostdin", "-y"]
+    cmd += ["-loglevel", "error"]
+    cmd += ["-f", "rawvideo", "-pix_fmt", "rgb24" if frames.ndim == 4 else "gray"]
+    cmd += ["-s", f"{w}x{h}", "-r", f"{rate.numerator}/{rate.denominator}", "-i", "pipe:0"]
+    cmd += ["-an", "-c:v", "libx264", "-preset", preset, "-crf", str(crf)]
+    cmd += ["-pix_fmt", "yuv420p", "-movflags", "+faststart", "-f", "mp4", str(path)]
+    # stderr to a file, not a pipe: a pipe nobody reads could fill up and deadlock.
+    with tempfile.TemporaryFile() as log:
+        proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=log)
+        try:
+            for frame in frames:
+                proc.stdin.write(np.ascontiguousarray(frame).data)
+        except BrokenPipeError:
+            pass  # ffmpeg stopped early; its message is reported below
+        finally:
+            with contextlib.suppress(BrokenPipeError):
+                proc.stdin.close()
+            code = proc.wait()
+        if code != 0:
+            log.seek(0)
+            message = _last_lines(log.read().decode("utf-8", errors="replace"))
+            raise OSError(f"ffmpeg could not encode {str(path)!r}: {message}")
+
+
+# ---------------------------------------------------------------------- reading
+
+
+def read(path):
+    """Read frames, fps and metadata from a file or folder written by :func:`write`.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+
+    Returns
+    -------
+    frames : ndarray, shape (T, H, W) or (T, H, W, 3)
+        ``uint8`` from GIF, MP4 and PNG files, as stored in ``.npz`` files.
+    fps : float or None
+        None when the file does not say (a foreign PNG folder).
+    metadata : dict
+        Empty for foreign files.
+
+    Raises
+    ------
+    ValueError
+        If the path does not exist, has an unknown extension, or cannot be read as
+        the expected content; the message names the path and what was expected.
+    """
+    if path.is_dir():
+        return _read_png_folder(path)
+    suffix = path.suffix.lower()
+    if suffix not in EXTENSIONS:
+        what = "no such folder" if suffix == "" else "unknown extension"
+        raise ValueError(f"path must end in {_ALLOWED} ({what}): got {str(path)!r}")
+    if not path.is_file():
+        raise ValueError(f"path: no such file {str(path)!r}")
+    return {".npz": _read_npz, ".gif": _read_gif, ".mp4": _read_mp4}[suffix](path)
+
+
+def _parse_json(text):
+    try:
+        return json.loads(text)
+    except (TypeError, ValueError, UnicodeDecodeError):
+        return None
+
+
+def _read_json(path):
+    """Return the JSON object in a clip.json or MP4 sidecar, or None if there is none."""
+    if not path.is_file():
+        return None
+    info = _parse_json(path.read_text(encoding="utf-8", errors="replace"))
+    if not isinstance(info, dict) or info.get("format") != _TAG:
+        raise ValueError(f"cannot read {str(path)!r}: expected JSON written by Clip.save")
+    return info
+
+
+def _from_file_info(info, path):
+    """Return (fps, metadata) from our JSON object, or (None, {}) if it is foreign."""
+    if not isinstance(info, dict) or info.get("format") != _TAG:
+        return None, {}
+    try:
+        fps = check_range("fps", info.get("fps"), 0, lo_open=True)
+    except ValueError as exc:
+        raise ValueError(f"{str(path)!r}: damaged clip information ({exc})") from None
+    metadata = info.get("metadata")
+    return fps, {} if metadata is None else metadata
+
+
+def _read_npz(path):
+    expected = "an .npz written by Clip.save, with arrays 'frames' and 'fps'"
+    try:
+        # Our own file object: np.load leaves a file it opened itself unclosed when the
+        # archive turns out to be damaged.
+        with open(path, "rb") as f:
+            data = np.load(f, allow_pickle=False)
+            if not isinstance(data, np.lib.npyio.NpzFile):  # a lone .npy array
+                raise ValueError("it is not an .npz archive")
+            with data:
+                missing = [k for k in ("frames", "fps") if k not in data.files]
+                if missing:
+                    raise ValueError(f"it has no {', '.join(repr(m) for m in missing)}")
+                frames = data["frames"]
+                fps = data["fps"]
+                meta_text = str(data["metadata"]) if "metadata" in data.files else "{}"
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as exc:
+        raise ValueError(f"cannot read {str(path)!r}: expected {expected} ({exc})") from None
+    if fps.shape != () or fps.dtype.kind not in "iuf":
+        raise ValueError(f"cannot read {str(path)!r}: fps must be a single number")
+    metadata = _parse_json(meta_text)
+    if metadata is None:
+        raise ValueError(f"cannot read {str(path)!r}: metadata is not valid JSON")
+    return frames, float(fps), metadata
+
+
+def _read_png_folder(folder):
+    files = {}
+    for p in folder.iterdir():
+        m = _PNG_NAME.match(p.name)
+        if m:
+            files[int(m.group(1))] = p
+    info = _read_json(folder / "clip.json")
+    fps, metadata = _from_file_info(info, folder / "clip.json")
+    if info is not None and isinstance(info.get("n_frames"), int) and info["n_frames"] > 0:
+        wanted = range(info["n_frames"])
+        missing = [t for t in wanted if t not in files]
+        if missing:
+            raise ValueError(
+                f"{str(folder)!r}: clip.json lists {info['n_frames']} frames but "
+                f"frame_{missing[0]:05d}.png is missing"
+            )
+        order = list(wanted)
+    else:
+        order = sorted(files)
+    if not order:
+        raise ValueError(
+            f"{str(folder)!r} holds no clip: expected frame_00000.png, frame_00001.png, ... "
+            "and clip.json as written by Clip.save"
+        )
+    frames = [_read(files[t], "path") for t in order]
+    if len({f.dtype for f in frames}) > 1:
+        frames = [(f >> 8).astype(np.uint8) if f.dtype == np.uint16 else f for f in frames]
+    if any(f.ndim == 3 for f in frames):  # mixed grey and colour: promote grey
+        frames = [np.repeat(f[:, :, None], 3, axis=2) if f.ndim == 2 else f for f in frames]
+    if len({f.shape for f in frames}) > 1:
+        raise ValueError(f"{str(folder)!r}: the PNG frames do not all have the same size")
+    return np.stack(frames), fps, metadata
+
+
+def _read_gif(path):
+    from PIL import Image, ImageSequence, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as im:
+            if im.format != "GIF":
+                raise ValueError(f"it is a {im.format} image")
+            # Read the comment before iterating: seeking to frame 0 forgets it.
+            info = _parse_json(im.info.get("comment", b""))
+            frames, delays = [], []
+            for frame in ImageSequence.Iterator(im):
+                frames.append(np.asarray(frame.convert("RGB")))
+                delays.append(int(frame.info.get("duration", 0) or 0))
+    except (UnidentifiedImageError, OSError, SyntaxError, EOFError, ValueError) as exc:
+        raise ValueError(f"cannot read {str(path)!r}: expected a GIF animation ({exc})") from None
+    fps, metadata = _from_file_info(info, path)
+    ours = fps is not None
+    frames = np.stack(frames)
+    if ours:
+        # Pillow merges identical consecutive frames into one with a longer delay;
+        # knowing the delay we wrote, repeat them to restore the frame count.
+        base = _gif_delay_ms(fps)
+        repeats = [max(1, round(d / base)) for d in delays]
+        if sum(repeats) != len(frames):
+            frames = np.repeat(frames, repeats, axis=0)
+    else:
+        positive = [d for d in delays if d > 0]
+        fps = 1000.0 / float(np.median(positive)) if positive else None
+    color = info.get("color") if ours else None
+    if color is False or (color is None and _channels_equal(frames)):
+        frames = frames[..., 0]
+    return frames, fps, metadata
+
+
+def read_video(path, *, max_side=None, what=None):
+    """Decode a video's first video stream with imageio-ffmpeg into uint8 RGB frames.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        Any video ffmpeg reads (MP4, WebM, MOV, ...).
+    max_side : int, optional
+        If the longer side is larger, ffmpeg scales the frames down (area averaging)
+        while decoding, so a large video never fills memory at full size.
+    what : str, optional
+        How error messages name the file; by default ``repr(str(path))``.
+
+    Returns
+    -------
+    frames : ndarray, shape (T, H, W, 3), uint8
+    fps : float
+        The stream's frame rate as ffmpeg reports it (two decimals), 0 if unknown.
+    scale : float
+        Output size over source size (1.0 unless ``max_side`` shrank it).
+
+    Raises
+    ------
+    ValueError
+        If ffmpeg cannot open the file or it holds no frames.
+    """
+    what = what or f"cannot read {str(path)!r}"
+    # When ffmpeg has already exited as a reader ends, imageio-ffmpeg drops its pipes
+    # without closing them (imageio-ffmpeg issue #61): Python closes them as they are
+    # freed, with a ResourceWarning that is not ours to fix. Errors are raised after
+    # the ``except`` blocks, so that no traceback keeps a reader alive past this point.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ResourceWarning)
+        # One pass reads the size and fps and then the frames; a video larger than
+        # max_side is read again, scaled down by ffmpeg.
+        meta, data, error = _ffmpeg_read(path, frames=max_side is None)
+        scale = 1.0
+        if error is None and max_side is not None:
+            w, h = meta["size"]
+            params = None
+            if max(h, w) > max_side:
+                scale = max_side / max(h, w)
+                w, h = max(1, round(w * scale)), max(1, round(h * scale))
+                params = ["-vf", f"scale={w}:{h}:flags=area"]
+            meta, data, error = _ffmpeg_read(path, params)
+    if error is not None:
+        raise ValueError(f"{what}: expected a video ({error})")
+    w, h = meta["size"]
+    n = len(data) // (w * h * 3)
+    if n == 0:
+        raise ValueError(f"{what}: the video has no frames")
+    frames = np.frombuffer(data, np.uint8, count=n * w * h * 3).reshape(n, h, w, 3)
+    return frames, float(meta.get("fps") or 0.0), scale
+
+
+def _scaling_is_intended(record):
+    return not record.getMessage().startswith("The frame size for reading")
+
+
+def _ffmpeg_read(path, output_params=None, *, frames=True):
+    """Return (metadata dict, RGB24 bytes of all frames or None, None) or an error text.
+
+    :func:`imageio_ffmpeg.read_frames` yields its metadata (``size`` as (W, H),
+    ``fps``, ...) before the frames.
+    """
+    import imageio_ffmpeg
+
+    if output_params:
+        # We asked ffmpeg to scale: imageio-ffmpeg's warning that the frames differ in
+        # size from the source's is expected, not news for the user.
+        logging.getLogger("imageio_ffmpeg").addFilter(_scaling_is_intended)
+    reader = imageio_ffmpeg.read_frames(str(path), output_params=output_params)
+    try:
+        meta = next(reader)
+        return meta, b"".join(reader) if frames else None, None
+    except (OSError, RuntimeError, IndexError, ValueError, StopIteration) as exc:
+        error = _last_lines(str(exc))
+    finally:
+        reader.close()
+    return None, None, error
+
+
+def _read_mp4(path):
+    frames, fps, _ = read_video(path)
+    info_path = sidecar(path)
+    info = _read_json(info_path)
+    if info is None:  # a foreign video: the stream's fps, no metadata
+        color = None
+        fps = fps if fps > 0 else None
+        metadata = {}
+    else:
+        fps, metadata = _from_file_info(info, info_path)
+        shape = info.get("shape")
+        if not (
+            isinstance(shape, list) and len(shape) == 2 and all(isinstance(s, int) for s in shape)
+        ):
+            raise ValueError(f"{str(info_path)!r}: damaged clip information (no 'shape')")
+        h, w = shape
+        padded = (h + h % 2, w + w % 2)
+        if info.get("n_frames") != len(frames) or frames.shape[1:3] != padded:
+            raise ValueError(
+                f"{str(path)!r} holds {len(frames)} frames of "
+                f"{frames.shape[2]}x{frames.shape[1]} but {info_path.name} describes "
+                f"{info.get('n_frames')} of {w}x{h}: the video is truncated, or was "
+                "replaced without its .json"
+            )
+        frames = frames[:, :h, :w]  # crop the even-size padding
+        color = info.get("color")
+    if color is False:
+        # Chroma is neutral for grey input, but rounding can differ by a level
+        # between channels: average them.
+        frames = frames.mean(axis=3, dtype=np.float32) / np.float32(255)
+    elif color is None and _channels_equal(frames):
+        frames = frames[..., 0]
+    return frames, fps, metadata
+
+
+def _channels_equal(frames):
+    return bool(
+        np.all(frames[..., 0] == frames[..., 1]) and np.all(frames[..., 1] == frames[..., 2])
+    )
+
+
+# ---------------------------------------------------------------------- display
+
+
+def html_player(frames, fps):
+    """Return HTML that plays float frames in a notebook: a looping video or an image.
+
+    One frame becomes a PNG; several an H.264 ``<video>`` (autoplay, loop, muted),
+    or an animated GIF if ffmpeg fails. Frames are sized for a notebook cell.
+    """
+    shown, scale = _display_frames(frames)
+    h, w = shown.shape[1:3]
+    style = "max-width:100%;height:auto;" + ("image-rendering:pixelated;" if scale > 1 else "")
+    size = f'width="{w}" height="{h}" style="{style}"'
+    if len(shown) == 1:
+        data = _base64_image(shown[0], ".png")
+        return f'<img {size} alt="clip frame" src="data:image/png;base64,{data}">'
+    try:
+        with tempfile.TemporaryDirectory(prefix="fluidnb-") as folder:
+            tmp = Path(folder) / "clip.mp4"
+            _encode_mp4(tmp, shown, fps, DEFAULT_QUALITY, preset="veryfast")
+            data = base64.b64encode(tmp.read_bytes()).decode("ascii")
+        return (
+            f"<video {size} controls loop autoplay muted playsinline "
+            f'src="data:video/mp4;base64,{data}"></video>'
+        )
+    except Exception:
+        # No working ffmpeg (or an encoder failure): an animated GIF plays
+        # everywhere, just larger and with a reduced palette.
+        data = _base64_image(shown, ".gif", fps=fps)
+        return f'<img {size} alt="clip animation" src="data:image/gif;base64,{data}">'
+
+
+def _base64_image(frames, extension, fps=None):
+    """Return base64 text of a PNG (one frame) or an animated GIF (frames)."""
+    buffer = io.BytesIO()
+    if extension == ".gif":
+        _write_gif(buffer, frames, fps)
+    else:
+        from PIL import Image
+
+        Image.fromarray(frames).save(buffer, format="PNG")
+    return base64.b64encode(buffer.getvalue()).decode("ascii")
+
+
+def _display_frames(frames):
+    """Return (uint8 frames sized for display with even sides, integer upscale)."""
+    h, w = frames.shape[1:3]
+    longest = max(h, w)
+    scale = 1
+    if longest > _DISPLAY_MAX:
+        k = math.ceil(longest / _DISPLAY_MAX)
+        kh, kw = min(k, h), min(k, w)  # a clip thinner than k pixels keeps 1 pixel
+        # Area averaging over kh x kw blocks, so fine fluid detail does not alias.
+        # Summing strided views is several times faster than reshape(...).mean() over
+        # two axes. The last h % kh rows (w % kw columns), under 1% of the image, are
+        # dropped: this is only the preview.
+        hc, wc = h // kh * kh, w // kw * kw
+        acc = None
+        for i in range(kh):
+            for j in range(kw):
+                part = frames[:, i:hc:kh, j:wc:kw]
+                acc = part.copy() if acc is None else np.add(acc, part, out=acc)
+        acc *= np.float32(1.0 / (kh * kw))
+        out = to_uint8(acc)
+    else:
+        out = to_uint8(frames)
+        if longest < _DISPLAY_MIN:
+            # Tiny simulation grids: enlarge (nearest, so cells stay crisp).
+            scale = math.ceil(_DISPLAY_MIN / longest)
+            out = out.repeat(scale, axis=1).repeat(scale, axis=2)
+    return _pad_even(out), scale
