@@ -706,8 +706,9 @@ def animate(
         As for :func:`assign`.
     background, fps
         As for :func:`render`.
-    seed : None or int
-        Recorded in the clip's metadata (nothing here is random).
+    seed : None, int or numpy.random.Generator
+        Nothing here is random; the int :func:`fluidnb.resolve_seed` makes of it is
+        recorded in the clip's metadata, as every method does.
     progress : callable, optional
         ``progress(fraction, message)``; raise :class:`fluidnb.Cancelled` to stop.
 
@@ -722,12 +723,12 @@ def animate(
        using video database", Computer Graphics Forum 30(7) (Pacific Graphics 2011),
        sections 5-6.
     """
-    from .._random import rng
+    from .._random import resolve_seed
 
-    rng(seed)  # validates the seed as every entry point does
+    seed = resolve_seed(seed)  # validated and recorded, as at every entry point
     first, second = Progress(progress).split(0.5)
     assignment = assign(image, matte, db, params, direction=direction, speed=speed, progress=first)
     result = render(assignment, background=background, fps=fps, progress=second)
     meta = result.clip.metadata
-    meta["seed"] = seed if isinstance(seed, int) else None
+    meta["seed"] = seed
     return dataclasses.replace(result, clip=result.clip.with_metadata(**meta))

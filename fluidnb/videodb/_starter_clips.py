@@ -18,7 +18,6 @@ Nothing here is cached: :func:`fluidnb.videodb.starter_database` caches the data
 from __future__ import annotations
 
 import math
-import numbers
 import os
 import threading
 import time
@@ -30,7 +29,7 @@ from scipy import ndimage as ndi
 
 from .._clip import Clip
 from .._progress import Progress
-from .._random import rng
+from .._random import resolve_seed, rng
 from .._validation import check_array, check_choice, check_int
 from ..fields import backward_warp, resize
 
@@ -91,9 +90,9 @@ def starter_clips(kind, *, quick=False, seed=0, workers=None, progress=None):
         ``(name, clip)`` pairs, names unique (``"water-cascade"``, ...); each clip
         float32 RGB (T, H, W, 3) in [0, 1] at 24 fps, with ``metadata``: ``method``
         (``"starter-water"``, ...), ``kind``, ``recipe``, ``params`` (what the recipe
-        sets, plus the solver's or fire method's parameters), ``seed`` (the seed given,
-        or None), ``clip_seed`` (the clip's own seed drawn from it), ``quick`` and
-        ``timings``.
+        sets, plus the solver's or fire method's parameters), ``seed`` (the int used:
+        :func:`fluidnb.resolve_seed` of the one given), ``clip_seed`` (the clip's own
+        seed drawn from it), ``quick`` and ``timings``.
 
     Raises
     ------
@@ -123,6 +122,7 @@ def starter_clips(kind, *, quick=False, seed=0, workers=None, progress=None):
     size = _QUICK if quick else _FULL
     workers = (os.cpu_count() or 1) if workers is None else check_int("workers", workers, 1, 64)
     report = Progress(progress)
+    seed = resolve_seed(seed)
     gen = rng(seed)
     recipes = _RECIPES[kind]
     # One seed per recipe of the full set, drawn up front: a clip's randomness does
@@ -152,7 +152,7 @@ def starter_clips(kind, *, quick=False, seed=0, workers=None, progress=None):
             "kind": kind,
             "recipe": recipe["name"],
             "params": params,
-            "seed": int(seed) if isinstance(seed, numbers.Integral) else None,
+            "seed": seed,
             "clip_seed": clip_seed,
             "quick": bool(quick),
             "timings": {"total": time.perf_counter() - started},

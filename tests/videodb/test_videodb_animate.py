@@ -160,6 +160,8 @@ def test_same_seed_same_clip(anim, db, photo):
     again = animate(*photo, db, FEW.replace(loop=2), seed=5)
     np.testing.assert_array_equal(again.clip.frames, anim.clip.frames)
     assert again.clip.metadata["seed"] == 5
+    # seed=None still records the int used (fluidnb.resolve_seed), so the clip can be remade
+    assert isinstance(animate(*photo, db, FEW.replace(loop=2)).clip.metadata["seed"], int)
     meta = anim.clip.metadata
     assert meta["method"] == "videodb"
     assert meta["params"] == FEW.replace(loop=2).to_dict()
