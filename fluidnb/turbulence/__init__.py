@@ -13,7 +13,7 @@ numpy in :mod:`fluidnb.turbulence._reference` -- or, beyond the paper, exactly a
 
 from ._flows import PAPER_SHAPES, Flow, cache_dir, sample_flows
 from ._params import STRATEGIES, TurbulenceParams
-from ._prepare import Prepared, global_search, prepare
+from ._prepare import Prepared, check_settings, global_search, prepare
 from ._reference import window_positions
 from ._render import dye_clip, injection, render, side_by_side, vorticity, vorticity_clip
 from ._search import SearchResult, local_search
@@ -29,6 +29,7 @@ __all__ = [
     "Synthesis",
     "TurbulenceParams",
     "cache_dir",
+    "check_settings",
     "compare",
     "dye_clip",
     "global_search",
