@@ -183,6 +183,11 @@ def test_renders_and_result_flow(pair):
     assert set(clips) == {"target", "source", "synthesised"}
     assert {c.frames.shape for c in clips.values()} == {(6, 96, 64)}
     assert clips["synthesised"].frames.max() > 0.5
+    meta = clips["synthesised"].metadata  # what the command line's --render saves
+    assert meta["flow"] == "synthesised"
+    assert TurbulenceParams.from_dict(meta["params"]) == out.params
+    assert meta["seed"] is None
+    assert meta["timings"]["total"] == out.timings["total"]
     assert vorticity_clip(out.velocity).frames.shape == (6, 96, 64, 3)
     flow = out.to_flow()
     assert flow.shape == (96, 64)
