@@ -15,6 +15,7 @@ from fluidnb.turbulence import (
     Flow,
     Synthesis,
     TurbulenceParams,
+    check_settings,
     compare,
     prepare,
     render,
@@ -251,19 +252,15 @@ class TurbulenceApp(App):
     def check(self, params=None, size=None):
         """What is wrong with these settings for this size's grids ("" when nothing).
 
-        The library's own checks (:func:`fluidnb.turbulence.prepare`: ``B`` must
-        tile the source grid, ``b > B dX/dx``, ...) run on a one-frame stand-in of
-        the grids, so a bad slider is reported at once, before any run.
+        The library's check of settings against grid shapes
+        (:func:`fluidnb.turbulence.check_settings`, which
+        :func:`fluidnb.turbulence.prepare` also runs), so a bad slider is reported
+        at once, before any run.
         """
         params = self.panel.params if params is None else params
-        (th, tw), (sh, sw), ratio = self._grids(self._size.value if size is None else size)
-        # Zero velocity and a density above any D_th: only the grids are tested here.
-        probe = [
-            Flow(np.zeros((1, h, w, 2), np.float32), np.full((1, h, w), 2e6, np.float32), dx)
-            for (h, w), dx in (((th, tw), float(ratio)), ((sh, sw), 1.0))
-        ]
+        target_shape, source_shape, ratio = self._grids(self._size.value if size is None else size)
         try:
-            prepare(*probe, params)
+            check_settings(params, target_shape, source_shape, ratio=ratio)
         except ValueError as exc:
             return str(exc)
         return ""
@@ -450,7 +447,7 @@ class TurbulenceApp(App):
         """Our rows as :func:`fluidnb.turbulence.table1` gives them (the paper's beside)."""
         order = {label: i for i, label in enumerate(ROW_ORDER)}
         labels = sorted(self.rows, key=lambda s: (order.get(s, len(order)), s))
-        return table1({label: _Row(self.rows[label]) for label in labels})
+        return table1({label: self.rows[label] for label in labels})
 
     def _render_table(self):
         ours = {r["strategy"]: r for r in self.table_rows()}
@@ -500,16 +497,6 @@ class TurbulenceApp(App):
             f"</tr></thead><tbody>{''.join(body)}</tbody></table>"
             f"<div class='fluidnb-t1-caption'>{html.escape(caption)}{note}</div>"
         )
-
-
-class _Row:
-    """A stored Table 1 row where :func:`table1` expects a Synthesis (it reads .summary())."""
-
-    def __init__(self, row):
-        self._row = row
-
-    def summary(self):
-        return dict(self._row)
 
 
 def _header(label, width):

@@ -17,12 +17,12 @@ __all__ = ["PAPER_SHAPES", "Flow", "cache_dir", "sample_flows"]
 
 _FORMAT = "fluidnb.turbulence.Flow/1"
 
-#: The seed's grids as (H, W): a 16 x 24 target and a 128 x 192 source (nx x ny; the
-#: plume rises along the longer side), 200 frames (seed section 4).
+#: The paper's grids as (H, W): a 16 x 24 target and a 128 x 192 source (nx x ny; the
+#: plume rises along the longer side), 200 frames (Watanabe et al., sec. 4).
 PAPER_SHAPES = {"target": (24, 16), "source": (192, 128)}
 
 # The sample pair's physical domain is 4 x 6 units: dx = 0.25 and dX = 0.03125 as in
-# the seed's experiment.
+# the paper's experiment.
 _DOMAIN_WIDTH = 4.0
 
 
@@ -34,11 +34,11 @@ class Flow:
     ----------
     velocity : ndarray, shape (I, H, W, 2)
         Cell-centred (dy, dx) velocity of each frame in cells of this grid per frame,
-        float32 (the seed's :math:`u_t(i)` or :math:`U_s(i)`).
+        float32 (the paper's :math:`u_t(i)` or :math:`U_s(i)`).
     density : ndarray, shape (I, H, W)
         Smoke density of each frame, float32; the mask is ``density > D_th``.
     dx : float
-        Grid spacing in world units (the seed's :math:`\Delta x`, :math:`\Delta X`).
+        Grid spacing in world units (the paper's :math:`\Delta x`, :math:`\Delta X`).
         Only ratios matter: a target and a source must cover the same domain.
     """
 
@@ -80,7 +80,7 @@ class Flow:
         return f"Flow({self.n_frames} frames, {h} x {w}, dx={self.dx:g})"
 
     def mask(self, D_th):
-        """The smoke mask ``density > D_th`` (the seed's :math:`d`, :math:`D`), bool."""
+        """The smoke mask ``density > D_th`` (the paper's :math:`d`, :math:`D`), bool."""
         return self.density > check_range("D_th", D_th, 0)
 
     def frames(self, start=0, stop=None):
@@ -138,7 +138,7 @@ class Flow:
 
 
 def sample_flows(n_frames=200, *, scale=1, progress=None):
-    """A target/source pair at the seed's sizes, made by :mod:`fluidnb.fluid`.
+    """A target/source pair at the paper's sizes, made by :mod:`fluidnb.fluid`.
 
     The source is a detailed high-resolution smoke plume (192 x 128, a centred
     source, vorticity confinement); the target is an independent low-resolution
@@ -151,9 +151,9 @@ def sample_flows(n_frames=200, *, scale=1, progress=None):
     Parameters
     ----------
     n_frames : int
-        Frames of each flow (the seed uses 200).
+        Frames of each flow (the paper uses 200).
     scale : {1, 2}
-        1: the seed's grids; 2: both grids halved (12 x 8 and 96 x 64), for quick runs.
+        1: the paper's grids; 2: both grids halved (12 x 8 and 96 x 64), for quick runs.
     progress : callable, optional
         ``progress(fraction, message)`` while simulating.
 

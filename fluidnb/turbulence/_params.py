@@ -1,4 +1,4 @@
-"""Parameters of example-based turbulence synthesis (seed 004, sections 2-3)."""
+"""Parameters of example-based turbulence synthesis (Watanabe et al., secs. 2-3)."""
 
 from __future__ import annotations
 
@@ -8,11 +8,12 @@ from .._params import Params, param
 
 __all__ = ["STRATEGIES", "TurbulenceParams"]
 
-#: The local-search strategies (seed section 3 and Table 1, plus two exact ones):
+#: The local-search strategies (Watanabe et al., sec. 3 and Table 1, plus two exact ones
+#: beyond the paper):
 #:
 #: - ``"exhaustive"``: every position of the window (the paper's reference);
 #: - ``"interval"``: a uniform sample of the window every ``interval`` positions;
-#: - ``"adaptive"``: the seed's coarse-to-fine search from interval ``m0``;
+#: - ``"adaptive"``: the paper's coarse-to-fine search from interval ``m0``;
 #: - ``"exact-fft"``: every position at once, by correlation through FFTs;
 #: - ``"exact-bounds"``: every position ruled in or out by lower bounds from
 #:   box sums, the survivors measured in full (the exhaustive answer, faster).
@@ -23,7 +24,7 @@ STRATEGIES = ("exhaustive", "interval", "adaptive", "exact-fft", "exact-bounds")
 class TurbulenceParams(Params):
     r"""Parameters of :func:`fluidnb.turbulence.synthesize`.
 
-    The seed's experiment (section 4) uses ``B = 16`` and ``b = 4`` with a 16 x 24
+    The paper's experiment (Watanabe et al., sec. 4) uses ``B = 16`` and ``b = 4`` with a 16 x 24
     target (:math:`\Delta x = 0.25`) and a 128 x 192 source
     (:math:`\Delta X = 0.03125`), and the adaptive search from ``m0 = 8``. It gives
     no values for :math:`\alpha`, :math:`\beta` or :math:`D_{th}`; ours are chosen
@@ -34,11 +35,11 @@ class TurbulenceParams(Params):
     ----------
     B : int
         Side of a local patch :math:`X(p)` on the high-resolution grid, in source
-        cells (seed 2.1, Fig. 1). The high-resolution target is tiled by
+        cells (sec. 2.1, Fig. 1). The high-resolution target is tiled by
         ``B x B`` patches, so ``B`` must divide both sides of the source grid.
     b : int
         Side of a global patch :math:`x(p)` on the low-resolution grid, in target
-        cells; the seed requires :math:`b > B\,\Delta X / \Delta x`. The local
+        cells; the paper requires :math:`b > B\,\Delta X / \Delta x`. The local
         search window spans the global patch: :math:`n = b\,\Delta x / \Delta X`
         positions per axis (our reading; 32 in the paper's setting).
     alpha : float
@@ -48,12 +49,12 @@ class TurbulenceParams(Params):
         previous frame's synthesised detail, advected, against the source's.
     D_th : float
         :math:`D_{th}`, the density above which a cell belongs to the smoke mask
-        :math:`d_t`, :math:`D_s` (seed 2.1).
+        :math:`d_t`, :math:`D_s` (sec. 2.1).
     strategy : str
         How the local search visits its window; one of :data:`STRATEGIES`.
     m0 : int
         :math:`m_0`, the adaptive search's first sampling interval (a power of 2;
-        halved each round until it is 1; seed 3). ``m0 = 1`` is the exhaustive
+        halved each round until it is 1; sec. 3). ``m0 = 1`` is the exhaustive
         search.
     interval : int
         :math:`m`, the sampling interval of the ``"interval"`` strategy (Table 1's

@@ -1,4 +1,4 @@
-"""Preparation (seed 2.1) and the global search on the low-resolution grid (Eq. 1)."""
+"""Preparation (Watanabe et al., sec. 2.1) and the global search on the coarse grid (Eq. 1)."""
 
 from __future__ import annotations
 
@@ -12,12 +12,12 @@ from ..fields import downsample, upsample
 from ._flows import Flow
 from ._params import TurbulenceParams
 
-__all__ = ["Prepared", "global_search", "prepare"]
+__all__ = ["Prepared", "check_settings", "global_search", "prepare"]
 
 
 @dataclass(frozen=True, eq=False)
 class Prepared:
-    r"""The fields and patch layout both searches work on (seed 2.1, Fig. 1).
+    r"""The fields and patch layout both searches work on (Watanabe et al., sec. 2.1, Fig. 1).
 
     Lower case: the target's low-resolution grid (:math:`n_x \times n_y`, spacing
     :math:`\Delta x`); upper case: the source's high-resolution grid
@@ -91,7 +91,7 @@ class Prepared:
         return ty * tx
 
     def smoke_patches(self, i):
-        """Which local patches hold target smoke at frame ``i`` (seed Fig. 3-4, bool (P,))."""
+        """Which local patches hold target smoke at frame ``i`` (Fig. 3-4; bool (P,))."""
         ty, tx = self.tiles
         B = self.params.B
         tiles = self.D_t[i].reshape(ty, B, tx, B)
@@ -148,26 +148,9 @@ def prepare(target, source, params=None):
             f"target and source must have the same number of frames, "
             f"got {target.n_frames} and {source.n_frames}"
         )
-    ratio = target.dx / source.dx
-    r = round(ratio)
-    if r < 1 or not math.isclose(ratio, r, rel_tol=1e-6):
-        raise ValueError(
-            f"target.dx / source.dx must be a whole number >= 1, got "
-            f"{target.dx:g} / {source.dx:g} = {ratio:g}"
-        )
-    (h, w), (H, W) = target.shape, source.shape
-    if (r * h, r * w) != (H, W):
-        raise ValueError(
-            f"source shape must be {r} x the target's {(h, w)} = {(r * h, r * w)} "
-            f"(dx ratio {r}), got {(H, W)}"
-        )
+    r = check_settings(params, target.shape, source.shape, ratio=target.dx / source.dx)
+    H, W = source.shape
     B, b = params.B, params.b
-    if H % B or W % B:
-        raise ValueError(f"B must divide the source grid {(H, W)}, got B = {B}")
-    if b * r <= B:
-        raise ValueError(f"b must be > B dX/dx = {B}/{r} = {B / r:g} (seed 2.1), got b = {b}")
-    if b > min(h, w):
-        raise ValueError(f"b must be <= the target grid's shorter side {min(h, w)}, got {b}")
     d_t, D_s = target.mask(params.D_th), source.mask(params.D_th)
     for name, flow, m in (("target", target, d_t), ("source", source, D_s)):
         if not m.any():
@@ -200,6 +183,84 @@ def prepare(target, source, params=None):
     return Prepared(
         params, r, n, **arrays, centres=centres, target_corners=corners, dx_source=source.dx
     )
+
+
+def check_settings(params, target_shape, source_shape, *, ratio=None):
+    r"""Check settings against the grids they will run on, before any flow exists.
+
+    The rules :func:`prepare` enforces that depend only on the grids (not on the
+    flows' values): the source grid is a whole multiple ``r`` of the target's,
+    ``B`` tiles the source grid, the global patch is larger than a local one
+    (:math:`b > B\,\Delta X / \Delta x`, Watanabe et al., sec. 2.1) and fits the
+    target grid. An app can call it on every slider move; :func:`prepare` calls it
+    too, so both say the same.
+
+    Parameters
+    ----------
+    params : TurbulenceParams
+    target_shape, source_shape : tuple of int
+        (H, W) of the target (coarse) and source (fine) grids.
+    ratio : float, optional
+        :math:`\Delta x / \Delta X`, the flows' grid-spacing ratio; must then be a
+        whole number ``r`` with ``source_shape == r * target_shape``. Default: the
+        ratio of the shapes.
+
+    Returns
+    -------
+    int
+        ``r``, the resolution ratio.
+
+    Raises
+    ------
+    ValueError
+        Naming the setting or grid at fault and what is allowed.
+
+    Examples
+    --------
+    >>> check_settings(TurbulenceParams(), (24, 16), (192, 128))
+    8
+    >>> check_settings(TurbulenceParams(b=2), (24, 16), (192, 128))
+    Traceback (most recent call last):
+    ...
+    ValueError: b must be > B dX/dx = 16/8 = 2 (Watanabe et al., sec. 2.1), got b = 2
+    """
+    if not isinstance(params, TurbulenceParams):
+        raise ValueError(f"params must be a TurbulenceParams, got {type(params).__name__}")
+    shapes = {}
+    for name, given in (("target_shape", target_shape), ("source_shape", source_shape)):
+        try:
+            shape = tuple(int(k) for k in given)
+        except (TypeError, ValueError):
+            shape = ()
+        if len(shape) != 2 or min(shape) < 1:
+            raise ValueError(f"{name} must be (H, W) with H, W >= 1, got {given!r}")
+        shapes[name] = shape
+    (h, w), (H, W) = shapes["target_shape"], shapes["source_shape"]
+    if ratio is None:
+        ratio = H / h
+        if H % h or W % w or H // h != W // w:
+            raise ValueError(
+                f"source_shape must be a whole multiple r of target_shape {(h, w)} "
+                f"(the same r along both axes), got {(H, W)}"
+            )
+    r = round(ratio)
+    if r < 1 or not math.isclose(ratio, r, rel_tol=1e-6):
+        raise ValueError(f"target.dx / source.dx must be a whole number >= 1, got {ratio:g}")
+    if (r * h, r * w) != (H, W):
+        raise ValueError(
+            f"source shape must be {r} x the target's {(h, w)} = {(r * h, r * w)} "
+            f"(dx ratio {r}), got {(H, W)}"
+        )
+    B, b = params.B, params.b
+    if H % B or W % B:
+        raise ValueError(f"B must divide the source grid {(H, W)}, got B = {B}")
+    if b * r <= B:
+        raise ValueError(
+            f"b must be > B dX/dx = {B}/{r} = {B / r:g} (Watanabe et al., sec. 2.1), got b = {b}"
+        )
+    if b > min(h, w):
+        raise ValueError(f"b must be <= the target grid's shorter side {min(h, w)}, got {b}")
+    return r
 
 
 def _coarsen(seq, factor, vector=False):

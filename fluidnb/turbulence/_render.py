@@ -121,7 +121,8 @@ def render(synthesis, *, fps=24.0):
     Returns
     -------
     dict
-        ``"target"``, ``"source"``, ``"synthesised"`` -> Clip.
+        ``"target"``, ``"source"``, ``"synthesised"`` -> Clip, each with the run's
+        metadata (``method``, ``params``, ``seed``, ``timings``) and ``flow``, its key.
     """
     from ._flows import Flow
 
@@ -133,10 +134,13 @@ def render(synthesis, *, fps=24.0):
         "synthesised": _carry(synthesis.velocity, inj),
     }
     top = max(float(np.percentile(d, 99.5)) for d in dyes.values())
-    return {
-        k: _grey(d, top if top > 0 else 1.0, fps, {"method": "turbulence", "flow": k})
-        for k, d in dyes.items()
+    meta = {
+        "method": "turbulence",
+        "params": synthesis.params.to_dict(),
+        "seed": None,  # the synthesis draws no random numbers
+        "timings": dict(synthesis.timings),
     }
+    return {k: _grey(d, top if top > 0 else 1.0, fps, {**meta, "flow": k}) for k, d in dyes.items()}
 
 
 def side_by_side(clips, metadata=None):

@@ -1,9 +1,12 @@
-"""The synthesis loop (seed 2.2): global search, local search, paste, add, advect."""
+"""The synthesis loop (Watanabe et al., sec. 2.2): search, paste, add, advect; Table 1."""
 
 from __future__ import annotations
 
+import numbers
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -15,7 +18,7 @@ from ._search import local_search
 
 __all__ = ["PAPER_TABLE1", "Synthesis", "compare", "local_features", "synthesize", "table1"]
 
-#: The seed's Table 1 (Core i7-2600K, 16 x 24 target, 128 x 192 source, B = 16,
+#: The paper's Table 1 (Core i7-2600K, 16 x 24 target, 128 x 192 source, B = 16,
 #: b = 4, 200 frames): strategy -> (mean relative error, mean absolute error,
 #: seconds per frame). The exhaustive row's error cells were lost in extraction;
 #: they are 0 by definition.
@@ -55,6 +58,15 @@ class Synthesis:
     params : TurbulenceParams
     timings : dict
         Stage -> seconds for the whole run.
+    clip : Clip
+        The synthesised flow made visible (computed on first use): see
+        :attr:`clip`.
+
+    Notes
+    -----
+    The synthesis draws no random numbers: the same flows and parameters give the
+    same result, so there is no ``seed`` to pass, and :attr:`clip` records
+    ``seed=None``.
     """
 
     velocity: np.ndarray
@@ -69,6 +81,31 @@ class Synthesis:
     params: TurbulenceParams
     timings: dict = field(default_factory=dict)
 
+    @cached_property
+    def clip(self):
+        """A dye carried through the synthesised flow, as a :class:`fluidnb.Clip`.
+
+        The dye is injected where the target's scene adds smoke
+        (:func:`~fluidnb.turbulence.injection`) and carried by :math:`U(i)`
+        (:func:`~fluidnb.turbulence.dye_clip`, 24 fps). Its metadata: ``method``
+        ("turbulence"), ``params``, ``seed`` (None: nothing here is random) and
+        ``timings``. :func:`~fluidnb.turbulence.render` draws the target and the
+        source beside it on one brightness scale.
+        """
+        from ._flows import Flow
+        from ._render import dye_clip, injection
+
+        prep = self.prepared
+        inject = injection(Flow(prep.u_t, prep.rho_t, 1.0), prep.factor)
+        metadata = {
+            "method": "turbulence",
+            "params": self.params.to_dict(),
+            "seed": None,
+            "timings": dict(self.timings),
+            "flow": "synthesised",
+        }
+        return dye_clip(self.velocity, inject, metadata=metadata)
+
     @property
     def n_frames(self):
         """Frames ``I``."""
@@ -77,13 +114,13 @@ class Synthesis:
     def errors(self, *, smoke_only=False):
         """Per-frame mean relative and absolute error against the exhaustive search.
 
-        As the seed defines them (section 4): for each patch, the absolute error is
+        As the paper defines them (Watanabe et al., sec. 4): for each patch, the absolute error is
         :math:`E_h(q_h) - E_h^*` and the relative error that divided by
         :math:`E_h^*`, where :math:`E_h^*` is the exhaustive search's minimum of the
         same search (same window, same temporal term); both are averaged over the
         patches of a frame (patches with :math:`E_h^* = 0` are left out of the
         relative mean). ``smoke_only`` keeps only patches holding target smoke, as
-        the seed's Fig. 3-4 also do.
+        the paper's Fig. 3-4 also do.
 
         Returns
         -------
@@ -148,7 +185,7 @@ def _label(params):
 
 
 def synthesize(target, source, params=None, *, reference=False, progress=None, prepared=None):
-    """Add the source's turbulent detail to the target flow (seed section 2).
+    """Add the source's turbulent detail to the target flow (Watanabe et al., sec. 2).
 
     For every frame ``i``: the global search (Eq. 1) finds, for each local patch, a
     source region on the low-resolution grid; the local search (Eq. 2) finds the
@@ -166,7 +203,7 @@ def synthesize(target, source, params=None, *, reference=False, progress=None, p
         ``strategy`` picks the local search (Table 1).
     reference : bool
         Also find every search's exhaustive minimum (with the exact search, not
-        timed) so that :meth:`Synthesis.errors` can report the seed's error figures.
+        timed) so that :meth:`Synthesis.errors` can report the paper's error figures.
     progress : callable, optional
         ``progress(fraction, message)`` once per frame; raise
         :class:`fluidnb.Cancelled` from it to stop.
@@ -226,7 +263,7 @@ def synthesize(target, source, params=None, *, reference=False, progress=None, p
         U_h = _paste(prep.U_sh[i], found.positions, (ty, tx), B, params.blend)
         detail[i] = U_h
         velocity[i] = prep.U_t[i] + U_h
-        # U*_h(i + 1): this frame's detail carried along the target flow (seed 2.2).
+        # U*_h(i + 1): this frame's detail carried along the target flow (sec. 2.2).
         advected = advect(U_h, prep.U_t[i])
         q_l_all[i], q_h_all[i] = q_l, found.positions
         energies[i], evaluations[i], seconds[i] = found.energies, found.evaluations, found.seconds
@@ -375,20 +412,39 @@ def table1(results):
 
     Parameters
     ----------
-    results : dict
-        Label -> :class:`Synthesis`, or -> its :meth:`Synthesis.summary` row (keep
-        the small rows, not the flows, when collecting many runs).
+    results : mapping or sequence
+        Label -> row, or a sequence of rows that carry their own ``"strategy"``.
+        A row is a :class:`Synthesis` (its :meth:`Synthesis.summary` is used), a
+        mapping with at least ``"seconds_per_frame"`` (and, to show them,
+        ``"relative_error"``, ``"absolute_error"``, ``"evaluations_per_patch"``;
+        its ``"strategy"`` defaults to the label), or a tuple
+        ``(relative_error, absolute_error, seconds_per_frame)`` as in
+        :data:`PAPER_TABLE1`. Keep the small rows, not the flows, when collecting
+        many runs.
 
     Returns
     -------
     list of dict
         Per strategy: ``strategy``, ``relative_error``, ``absolute_error``,
-        ``seconds_per_frame``, ``evaluations_per_patch``, ``speedup`` (exhaustive
-        time / this time, when an exhaustive row is present) and the paper's
-        ``paper_relative_error``, ``paper_absolute_error``, ``paper_seconds``,
-        ``paper_speedup`` where the paper has the row.
+        ``seconds_per_frame``, ``evaluations_per_patch`` (those given),
+        ``speedup`` (exhaustive time / this time, when an exhaustive row is
+        present) and the paper's ``paper_relative_error``,
+        ``paper_absolute_error``, ``paper_seconds``, ``paper_speedup`` where the
+        paper has the row.
+
+    Raises
+    ------
+    ValueError
+        For a row of any other kind, or without a strategy or a time.
+
+    Examples
+    --------
+    >>> rows = table1({"exhaustive": (0.0, 0.0, 0.1), "adaptive": (0.01, 0.2, 0.01)})
+    >>> round(rows[1]["speedup"], 6), rows[1]["paper_relative_error"]
+    (10.0, 0.0103)
     """
-    rows = [dict(r) if isinstance(r, dict) else r.summary() for r in results.values()]
+    items = results.items() if isinstance(results, Mapping) else ((None, r) for r in results)
+    rows = [_row(label, r) for label, r in items]
     ex = next((r for r in rows if r["strategy"] == "exhaustive"), None)
     for r in rows:
         if ex is not None:
@@ -398,3 +454,31 @@ def table1(results):
             r["paper_relative_error"], r["paper_absolute_error"], r["paper_seconds"] = paper
             r["paper_speedup"] = PAPER_TABLE1["exhaustive"][2] / paper[2]
     return rows
+
+
+_TUPLE_FIELDS = ("relative_error", "absolute_error", "seconds_per_frame")
+
+
+def _row(label, r):
+    """One row of :func:`table1` as a new dict (the caller's row is never changed)."""
+    if isinstance(r, Synthesis):
+        row = r.summary()
+    elif isinstance(r, Mapping):
+        row = dict(r)
+    elif isinstance(r, tuple) and len(r) == 3:
+        row = dict(zip(_TUPLE_FIELDS, r))
+    else:
+        raise ValueError(
+            f"a table1 row must be a Synthesis, a mapping or a tuple {_TUPLE_FIELDS}, "
+            f"got {type(r).__name__}"
+        )
+    if label is not None:
+        row.setdefault("strategy", str(label))
+    if "strategy" not in row:
+        raise ValueError(f"a table1 row needs a strategy (a label or a 'strategy' key), got {row}")
+    if not isinstance(row.get("seconds_per_frame"), numbers.Real):
+        raise ValueError(
+            f"table1 row {row['strategy']!r} needs a number 'seconds_per_frame', "
+            f"got {row.get('seconds_per_frame')!r}"
+        )
+    return row

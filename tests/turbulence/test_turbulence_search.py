@@ -1,4 +1,4 @@
-"""The local search strategies of seed section 3 (Table 1) and the two exact ones."""
+"""The local search strategies of Watanabe et al., sec. 3 (Table 1), and the two exact ones."""
 
 import numpy as np
 import pytest

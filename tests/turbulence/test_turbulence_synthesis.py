@@ -1,12 +1,14 @@
-"""Preparation (seed 2.1), the two-level search and synthesis (2.2), errors (Table 1)."""
+"""Preparation (sec. 2.1), the two-level search and synthesis (2.2), errors (Table 1)."""
 
 import numpy as np
 import pytest
 
+from fluidnb import Clip
 from fluidnb.fields import advect
 from fluidnb.turbulence import (
     Flow,
     TurbulenceParams,
+    check_settings,
     compare,
     global_search,
     local_features,
@@ -181,6 +183,11 @@ def test_renders_and_result_flow(pair):
     assert set(clips) == {"target", "source", "synthesised"}
     assert {c.frames.shape for c in clips.values()} == {(6, 96, 64)}
     assert clips["synthesised"].frames.max() > 0.5
+    meta = clips["synthesised"].metadata  # what the command line's --render saves
+    assert meta["flow"] == "synthesised"
+    assert TurbulenceParams.from_dict(meta["params"]) == out.params
+    assert meta["seed"] is None
+    assert meta["timings"]["total"] == out.timings["total"]
     assert vorticity_clip(out.velocity).frames.shape == (6, 96, 64, 3)
     flow = out.to_flow()
     assert flow.shape == (96, 64)
@@ -239,3 +246,91 @@ def test_local_features_rebuild_the_synthesis_search(pair):
         found = local_search(S, X, starts, prep.window, "exhaustive")
         np.testing.assert_array_equal(found.positions, out.local_positions[i])
         np.testing.assert_array_equal(found.energies, out.energies[i])
+
+
+# -- settings against grids, plain table rows, the clip ---------------------------------
+
+
+def test_settings_are_checked_against_grid_shapes_without_flows():
+    paper, quick = ((24, 16), (192, 128)), ((12, 8), (96, 64))
+    assert check_settings(TurbulenceParams(), *paper) == 8
+    assert check_settings(TurbulenceParams(), *quick, ratio=8.0) == 8
+    bad = {
+        "B must divide the source grid": (TurbulenceParams(B=12), paper, None),
+        r"b must be > B dX/dx = 16/8 = 2": (TurbulenceParams(b=2), paper, None),
+        r"b must be <= the target grid's shorter side 8": (TurbulenceParams(b=9), quick, None),
+        "source_shape must be a whole multiple": (TurbulenceParams(), ((24, 16), (192, 100)), None),
+        "source shape must be 4 x": (TurbulenceParams(), paper, 4.0),
+        "whole number": (TurbulenceParams(), paper, 7.5),
+        r"target_shape must be \(H, W\)": (TurbulenceParams(), ((24,), (192, 128)), None),
+        "params must be a TurbulenceParams": ({"B": 16}, paper, None),
+    }
+    for message, (params, shapes, ratio) in bad.items():
+        with pytest.raises(ValueError, match=message):
+            check_settings(params, *shapes, ratio=ratio)
+
+
+def test_prepare_and_check_settings_refuse_the_same_settings(pair):
+    target, source = pair
+    for params in (TurbulenceParams(B=12), TurbulenceParams(b=2), TurbulenceParams(b=9)):
+        with pytest.raises(ValueError, match=" must ") as direct:
+            check_settings(params, target.shape, source.shape)
+        with pytest.raises(ValueError, match=" must ") as via_prepare:
+            prepare(target, source, params)
+        assert str(direct.value) == str(via_prepare.value)
+
+
+def test_table1_takes_plain_rows_as_well_as_syntheses():
+    from types import MappingProxyType
+
+    as_tuples = table1({"exhaustive": (0.0, 0.0, 0.12), "adaptive": (0.01, 0.2, 0.012)})
+    as_mappings = table1(
+        {
+            "exhaustive": MappingProxyType({"seconds_per_frame": 0.12, "relative_error": 0.0,
+                                            "absolute_error": 0.0}),
+            "adaptive": {"seconds_per_frame": 0.012, "relative_error": 0.01,
+                         "absolute_error": 0.2},
+        }
+    )  # fmt: skip
+    as_list = table1(
+        [
+            {"strategy": "exhaustive", "seconds_per_frame": 0.12, "relative_error": 0.0,
+             "absolute_error": 0.0},
+            {"strategy": "adaptive", "seconds_per_frame": 0.012, "relative_error": 0.01,
+             "absolute_error": 0.2},
+        ]
+    )  # fmt: skip
+    for rows in (as_tuples, as_mappings, as_list):
+        by = {r["strategy"]: r for r in rows}
+        assert by["adaptive"]["speedup"] == pytest.approx(10.0)
+        assert by["adaptive"]["relative_error"] == 0.01
+        assert by["adaptive"]["paper_relative_error"] == 0.0103
+    row = {"seconds_per_frame": 0.5}
+    table1({"exhaustive": row})
+    assert row == {"seconds_per_frame": 0.5}  # the caller's row is not changed
+    with pytest.raises(ValueError, match="a table1 row must be"):
+        table1({"adaptive": [0.01, 0.2, 0.012]})
+    with pytest.raises(ValueError, match="needs a strategy"):
+        table1([{"seconds_per_frame": 0.1}])
+    with pytest.raises(ValueError, match="needs a number 'seconds_per_frame'"):
+        table1({"adaptive": {"relative_error": 0.0}})
+
+
+def test_a_synthesis_carries_its_clip_with_the_conventions_metadata(pair):
+    params = TurbulenceParams(strategy="exhaustive")
+    out = synthesize(*[f.frames(0, 5) for f in pair], params)
+    clip = out.clip
+    assert isinstance(clip, Clip)
+    assert clip is out.clip  # made once
+    assert clip.frames.shape == (5, 96, 64)
+    meta = clip.metadata
+    assert meta["method"] == "turbulence"
+    assert TurbulenceParams.from_dict(meta["params"]) == params
+    assert meta["seed"] is None  # nothing in the synthesis is random
+    assert set(meta["timings"]) >= {"prepare", "local_search", "total"}
+    # The same dye as render()'s synthesised panel, up to its brightness scale.
+    panel = render(out)["synthesised"].frames
+    lit = (panel > 0.05) & (panel < 0.95)
+    assert lit.sum() > 100
+    ratio = clip.frames[lit] / panel[lit]
+    assert np.ptp(ratio[(clip.frames[lit] < 0.95)]) < 0.05
