@@ -19,7 +19,7 @@ __all__ = ["as_image", "as_mask", "to_uint8"]
 _MODES = (None, "grey", "rgb")
 
 
-def as_image(image, *, mode=None, name="image", return_alpha=False):
+def as_image(image, *, mode=None, name="image", return_alpha=False, background=None):
     """Convert an image from a path, array or PIL image to float32 in [0, 1].
 
     Parameters
@@ -27,7 +27,8 @@ def as_image(image, *, mode=None, name="image", return_alpha=False):
     image : str, os.PathLike, ndarray or PIL.Image.Image
         A file path (any format Pillow reads), or pixels: ``uint8`` (0-255),
         ``uint16`` (0-65535), ``bool``, or floats already in [0, 1]; grey (H, W),
-        grey with a channel axis (H, W, 1), RGB (H, W, 3) or RGBA (H, W, 4).
+        grey with a channel axis (H, W, 1), grey + alpha (H, W, 2), RGB (H, W, 3)
+        or RGBA (H, W, 4).
     mode : {None, "grey", "rgb"}
         ``None`` keeps grey as (H, W) and colour as (H, W, 3); ``"grey"`` converts
         colour to luminance (Rec. 709 weights, as scikit-image's ``rgb2gray``);
@@ -36,7 +37,13 @@ def as_image(image, *, mode=None, name="image", return_alpha=False):
         The parameter's name in error messages.
     return_alpha : bool
         Also return the alpha channel (H, W) float32, or ``None`` if there is none.
-        Otherwise an alpha channel is dropped.
+        Otherwise an alpha channel is dropped (or used by ``background``).
+    background : None, float or sequence of 3 floats
+        Composite an image that has an alpha channel onto this grey level or RGB
+        colour in [0, 1]: ``colour * alpha + background * (1 - alpha)``. The alpha
+        is taken as straight (not premultiplied), as PNG stores it, so whatever
+        colour a cut-out's fully transparent pixels hold disappears. ``None`` (the
+        default) returns the colour channels as stored. No effect without alpha.
 
     Returns
     -------
@@ -57,26 +64,49 @@ def as_image(image, *, mode=None, name="image", return_alpha=False):
     >>> img = as_image(np.array([[0, 255]], dtype=np.uint8))
     >>> img.dtype, img.tolist()
     (dtype('float32'), [[0.0, 1.0]])
+
+    A cut-out pixel half covered by white, over black:
+
+    >>> as_image(np.array([[[255, 255, 255, 128]]], dtype=np.uint8), background=0).round(2).tolist()
+    [[[0.5, 0.5, 0.5]]]
     """
     check_choice("mode", mode, _MODES)
     arr = _to_array(image, name)
     if arr.ndim == 3 and arr.shape[2] == 1:
         arr = arr[:, :, 0]
-    if arr.ndim not in (2, 3) or (arr.ndim == 3 and arr.shape[2] not in (3, 4)):
-        raise ValueError(f"{name} must have shape (H, W), (H, W, 3) or (H, W, 4), got {arr.shape}")
+    if arr.ndim not in (2, 3) or (arr.ndim == 3 and arr.shape[2] not in (2, 3, 4)):
+        raise ValueError(
+            f"{name} must have shape (H, W), (H, W, 2), (H, W, 3) or (H, W, 4), got {arr.shape}"
+        )
     if arr.shape[0] == 0 or arr.shape[1] == 0:
         raise ValueError(f"{name} is empty: got shape {arr.shape}")
     out = _to_float01(arr, name)
     alpha = None
-    if out.ndim == 3 and out.shape[2] == 4:
-        alpha = out[:, :, 3].copy()
-        out = out[:, :, :3]
+    if out.ndim == 3 and out.shape[2] in (2, 4):
+        alpha = out[:, :, -1].copy()
+        out = out[:, :, :-1]
+        if out.shape[2] == 1:
+            out = out[:, :, 0]
+    if background is not None and alpha is not None:
+        out = _composite(out, alpha, background, name)
     if mode == "grey" and out.ndim == 3:
         out = out @ np.array([0.2125, 0.7154, 0.0721], dtype=np.float32)
     elif mode == "rgb" and out.ndim == 2:
         out = np.repeat(out[:, :, None], 3, axis=2)
     out = np.ascontiguousarray(np.clip(out, 0.0, 1.0), dtype=np.float32)
     return (out, alpha) if return_alpha else out
+
+
+def _composite(colour, alpha, background, name):
+    bg = np.asarray(background, dtype=np.float32)
+    if bg.ndim > 1 or bg.size not in (1, 3) or not np.all((bg >= 0) & (bg <= 1)):
+        raise ValueError(
+            f"background must be a grey level or an RGB colour in [0, 1], got {background!r}"
+        )
+    if bg.size == 3 and colour.ndim == 2:
+        colour = np.repeat(colour[:, :, None], 3, axis=2)
+    a = alpha[:, :, None] if colour.ndim == 3 else alpha
+    return colour * a + bg.reshape(-1)[: 3 if colour.ndim == 3 else 1] * (1 - a)
 
 
 def _to_array(image, name):

@@ -41,6 +41,46 @@ def test_channels_and_modes():
     assert none is None
 
 
+def test_a_cutout_composites_onto_a_background_and_its_clear_colour_vanishes(tmp_path):
+    # Straight (PNG) alpha: a fully clear pixel's colour is junk and must vanish.
+    rgba = np.zeros((2, 2, 4), np.uint8)
+    rgba[0, 0] = (200, 100, 50, 255)  # opaque
+    rgba[0, 1] = (255, 255, 255, 0)  # clear, holding white junk
+    rgba[1, 0] = (255, 0, 0, 51)  # 20 % red
+    rgba[1, 1] = (13, 200, 77, 0)  # clear, other junk
+    over_black = as_image(rgba, background=0)
+    np.testing.assert_allclose(over_black[0, 0], np.array([200, 100, 50]) / 255, atol=1e-6)
+    assert not over_black[:, 1].any()
+    np.testing.assert_allclose(over_black[1, 0], [0.2, 0, 0], atol=1e-6)
+    over_grey = as_image(rgba, background=(0.5, 0.5, 0.5))
+    np.testing.assert_allclose(over_grey[1, 1], [0.5, 0.5, 0.5])
+    np.testing.assert_allclose(over_grey[1, 0], [0.2 + 0.4, 0.4, 0.4], atol=1e-6)
+    # The alpha still comes back with return_alpha; from a file just the same.
+    rgb, alpha = as_image(rgba, background=0, return_alpha=True)
+    np.testing.assert_array_equal(rgb, over_black)
+    np.testing.assert_allclose(alpha, [[1, 0], [0.2, 0]], atol=1e-6)
+    Image.fromarray(rgba, mode="RGBA").save(tmp_path / "cut.png")
+    np.testing.assert_array_equal(as_image(tmp_path / "cut.png", background=0), over_black)
+    # Without alpha, or without background, nothing changes (backward compatible).
+    np.testing.assert_array_equal(as_image(rgba[..., :3], background=0), as_image(rgba[..., :3]))
+    np.testing.assert_array_equal(as_image(rgba)[0, 1], [1, 1, 1])
+    with pytest.raises(ValueError, match="background must be a grey level or an RGB colour"):
+        as_image(rgba, background=(1, 2))
+
+
+def test_grey_with_alpha(tmp_path):
+    la = np.zeros((2, 3, 2), np.uint8)
+    la[..., 0] = 255
+    la[0, :, 1] = 255
+    grey, alpha = as_image(la, return_alpha=True)
+    assert grey.shape == (2, 3)
+    np.testing.assert_array_equal(alpha, [[1, 1, 1], [0, 0, 0]])
+    np.testing.assert_array_equal(as_image(la, background=0), [[1, 1, 1], [0, 0, 0]])
+    Image.fromarray(la, mode="LA").save(tmp_path / "la.png")
+    _, from_file = as_image(tmp_path / "la.png", return_alpha=True)
+    np.testing.assert_array_equal(from_file, alpha)
+
+
 def test_paths_and_pil(tmp_path):
     arr = (np.arange(12, dtype=np.uint8).reshape(3, 4) * 20).astype(np.uint8)
     Image.fromarray(arr).save(tmp_path / "a.png")
@@ -56,7 +96,7 @@ def test_paths_and_pil(tmp_path):
         (np.array([[np.nan, 0.5]]), "image contains NaN"),
         (np.array([[0.0, 2.0]]), r"floats must lie in \[0, 1\]"),
         (np.zeros(5), r"image must have shape \(H, W\)"),
-        (np.zeros((2, 2, 2)), r"image must have shape \(H, W\)"),
+        (np.zeros((2, 2, 5)), r"image must have shape \(H, W\)"),
         (np.zeros((0, 3)), "image is empty"),
         (np.zeros((2, 2), np.int64), "image has dtype int64"),
         ({"a": 1}, "must be a file path, a numpy array or a PIL image"),

@@ -10,7 +10,7 @@ import numpy as np
 from traitlets import Int
 
 from fluidnb import Clip, Params, as_image
-from fluidnb.fire import FireParams, colour_temperature, fire_from_simulation
+from fluidnb.fire import FireParams, colour_temperature, fire
 from fluidnb.fluid import FluidParams, flame_preset, simulate
 
 from ._app import App
@@ -241,7 +241,9 @@ class FireApp(App):
             warmup=preset.warmup_for(self.shape),
         )
         fire_params = params.fire(FireParams(input_size=max(self.shape)))
-        result = fire_from_simulation(
+        # An uploaded cut-out's alpha is photo_matte: fire composites the colour onto
+        # black with it, so the clear pixels' colour never shows.
+        result = fire(
             self.photo, sim, fire_params, matte=self.matte(), seed=self.seed, progress=second
         )
         self.fire_result = result

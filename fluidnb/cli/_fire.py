@@ -11,7 +11,7 @@ def register(sub):
 
     p = sub.add_parser(
         "fire",
-        help="fire from a photo on a fluid simulation (Kogawa, Dobashi & Yamamoto)",
+        help="fire from a photo on a fluid simulation (Furukawa, Dobashi & Yamamoto 2013)",
         description=(
             "Texture-synthesise PHOTO onto the temperature of a 2-D fluid simulation at "
             "keyframes (Ashikhmin's method with user control), advect the result with "
@@ -22,12 +22,16 @@ def register(sub):
             "flame preset is simulated."
         ),
     )
-    p.add_argument("photo", metavar="PHOTO", help="a photo of fire on a dark background")
+    p.add_argument(
+        "photo",
+        metavar="PHOTO",
+        help="a photo of fire on a dark background, or a cut-out (RGBA: its alpha is the matte)",
+    )
     p.add_argument(
         "--matte",
         default=None,
         metavar="MATTE",
-        help="the photo's alpha matte, same size (default: its normalised luminance)",
+        help="the photo's alpha matte, same size (default: its alpha channel, if any)",
     )
     p.add_argument(
         "--sim",
@@ -58,29 +62,30 @@ def _fire(args):
     from .._image import as_image
     from .._progress import TextProgress
     from .._validation import check_int
-    from ..fire import FireParams, fire, fire_flame
+    from ..fire import FireParams, fire
 
     params = params_from_args(FireParams, args)
     photo, alpha = as_image(args.photo, mode="rgb", name="PHOTO", return_alpha=True)
-    # Without --matte, an RGBA photo's own alpha channel is its matte.
+    # Without --matte, an RGBA photo's own alpha channel is its matte (fire composites
+    # the colour onto black with it, so a cut-out's clear pixels never show).
     matte = alpha if args.matte is None else as_image(args.matte, mode="grey", name="--matte")
     frames = None if args.frames is None else check_int("--frames", args.frames, 1)
-    progress = TextProgress()
-    if args.sim is None:
-        result = fire_flame(
-            photo, params, n_frames=frames, matte=matte, seed=args.seed, progress=progress
-        )
-    else:
-        temperature, velocity = _load_simulation(args.sim)
-        if frames is not None:
-            if frames > len(temperature):
-                raise ValueError(
-                    f"--frames must be <= the simulation's {len(temperature)} frames, got {frames}"
-                )
-            temperature, velocity = temperature[:frames], velocity[:frames]
-        result = fire(
-            photo, temperature, velocity, params, matte=matte, seed=args.seed, progress=progress
-        )
+    simulation = None
+    if args.sim is not None:
+        simulation = _load_simulation(args.sim)
+        if frames is not None and frames > len(simulation[0]):
+            raise ValueError(
+                f"--frames must be <= the simulation's {len(simulation[0])} frames, got {frames}"
+            )
+    result = fire(
+        photo,
+        simulation,
+        params,
+        matte=matte,
+        n_frames=frames,
+        seed=args.seed,
+        progress=TextProgress(),
+    )
     clip = result.clip
     out = clip.save(args.output)
     print(f"wrote {out} ({len(clip)} frames, {clip.fps:g} fps, seed {clip.metadata['seed']})")

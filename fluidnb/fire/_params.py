@@ -1,4 +1,4 @@
-"""The fire method's texture-synthesis and cross-dissolve parameters (seed 3.2-3.4)."""
+"""Parameters of fire synthesis and cross-dissolve (Furukawa et al. 2013, sec. 3.2-3.4)."""
 
 from __future__ import annotations
 
@@ -11,17 +11,17 @@ __all__ = ["FireParams"]
 
 @dataclass(frozen=True)
 class FireParams(Params):
-    r"""Parameters of the fire texture synthesis and its animation (Kogawa et al.).
+    r"""Parameters of the fire texture synthesis and its animation (Furukawa et al. 2013).
 
-    The seed gives no values for these; the defaults are ours, chosen so that a
+    The paper gives no values for these; the defaults are ours, chosen so that a
     128 x 128 keyframe takes well under a second and follows the target's shape
     (measured in ``tests/fire`` and ``benchmarks/bench_fire_synthesis.py``).
 
     Attributes
     ----------
     weight : float
-        :math:`w`, the user-control weight of Ashikhmin's method (seed 3.2, Fig. 4):
-        the distance of a candidate is
+        :math:`w`, the user-control weight of Ashikhmin's method (Furukawa et al.
+        (2013), sec. 3.2, Fig. 4): the distance of a candidate is
         :math:`(1 - w)\,\overline{SSD}_{N_U} + w\,\overline{SSD}_{N_L}`, the mean
         squared colour difference over the upper L :math:`N_U(p)` and the mean
         squared difference of target temperature :math:`I_t` against the photo's
@@ -33,15 +33,28 @@ class FireParams(Params):
         :math:`(k^2+1)/2`.
     n_random : int
         Random input positions added to Ashikhmin's candidate set for each pixel.
+    coherence : float
+        :math:`\kappa`, the coherence factor of Hertzmann et al. (2001): a random
+        candidate's distance is multiplied by :math:`1 + \kappa` before it is
+        compared with the coherent candidates' (Ashikhmin's shifted neighbour
+        sources), so the keyframe is made of patches (flame tongues) rather than a
+        mosaic of single pixels. Beyond the paper; 0 is the paper's plain search.
     second_pass : bool
         Run a second raster scan comparing colours over the whole square
         neighbourhood (all of it is synthesised by then), as Ashikhmin suggests.
+    cutoff : float
+        :math:`\tau`: gas cooler than this fraction of the sequence's temperature
+        range does not glow, so the cooled plume fades to black; above it the
+        temperature is matched to the photo's alpha by rank
+        (:func:`fluidnb.fire.temperature_target`). Beyond the paper, which maps the
+        normalised temperature as it is (``cutoff=0`` keeps the cut-off out but
+        still matches ranks).
     interval : int
-        :math:`N`, the number of frames of one segment (seed 3.4, Fig. 6): a
+        :math:`N`, the number of frames of one segment (Furukawa et al. (2013), sec. 3.4, Fig. 6): a
         keyframe is synthesised, then advected for :math:`N - 1` frames.
     overlap : int
         :math:`m`, the frames two consecutive segments share and cross-dissolve
-        over (Fig. 6); ``-1`` means :math:`N / 2` (rounded down, the seed's
+        over (Fig. 6); ``-1`` means :math:`N / 2` (rounded down, the paper's
         choice). Must be < ``interval``. Keyframes are :math:`N - m` frames apart.
     input_size : int
         The photo is resized so its longest side has this many pixels before it is
@@ -78,11 +91,28 @@ class FireParams(Params):
         eq="Ashikhmin (2001)",
         doc="random positions added to each pixel's candidate set",
     )
+    coherence: float = param(
+        1.0,
+        lo=0,
+        hi=10,
+        symbol=r"\kappa",
+        eq="Hertzmann et al. (2001)",
+        doc="coherence penalty: a random candidate's distance is multiplied by 1 + kappa",
+        step=0.1,
+    )
     second_pass: bool = param(
         True,
         symbol="",
         eq="Ashikhmin (2001)",
         doc="second scan with full square neighbourhoods",
+    )
+    cutoff: float = param(
+        0.2,
+        lo=0,
+        hi=0.95,
+        symbol=r"\tau",
+        doc="fraction of the temperature range below which gas does not glow (black)",
+        step=0.05,
     )
     interval: int = param(
         10,

@@ -1,8 +1,8 @@
-r"""Texture synthesis with user control (seed 3.2; Ashikhmin 2001).
+r"""Texture synthesis with user control (Furukawa et al. (2013), sec. 3.2; Ashikhmin 2001).
 
 The output :math:`I_s` starts as white noise and is scanned in raster order. For
 output pixel :math:`p` and input pixel :math:`p_i`, two L-shaped halves of a
-:math:`k \times k` square (seed Fig. 4) are compared:
+:math:`k \times k` square (Furukawa et al. (2013), Fig. 4) are compared:
 
 - :math:`N_U(p)`, the upper L: the rows above :math:`p` and the pixels to its left,
   already synthesised; colours of :math:`I_s` against colours of :math:`I_a`;
@@ -15,12 +15,20 @@ The distance is :math:`D = (1 - w)\,\overline{SSD}_U + w\,\overline{SSD}_L`
 at the border as inside). The best input pixel's colour is copied and its position
 recorded.
 
-The raster scan is sequential (each pixel depends on the ones before it), so the scan
-itself is compiled with numba: one code path, per pixel a few dozen candidates of
-``k * k`` pixels each. In pure numpy the per-pixel overhead alone is ~0.1 ms, i.e.
-several seconds per 128 x 128 keyframe; compiled, the candidate search takes a few
-hundredths of a second. The exhaustive search (the reference) uses the same distance
-over every input pixel, with early termination once a partial sum exceeds the best.
+Ashikhmin's candidates -- each synthesised neighbour's source shifted by the offset
+to :math:`p` -- are what make the result out of coherent patches rather than single
+pixels. The random candidates added to them pay a coherence penalty
+:math:`(1 + \kappa)` on their distance (the coherence factor of Hertzmann et al.'s
+Image Analogies, 2001), so a random jump wins only when it is clearly better: without
+it the first keyframes were a grainy mosaic of one-pixel fragments.
+
+:mod:`fluidnb.fire._reference` writes the scan out in plain numpy, pixel by pixel, in
+this notation; read it first. The scan is sequential (each pixel depends on the ones
+before it), so the version the library runs is compiled with numba (:func:`_scan`
+below, the same steps with early termination): in numpy the per-pixel overhead alone
+is ~0.1 ms, i.e. seconds per 128 x 128 keyframe, compiled it is a few hundredths of a
+second. ``tests/fire/test_fire_reference.py`` checks that both choose the same source
+for every pixel.
 """
 
 from __future__ import annotations
@@ -29,7 +37,7 @@ import numpy as np
 from numba import njit
 
 from .._image import as_image
-from .._random import rng
+from .._random import resolve_seed, rng
 from .._validation import check_array, check_choice, check_shape_match
 from ._params import FireParams
 
@@ -37,10 +45,12 @@ __all__ = ["alpha_from_photo", "neighbourhood_error", "neighbourhoods", "synthes
 
 _LUMA = np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
 METHODS = ("candidates", "exhaustive")
+#: The smallest photo side accepted: a texture needs some pixels to copy patches from.
+MIN_PHOTO_SIDE = 8
 
 
 def neighbourhoods(size):
-    """The offsets of the two L-shaped neighbourhoods of seed Fig. 4.
+    """The offsets of the two L-shaped neighbourhoods (Furukawa et al. (2013), Fig. 4).
 
     Parameters
     ----------
@@ -71,15 +81,23 @@ def neighbourhoods(size):
 
 
 def alpha_from_photo(photo, matte=None):
-    """The photo's alpha :math:`a_a` that the target is compared against.
+    """The photo's alpha :math:`a_a` that the target temperature is compared against.
 
-    Decision (spec 03-fire, Sec. 2): the matte if one is given, else the photo's
-    luminance (Rec. 709) normalised to [0, 1] by its minimum and maximum.
+    Decision (the paper does not say how its alpha image was made): the luminance
+    (Rec. 709) of the photo composited onto black with its matte (``photo * matte``;
+    without a matte the photo as it is), normalised to [0, 1] by its minimum and
+    maximum. A flame is brightest where it is hottest, so the hottest target
+    temperature (1) is matched with the photo's brightest flame colours, the coolest
+    (0) with the black around the flame; the matte only says which pixels are flame.
+    (Using the matte itself as :math:`a_a` made every flame pixel of a near-binary
+    matte an equally good match for the hottest gas, so hot regions came out in the
+    dim orange of the flame's edge.)
 
     Parameters
     ----------
     photo : ndarray, shape (H, W, 3), float in [0, 1]
     matte : ndarray, shape (H, W), optional
+        The photo's alpha matte (its alpha channel for a cut-out).
 
     Returns
     -------
@@ -89,16 +107,20 @@ def alpha_from_photo(photo, matte=None):
     --------
     >>> photo = np.zeros((2, 2, 3), np.float32)
     >>> photo[0, 0] = 0.5
+    >>> photo[1, 1] = 0.25
     >>> alpha_from_photo(photo).tolist()
-    [[1.0, 0.0], [0.0, 0.0]]
+    [[1.0, 0.0], [0.0, 0.5]]
+    >>> alpha_from_photo(photo, matte=np.array([[0.5, 1], [1, 1]])).tolist()
+    [[1.0, 0.0], [0.0, 1.0]]
     """
+    photo = np.asarray(photo, dtype=np.float32)
     if matte is not None:
-        return np.clip(np.asarray(matte, dtype=np.float32), 0.0, 1.0)
-    lum = np.asarray(photo, dtype=np.float32) @ _LUMA
+        photo = photo * np.clip(np.asarray(matte, dtype=np.float32), 0.0, 1.0)[..., None]
+    lum = photo @ _LUMA
     lo, hi = float(lum.min()), float(lum.max())
     if hi <= lo:
         return np.zeros(lum.shape, np.float32)
-    return ((lum - lo) / (hi - lo)).astype(np.float32)
+    return np.clip((lum - lo) / (hi - lo), 0.0, 1.0).astype(np.float32)
 
 
 def synthesize(
@@ -111,29 +133,35 @@ def synthesize(
     seed=None,
     return_error=False,
 ):
-    r"""Synthesise an image like ``photo`` whose brightness follows ``target``.
+    r"""Synthesise one keyframe like ``photo`` whose brightness follows ``target``.
 
-    Ashikhmin's texture synthesis with user control, as the seed applies it
-    (Sec. 3.2, Fig. 4): see the module docstring for the neighbourhoods and distance.
+    The building block :func:`fluidnb.fire.fire` calls at every keyframe; use that for
+    animation. Ashikhmin's texture synthesis with user control, as Furukawa et al.
+    (2013), sec. 3.2, Fig. 4 apply it: see the module docstring for the
+    neighbourhoods and the distance, and :func:`fluidnb.fire._reference.synthesize_reference`
+    for the same scan in plain numpy.
 
     Parameters
     ----------
-    photo : array_like, shape (Ha, Wa, 3)
+    photo : array_like, shape (Ha, Wa, 3) or (Ha, Wa, 4)
         :math:`I_a`, the photograph of fire (any form :func:`fluidnb.as_image`
-        takes). Used as given (``params.input_size`` applies in :func:`fire`).
+        takes), at least 8 x 8 pixels. An RGBA cut-out's alpha is its matte.
+        Used at its size (``params.input_size`` applies in :func:`fire`).
     target : array_like, shape (H, W)
         :math:`I_t`, the target (normalised temperature) in [0, 1].
     params : FireParams, optional
-        Uses ``weight``, ``size``, ``n_random`` and ``second_pass``.
+        Uses ``weight``, ``size``, ``n_random``, ``coherence`` and ``second_pass``.
     matte : array_like, shape (Ha, Wa), optional
-        The photo's alpha matte; default: its normalised luminance
-        (:func:`alpha_from_photo`).
+        The photo's alpha matte (overrides an alpha channel). The colour is
+        composited onto black with it, so whatever colour transparent pixels hold
+        is never copied; :math:`a_a` is :func:`alpha_from_photo`.
     method : {"candidates", "exhaustive"}
         ``"candidates"``: Ashikhmin's candidate set -- for each already synthesised
         neighbour :math:`q` of :math:`p`, :math:`source(q) + (p - q)` (clamped to
-        the photo), plus ``n_random`` random positions (and, in the second pass,
-        :math:`p`'s own source). ``"exhaustive"``: every input pixel (the
-        reference; 150x slower for a 61 x 128 photo, growing with ``Ha * Wa``).
+        the photo), plus ``n_random`` random positions whose distance is multiplied
+        by :math:`1 + \kappa` (and, in the second pass, :math:`p`'s own source).
+        ``"exhaustive"``: every input pixel, no penalty (the reference search;
+        150x slower for a 61 x 128 photo, growing with ``Ha * Wa``).
     seed : None, int or numpy.random.Generator
         For the initial white noise and the random candidates.
     return_error : bool
@@ -142,26 +170,29 @@ def synthesize(
     Returns
     -------
     image : ndarray, shape (H, W, 3), float32
-        :math:`I_s`; every pixel is exactly ``photo[sources[r, c]]``.
+        :math:`I_s`; every pixel is exactly the (matted) photo at ``sources[r, c]``.
     sources : ndarray, shape (H, W, 2), int64
         (row, col) in ``photo`` of each output pixel.
     error : ndarray, shape (H, W), float64
         Only with ``return_error``: the distance :math:`D` of each pixel's choice
-        in the last pass.
+        in the last pass (before the coherence penalty).
 
     Raises
     ------
     ValueError
-        For a photo that is not RGB, a target that is not 2-D or outside [0, 1], a
-        matte whose shape differs from the photo's, NaN, or an unknown ``method``.
+        For a photo that is not RGB(A) or smaller than 8 x 8, a target that is not
+        2-D or outside [0, 1], a matte whose shape differs from the photo's, NaN, or
+        an unknown ``method``.
 
     References
     ----------
     .. [1] M. Ashikhmin, "Synthesizing natural textures", Proc. ACM Symposium on
        Interactive 3D Graphics (I3D), pp. 217-226, 2001.
-    .. [2] A. Kogawa (古川 歩), Y. Dobashi (土橋 宜典), T. Yamamoto (山本 強),
+    .. [2] A. Furukawa (古川 歩), Y. Dobashi (土橋 宜典), T. Yamamoto (山本 強),
        "実写画像に類似した流体アニメーションの生成" (Creating realistic animation
-       of fluids using photographs), Sec. 3.2.
+       of fluids using photographs), IPSJ SIG Technical Report CG-152, 2013, sec. 3.2.
+    .. [3] A. Hertzmann, C. Jacobs, N. Oliver, B. Curless, D. Salesin, "Image
+       analogies", Proc. SIGGRAPH 2001 (the coherence factor :math:`\kappa`).
 
     Examples
     --------
@@ -172,16 +203,15 @@ def synthesize(
     >>> image, sources = synthesize(photo, target, matte=matte, seed=0)
     >>> image.shape, sources.shape
     ((16, 16, 3), (16, 16, 2))
-    >>> bool(np.array_equal(image, photo[sources[..., 0], sources[..., 1]]))
+    >>> matted = photo * matte[..., None]
+    >>> bool(np.array_equal(image, matted[sources[..., 0], sources[..., 1]]))
     True
     """
-    params = FireParams() if params is None else params
-    if not isinstance(params, FireParams):
-        raise ValueError(f"params must be a FireParams, got {type(params).__name__}")
+    params = _check_params(params)
     check_choice("method", method, METHODS)
     photo, alpha = _check_photo(photo, matte)
     target = _check_target(target)
-    gen = rng(seed)
+    gen = rng(resolve_seed(seed))
     out, src, err = _run(photo, alpha, target, params, method == "exhaustive", gen)
     if return_error:
         return out, src, err
@@ -206,7 +236,7 @@ def neighbourhood_error(image, sources, photo, target, params=None, *, matte=Non
     -------
     float
     """
-    params = FireParams() if params is None else params
+    params = _check_params(params)
     photo, alpha = _check_photo(photo, matte)
     target = _check_target(target)
     image = check_array("image", image, ndim=3, dtype_kinds="f")
@@ -218,29 +248,68 @@ def neighbourhood_error(image, sources, photo, target, params=None, *, matte=Non
     if src.min() < 0 or src[..., 0].max() >= ha or src[..., 1].max() >= wa:
         raise ValueError("sources must be positions inside the photo")
     upper, lower = neighbourhoods(params.size)
-    ap, alp = _pad(photo, alpha, params.size // 2)
+    photo_padded, alpha_padded = _pad(photo, alpha, params.size // 2)
     return float(
-        _mean_error(image.astype(np.float32), src, ap, alp, target, upper, lower, params.weight)
+        _mean_error(
+            image.astype(np.float32),
+            src,
+            photo_padded,
+            alpha_padded,
+            target,
+            upper,
+            lower,
+            params.weight,
+        )
     )
 
 
 # ---------------------------------------------------------------------- checks
 
 
+def _check_params(params):
+    params = FireParams() if params is None else params
+    if not isinstance(params, FireParams):
+        raise ValueError(f"params must be a FireParams, got {type(params).__name__}")
+    return params
+
+
 def _photo_and_matte(photo, matte):
-    """The photo as RGB float32 and its optional matte as grey, both checked."""
-    photo = as_image(photo, name="photo")
+    """The photo as RGB float32 composited onto black with its matte, and the matte.
+
+    An RGBA photo's alpha channel is its matte unless ``matte`` is given. Colour is
+    premultiplied by the matte (PNG's alpha is "straight": a cut-out's transparent
+    pixels may hold any colour, which must never be copied into the fire).
+    """
+    photo, alpha = as_image(photo, name="photo", return_alpha=True)
     if photo.ndim != 3 or photo.shape[2] != 3:
-        raise ValueError(f"photo must be an RGB image (H, W, 3), got shape {photo.shape}")
+        raise ValueError(
+            f"photo must be an RGB or RGBA image (H, W, 3) or (H, W, 4), got shape {photo.shape}"
+        )
+    ha, wa = photo.shape[:2]
+    if min(ha, wa) < MIN_PHOTO_SIDE:
+        raise ValueError(
+            f"photo must be at least {MIN_PHOTO_SIDE} x {MIN_PHOTO_SIDE} pixels (a texture "
+            f"to copy patches from), got {ha} x {wa}"
+        )
     if matte is not None:
-        matte = as_image(matte, mode="grey", name="matte")
-        check_shape_match("matte", matte, photo.shape[:2], "the photo")
-    return photo, matte
+        alpha = as_image(matte, mode="grey", name="matte")
+        check_shape_match("matte", alpha, photo.shape[:2], "the photo")
+    if alpha is not None:
+        photo = photo * alpha[..., None]
+    return photo, alpha
 
 
 def _check_photo(photo, matte):
+    """The matted photo :math:`I_a` and its alpha :math:`a_a`; refuses a flat photo."""
     photo, matte = _photo_and_matte(photo, matte)
-    return photo, alpha_from_photo(photo, matte)
+    alpha = alpha_from_photo(photo)  # photo is already composited with the matte
+    if not alpha.any():
+        raise ValueError(
+            "photo has no flame to copy: it is uniform"
+            + (" or its matte is empty" if matte is not None else "")
+            + " (a photo of fire on a dark background is needed)"
+        )
+    return photo, alpha
 
 
 def _check_target(target):
@@ -257,33 +326,42 @@ def _check_target(target):
 def _pad(photo, alpha, h):
     # Edge padding makes every input pixel a candidate with a full neighbourhood;
     # the copied colour is always an unpadded pixel, so the source stays exact.
-    ap = np.pad(photo, ((h, h), (h, h), (0, 0)), mode="edge")
-    alp = np.pad(alpha, ((h, h), (h, h)), mode="edge")
-    return np.ascontiguousarray(ap, np.float32), np.ascontiguousarray(alp, np.float32)
+    photo_padded = np.pad(photo, ((h, h), (h, h), (0, 0)), mode="edge")
+    alpha_padded = np.pad(alpha, ((h, h), (h, h)), mode="edge")
+    return (
+        np.ascontiguousarray(photo_padded, np.float32),
+        np.ascontiguousarray(alpha_padded, np.float32),
+    )
+
+
+def _draws(gen, shape, photo_shape, params):
+    """The random numbers one keyframe uses, in the order both scans consume them."""
+    h, w = shape
+    ha, wa = photo_shape
+    passes = 2 if params.second_pass else 1
+    noise = gen.random((h, w, 3), dtype=np.float32)  # I_s starts as white noise
+    random_rows = gen.integers(0, ha, size=(passes, h, w, params.n_random))
+    random_cols = gen.integers(0, wa, size=(passes, h, w, params.n_random))
+    return noise, random_rows, random_cols
 
 
 def _run(photo, alpha, target, params, exhaustive, gen):
-    h, w = target.shape
-    ha, wa = photo.shape[:2]
-    passes = 2 if params.second_pass else 1
-    noise = gen.random((h, w, 3), dtype=np.float32)  # I_s starts as white noise
-    rand_r = gen.integers(0, ha, size=(passes, h, w, params.n_random))
-    rand_c = gen.integers(0, wa, size=(passes, h, w, params.n_random))
+    noise, random_rows, random_cols = _draws(gen, target.shape, photo.shape[:2], params)
     upper, lower = neighbourhoods(params.size)
     full = np.concatenate([upper, lower[1:]])  # the square without p itself
-    ap, alp = _pad(photo, alpha, params.size // 2)
+    photo_padded, alpha_padded = _pad(photo, alpha, params.size // 2)
     return _scan(
-        ap,
-        alp,
+        photo_padded,
+        alpha_padded,
         target,
         noise,
         upper,
         lower,
         full,
         float(params.weight),
-        rand_r,
-        rand_c,
-        passes,
+        float(params.coherence),
+        random_rows,
+        random_cols,
         exhaustive,
     )
 
@@ -292,133 +370,191 @@ def _run(photo, alpha, target, params, exhaustive, gen):
 
 
 @njit(cache=True, nogil=True)
-def _distance(out, tgt, ap, alp, r, c, sr, sc, offc, offl, cu, cl, h, best):
-    """D of input pixel (sr, sc) for output pixel (r, c); stops once above ``best``."""
-    hh, ww = tgt.shape
+def _distance(
+    synth,
+    target,
+    photo_padded,
+    alpha_padded,
+    r,
+    c,
+    sr,
+    sc,
+    colour_offsets,
+    target_offsets,
+    w_colour,
+    w_target,
+    pad,
+    bound,
+):
+    """D of input pixel (sr, sc) for output pixel (r, c); stops once above ``bound``.
+
+    ``w_colour`` and ``w_target`` are :math:`(1 - w) / (3 |N_U|)` and
+    :math:`w / |N_L|` for the pixels of each L inside the output.
+    """
+    hh, ww = target.shape
     d = 0.0
-    for k in range(offl.shape[0]):
-        y = r + offl[k, 0]
-        x = c + offl[k, 1]
+    # Lower L, N_L(p): target temperature I_t against the photo's alpha a_a.
+    for k in range(target_offsets.shape[0]):
+        y = r + target_offsets[k, 0]
+        x = c + target_offsets[k, 1]
         if 0 <= y < hh and 0 <= x < ww:
-            e = tgt[y, x] - alp[sr + h + offl[k, 0], sc + h + offl[k, 1]]
-            d += cl * e * e
-    if d > best:
+            e = (
+                target[y, x]
+                - alpha_padded[sr + pad + target_offsets[k, 0], sc + pad + target_offsets[k, 1]]
+            )
+            d += w_target * e * e
+    if d > bound:
         return d
-    for k in range(offc.shape[0]):
-        y = r + offc[k, 0]
-        x = c + offc[k, 1]
+    # Upper L, N_U(p) (the full square in the second pass): synthesised colours I_s
+    # against the photo's colours I_a.
+    for k in range(colour_offsets.shape[0]):
+        y = r + colour_offsets[k, 0]
+        x = c + colour_offsets[k, 1]
         if 0 <= y < hh and 0 <= x < ww:
-            iy = sr + h + offc[k, 0]
-            ix = sc + h + offc[k, 1]
-            e0 = out[y, x, 0] - ap[iy, ix, 0]
-            e1 = out[y, x, 1] - ap[iy, ix, 1]
-            e2 = out[y, x, 2] - ap[iy, ix, 2]
-            d += cu * (e0 * e0 + e1 * e1 + e2 * e2)
-            if d > best:
+            iy = sr + pad + colour_offsets[k, 0]
+            ix = sc + pad + colour_offsets[k, 1]
+            e0 = synth[y, x, 0] - photo_padded[iy, ix, 0]
+            e1 = synth[y, x, 1] - photo_padded[iy, ix, 1]
+            e2 = synth[y, x, 2] - photo_padded[iy, ix, 2]
+            d += w_colour * (e0 * e0 + e1 * e1 + e2 * e2)
+            if d > bound:
                 return d
     return d
 
 
 @njit(cache=True, nogil=True)
-def _weights(r, c, hh, ww, offc, offl, weight):
-    nu = 0
-    for k in range(offc.shape[0]):
-        y = r + offc[k, 0]
-        x = c + offc[k, 1]
+def _weights(r, c, hh, ww, colour_offsets, target_offsets, weight):
+    """(1 - w) / (3 |N_U|) and w / |N_L|, counting the pixels inside the output."""
+    n_colour = 0
+    for k in range(colour_offsets.shape[0]):
+        y = r + colour_offsets[k, 0]
+        x = c + colour_offsets[k, 1]
         if 0 <= y < hh and 0 <= x < ww:
-            nu += 1
-    nl = 0
-    for k in range(offl.shape[0]):
-        y = r + offl[k, 0]
-        x = c + offl[k, 1]
+            n_colour += 1
+    n_target = 0
+    for k in range(target_offsets.shape[0]):
+        y = r + target_offsets[k, 0]
+        x = c + target_offsets[k, 1]
         if 0 <= y < hh and 0 <= x < ww:
-            nl += 1
-    cu = (1.0 - weight) / (3.0 * nu) if nu > 0 else 0.0
-    cl = weight / nl
-    return cu, cl
+            n_target += 1
+    w_colour = (1.0 - weight) / (3.0 * n_colour) if n_colour > 0 else 0.0
+    w_target = weight / n_target
+    return w_colour, w_target
 
 
 @njit(cache=True, nogil=True)
-def _scan(ap, alp, tgt, noise, upper, lower, full, weight, rand_r, rand_c, passes, exhaustive):
-    hh, ww = tgt.shape
-    h = -upper[0, 0]
-    ha = ap.shape[0] - 2 * h
-    wa = ap.shape[1] - 2 * h
-    out = noise.copy()
-    src = np.full((hh, ww, 2), -1, dtype=np.int64)
-    err = np.zeros((hh, ww))
-    for ps in range(passes):
-        offc = upper if ps == 0 else full
+def _scan(
+    photo_padded,
+    alpha_padded,
+    target,
+    noise,
+    upper,
+    lower,
+    full,
+    weight,
+    coherence,
+    random_rows,
+    random_cols,
+    exhaustive,
+):
+    """The raster scan(s); see ``_reference.synthesize_reference`` for the same in numpy."""
+    hh, ww = target.shape
+    pad = -upper[0, 0]
+    ha = photo_padded.shape[0] - 2 * pad
+    wa = photo_padded.shape[1] - 2 * pad
+    penalty = 1.0 + coherence
+    synth = noise.copy()
+    sources = np.full((hh, ww, 2), -1, dtype=np.int64)
+    error = np.zeros((hh, ww))
+    for ps in range(random_rows.shape[0]):
+        colour_offsets = upper if ps == 0 else full
         for r in range(hh):
             for c in range(ww):
-                cu, cl = _weights(r, c, hh, ww, offc, lower, weight)
-                best = np.inf
+                w_colour, w_target = _weights(r, c, hh, ww, colour_offsets, lower, weight)
+                best = np.inf  # the (penalised) distance to beat
+                best_d = np.inf  # its plain D
                 br = -1
                 bc = -1
                 if exhaustive:
                     for sr in range(ha):
                         for sc in range(wa):
                             d = _distance(
-                                out, tgt, ap, alp, r, c, sr, sc, offc, lower, cu, cl, h, best
-                            )
+                                synth, target, photo_padded, alpha_padded, r, c, sr, sc,
+                                colour_offsets, lower, w_colour, w_target, pad, best,
+                            )  # fmt: skip
                             if d < best:
                                 best = d
+                                best_d = d
                                 br = sr
                                 bc = sc
                 else:
                     if ps > 0:
-                        br = src[r, c, 0]
-                        bc = src[r, c, 1]
+                        # Second pass: p's own source from the first is the first candidate.
+                        br = sources[r, c, 0]
+                        bc = sources[r, c, 1]
                         best = _distance(
-                            out, tgt, ap, alp, r, c, br, bc, offc, lower, cu, cl, h, np.inf
-                        )
-                    for k in range(offc.shape[0]):
-                        y = r + offc[k, 0]
-                        x = c + offc[k, 1]
-                        if not (0 <= y < hh and 0 <= x < ww) or src[y, x, 0] < 0:
+                            synth, target, photo_padded, alpha_padded, r, c, br, bc,
+                            colour_offsets, lower, w_colour, w_target, pad, np.inf,
+                        )  # fmt: skip
+                        best_d = best
+                    # Coherent candidates: neighbour q's source shifted by (p - q).
+                    for k in range(colour_offsets.shape[0]):
+                        y = r + colour_offsets[k, 0]
+                        x = c + colour_offsets[k, 1]
+                        if not (0 <= y < hh and 0 <= x < ww) or sources[y, x, 0] < 0:
                             continue
-                        # Shift the neighbour's source by (p - q), clamped to the photo.
-                        sr = min(max(src[y, x, 0] - offc[k, 0], 0), ha - 1)
-                        sc = min(max(src[y, x, 1] - offc[k, 1], 0), wa - 1)
-                        d = _distance(out, tgt, ap, alp, r, c, sr, sc, offc, lower, cu, cl, h, best)
+                        sr = min(max(sources[y, x, 0] - colour_offsets[k, 0], 0), ha - 1)
+                        sc = min(max(sources[y, x, 1] - colour_offsets[k, 1], 0), wa - 1)
+                        d = _distance(
+                            synth, target, photo_padded, alpha_padded, r, c, sr, sc,
+                            colour_offsets, lower, w_colour, w_target, pad, best,
+                        )  # fmt: skip
                         if d < best:
                             best = d
+                            best_d = d
                             br = sr
                             bc = sc
-                    for k in range(rand_r.shape[3]):
-                        sr = rand_r[ps, r, c, k]
-                        sc = rand_c[ps, r, c, k]
-                        d = _distance(out, tgt, ap, alp, r, c, sr, sc, offc, lower, cu, cl, h, best)
-                        if d < best:
-                            best = d
+                    # Random candidates pay the coherence penalty (1 + kappa).
+                    for k in range(random_rows.shape[3]):
+                        sr = random_rows[ps, r, c, k]
+                        sc = random_cols[ps, r, c, k]
+                        d = _distance(
+                            synth, target, photo_padded, alpha_padded, r, c, sr, sc,
+                            colour_offsets, lower, w_colour, w_target, pad, best / penalty,
+                        )  # fmt: skip
+                        if penalty * d < best:
+                            best = penalty * d
+                            best_d = d
                             br = sr
                             bc = sc
                     if br < 0:
-                        # No synthesised neighbour and no random candidate: a random
-                        # pixel, as Ashikhmin's initialisation would give.
+                        # No synthesised neighbour and no random candidate: a fixed
+                        # pseudo-random pixel, as Ashikhmin's initialisation would give.
                         br = (r * 7919 + c) % ha
                         bc = (c * 104729 + r) % wa
-                        best = _distance(
-                            out, tgt, ap, alp, r, c, br, bc, offc, lower, cu, cl, h, np.inf
-                        )
-                out[r, c, 0] = ap[br + h, bc + h, 0]
-                out[r, c, 1] = ap[br + h, bc + h, 1]
-                out[r, c, 2] = ap[br + h, bc + h, 2]
-                src[r, c, 0] = br
-                src[r, c, 1] = bc
-                err[r, c] = best
-    return out, src, err
+                        best_d = _distance(
+                            synth, target, photo_padded, alpha_padded, r, c, br, bc,
+                            colour_offsets, lower, w_colour, w_target, pad, np.inf,
+                        )  # fmt: skip
+                synth[r, c, 0] = photo_padded[br + pad, bc + pad, 0]
+                synth[r, c, 1] = photo_padded[br + pad, bc + pad, 1]
+                synth[r, c, 2] = photo_padded[br + pad, bc + pad, 2]
+                sources[r, c, 0] = br
+                sources[r, c, 1] = bc
+                error[r, c] = best_d
+    return synth, sources, error
 
 
 @njit(cache=True, nogil=True)
-def _mean_error(out, src, ap, alp, tgt, upper, lower, weight):
-    hh, ww = tgt.shape
-    h = -upper[0, 0]
+def _mean_error(synth, sources, photo_padded, alpha_padded, target, upper, lower, weight):
+    hh, ww = target.shape
+    pad = -upper[0, 0]
     total = 0.0
     for r in range(hh):
         for c in range(ww):
-            cu, cl = _weights(r, c, hh, ww, upper, lower, weight)
+            w_colour, w_target = _weights(r, c, hh, ww, upper, lower, weight)
             total += _distance(
-                out, tgt, ap, alp, r, c, src[r, c, 0], src[r, c, 1], upper, lower, cu, cl, h, np.inf
-            )
+                synth, target, photo_padded, alpha_padded, r, c,
+                sources[r, c, 0], sources[r, c, 1], upper, lower, w_colour, w_target, pad, np.inf,
+            )  # fmt: skip
     return total / (hh * ww)

@@ -830,7 +830,10 @@ def _make_fire(recipe, size, seed, report):
     # Keyframes every 16 frames, each advected for 24 and cross-dissolved over 8
     # (Kogawa et al.'s N and m): fewer syntheses, the slow part.
     fire_params = FireParams(
-        interval=24, overlap=8, input_size=round(grid_h * recipe.get("photo", 1.1))
+        interval=24,
+        overlap=8,
+        input_size=round(grid_h * recipe.get("photo", 1.1)),
+        cutoff=0.0,  # the cut is made above, relative to the source temperature
     )
     # A fresh keyframe looks grainier than one advected for a few frames: start the
     # clip half a segment in, so that its first frame is not a raw keyframe.
@@ -853,8 +856,7 @@ def _make_fire(recipe, size, seed, report):
     photo, matte = sample("fire", return_alpha=True)
     result = fire(
         photo,
-        np.maximum(temperature[:, :grid_h] - cut, 0.0),
-        velocity[:, :grid_h],
+        (np.maximum(temperature[:, :grid_h] - cut, 0.0), velocity[:, :grid_h]),
         fire_params,
         matte=matte,
         seed=gen,

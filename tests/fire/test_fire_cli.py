@@ -117,3 +117,22 @@ def test_without_sim_the_flame_preset_is_simulated(files):
     clip = Clip.load(out)
     assert clip.n_frames == 2
     assert "fluid_params" in clip.metadata
+
+
+def test_an_rgba_cutout_is_read_with_its_alpha_as_the_matte(files):
+    # `fluidnb fire flame.png` on a cut-out whose clear pixels hold random colour:
+    # before, every frame was a solid rectangle of that colour.
+    rgb, alpha = data.sample("fire", size=40, return_alpha=True)
+    straight = np.clip(rgb / np.maximum(alpha[..., None], 1e-6), 0, 1)
+    junk = np.random.default_rng(0).random(rgb.shape)
+    straight = np.where(alpha[..., None] > 0, straight, junk)
+    Image.fromarray(to_uint8(np.dstack([straight, alpha])), mode="RGBA").save(files / "cut.png")
+    out = files / "cut.npz"
+    code = main(["fire", str(files / "cut.png"), "--sim", str(files / "sim.npz"), "-o", str(out)])
+    assert code == 0
+    frames = Clip.load(out).frames
+    temp = np.load(files / "sim.npz")["temperature"]
+    cold = temp < 0.01 * temp.max()
+    lum = frames @ np.array([0.2126, 0.7152, 0.0722])
+    assert lum[cold].mean() < 0.01
+    assert np.corrcoef(lum.ravel(), temp.ravel())[0, 1] > 0.8

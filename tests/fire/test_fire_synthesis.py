@@ -1,4 +1,4 @@
-"""Texture synthesis with user control (seed 3.2, Fig. 4; Ashikhmin 2001)."""
+"""Texture synthesis with user control (Furukawa et al. 2013, sec. 3.2, Fig. 4; Ashikhmin 2001)."""
 
 import numpy as np
 import pytest
@@ -54,7 +54,8 @@ def test_every_pixel_is_the_photo_at_its_recorded_source(reference, method, seco
     assert sources.min() >= 0
     assert sources[..., 0].max() < photo.shape[0]
     assert sources[..., 1].max() < photo.shape[1]
-    np.testing.assert_array_equal(image, photo[sources[..., 0], sources[..., 1]])
+    matted = photo * matte[..., None]  # the colour is composited onto black
+    np.testing.assert_array_equal(image, matted[sources[..., 0], sources[..., 1]])
 
 
 def test_output_brightness_follows_the_target_on_the_reference_fire():
@@ -66,24 +67,29 @@ def test_output_brightness_follows_the_target_on_the_reference_fire():
 
 
 # Stated factor: on this reference (fire photo at 64 px, 48 x 48 flame target) the
-# candidate search with the default parameters reaches a mean neighbourhood error
-# 1.26-1.30 x the exhaustive search's (measured, seeds 0-2); we require <= 1.5 x.
-QUALITY_FACTOR = 1.5
+# candidate search without the coherence penalty (kappa = 0, the paper's search)
+# reaches a mean neighbourhood error <= 1.5 x the exhaustive search's; with the
+# default penalty (kappa = 1), which trades some of it for larger patches, 1.6 x
+# (measured), and we require <= 1.8 x.
+QUALITY_FACTOR = {0.0: 1.5, 1.0: 1.8}
 
 
 @pytest.mark.parametrize("seed", [0, 1])
-def test_candidate_search_error_is_within_the_stated_factor_of_exhaustive(reference, seed):
+@pytest.mark.parametrize("coherence", [0.0, 1.0])
+def test_candidate_search_error_is_within_the_stated_factor_of_exhaustive(
+    reference, seed, coherence
+):
     photo, matte, target = reference
-    params = FireParams()
+    params = FireParams(coherence=coherence)
     cand = synthesize(photo, target, params, matte=matte, seed=seed)
     full = synthesize(photo, target, params, matte=matte, seed=seed, method="exhaustive")
     e_cand = neighbourhood_error(*cand, photo, target, params, matte=matte)
     e_full = neighbourhood_error(*full, photo, target, params, matte=matte)
-    assert e_full <= e_cand <= QUALITY_FACTOR * e_full, (e_cand, e_full)
+    assert e_full <= e_cand <= QUALITY_FACTOR[coherence] * e_full, (e_cand, e_full)
 
 
 def _brute_force(photo, alpha, target, size, weight):
-    """The seed's search written out: every input pixel, every output pixel, in order."""
+    """The paper's search written out: every input pixel, every output pixel, in order."""
     h = size // 2
     ap = np.pad(photo.astype(np.float64), ((h, h), (h, h), (0, 0)), mode="edge")
     al = np.pad(alpha.astype(np.float64), h, mode="edge")
@@ -120,7 +126,7 @@ def _brute_force(photo, alpha, target, size, weight):
 @pytest.mark.parametrize("weight", [0.0, 0.4, 1.0])
 def test_exhaustive_search_is_the_brute_force_search(weight):
     gen = np.random.default_rng(7)
-    photo = gen.random((6, 5, 3), dtype=np.float32)
+    photo = gen.random((8, 9, 3), dtype=np.float32)
     target = gen.random((5, 4), dtype=np.float32)
     params = FireParams(weight=weight, size=3, second_pass=False)
     _image, sources, error = synthesize(
@@ -156,19 +162,28 @@ def test_weight_one_matches_the_shape_and_weight_zero_ignores_it(reference):
     assert alpha_error(1.0) < 0.25 * alpha_error(0.0)
 
 
-def test_alpha_is_the_matte_else_the_normalised_luminance():
+def test_alpha_is_the_normalised_luminance_of_the_matted_photo():
     photo = np.zeros((2, 3, 3), np.float32)
     photo[0, 0] = 0.2
     photo[1, 2] = 0.6
     np.testing.assert_allclose(alpha_from_photo(photo), [[1 / 3, 0, 0], [0, 0, 1]], atol=1e-6)
-    matte = np.full((2, 3), 0.5, np.float32)
-    np.testing.assert_array_equal(alpha_from_photo(photo, matte), matte)
+    # A matte composites the photo onto black first: what it hides is not flame.
+    matte = np.array([[1, 1, 1], [1, 1, 0.25]], np.float32)
+    np.testing.assert_allclose(alpha_from_photo(photo, matte), [[1, 0, 0], [0, 0, 0.75]], atol=1e-6)
+    # The brightest flame pixel has alpha 1, so the hottest target finds it.
+    flame, m = sample("fire", size=48, return_alpha=True)
+    a = alpha_from_photo(flame, m)
+    assert a.max() == 1.0
+    lum = (flame * m[..., None]) @ LUMA
+    assert np.unravel_index(a.argmax(), a.shape) == np.unravel_index(lum.argmax(), lum.shape)
 
 
 @pytest.mark.parametrize(
     ("change", "match"),
     [
-        ({"photo": np.zeros((8, 8), np.float32)}, "photo must be an RGB image"),
+        ({"photo": np.zeros((8, 8), np.float32)}, "photo must be an RGB or RGBA image"),
+        ({"photo": np.ones((1, 1, 3), np.float32), "matte": None}, "photo must be at least 8 x 8"),
+        ({"matte": "empty"}, "photo has no flame to copy"),
         ({"matte": np.zeros((5, 5), np.float32)}, "matte must have the same height"),
         ({"target": np.full((6, 6), np.nan, np.float32)}, "target contains"),
         ({"target": np.full((6, 6), 2.0, np.float32)}, r"target must be in \[0, 1\]"),
@@ -181,6 +196,8 @@ def test_bad_inputs_name_the_parameter(change, match):
     photo, matte = sample("flame", size=16, return_alpha=True)
     args = {"photo": photo, "target": np.zeros((6, 6), np.float32), "matte": matte}
     args.update(change)
+    if isinstance(args["matte"], str):
+        args["matte"] = np.zeros_like(matte)
     params = args.pop("params", None)
     with pytest.raises(ValueError, match=match):
         synthesize(args.pop("photo"), args.pop("target"), params, **args, seed=0)
@@ -211,4 +228,5 @@ def test_without_random_candidates_the_first_pixel_still_gets_a_source(reference
     params = FireParams(n_random=0)
     image, sources = synthesize(photo, target[:12, :12], params, matte=matte, seed=0)
     assert sources.min() >= 0
-    np.testing.assert_array_equal(image, photo[sources[..., 0], sources[..., 1]])
+    matted = photo * matte[..., None]  # the colour is composited onto black
+    np.testing.assert_array_equal(image, matted[sources[..., 0], sources[..., 1]])

@@ -170,9 +170,10 @@ def test_fire_is_flames_over_black(quick):
         luma = grey(frames)
         assert (luma < 0.02).mean(axis=(1, 2)).min() > 0.4, name
         assert luma.max(axis=(1, 2)).min() > 0.5, name  # a bright flame in every frame
-        # Flame colours where it burns: red >= green >= blue.
+        # Flame colours where it burns: red >= green >= blue, but for the white-hot
+        # core, near-neutral as in the photo (its brightest pixels have g ~ r + 0.01).
         r, g, b = np.moveaxis(frames[luma > 0.2], -1, 0)
-        assert np.mean((r >= g) & (g >= b)) > 0.95, name
+        assert np.mean((r >= g - 0.03) & (g >= b)) > 0.95, name
         assert np.mean(r - b) > 0.2, name
 
 

@@ -129,3 +129,20 @@ def test_comparison_clip_shows_the_keyframe_in_effect(app):
     comp = comparison_clip(res)
     np.testing.assert_array_equal(comp.frames[0, :, 64:128], res.keyframes[0])
     np.testing.assert_array_equal(comp.frames[res.starts[1], :, 64:128], res.keyframes[1])
+
+
+def test_an_uploaded_rgba_cutout_is_matted_by_its_alpha(app):
+    # A cut-out whose clear pixels hold random colour: before, the fire was a solid
+    # rectangle of that colour.
+    rgb, alpha = data.sample("fire", size=64, return_alpha=True)
+    straight = np.clip(rgb / np.maximum(alpha[..., None], 1e-6), 0, 1)
+    junk = np.random.default_rng(0).random(rgb.shape)
+    straight = np.where(alpha[..., None] > 0, straight, junk)
+    buf = io.BytesIO()
+    Image.fromarray(to_uint8(np.dstack([straight, alpha])), mode="RGBA").save(buf, format="png")
+    app._upload.value = (upload("cut.png", buf.getvalue()),)
+    np.testing.assert_allclose(app.photo_matte, alpha, atol=1 / 255)
+    clip = app.run(timeout=120)
+    cold = app.fire_result.target == 0
+    assert cold.mean() > 0.3
+    assert (clip.frames @ np.array([0.2126, 0.7152, 0.0722]))[cold].mean() < 0.02
