@@ -23,6 +23,7 @@ frames are made at once (one product, the fastest way) and kept.
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -32,8 +33,9 @@ import numpy as np
 from .._clip import Clip
 from .._image import as_image, as_mask
 from .._progress import Progress
-from .._random import rng
+from .._random import resolve_seed
 from .._validation import check_int, check_range
+from ._flow import as_velocity
 from ._params import FlickerParams
 from ._shading import _lambert_frame, _Relight, _Work, feather_weights, light_vector
 from ._spectrum import (
@@ -42,6 +44,7 @@ from ._spectrum import (
     initial_phase,
     noise_spectrum,
     phase_spectrum,
+    soft_clip,
     temporal_frequencies,
     temporal_signals,
 )
@@ -51,6 +54,8 @@ __all__ = ["FlickerModel", "base_method", "flicker", "preview"]
 _BLOCK = 16  # frames per matrix product (see the module docstring)
 _THREADS = max(1, min(4, os.cpu_count() or 1))  # threads for the per-pixel shading
 _BINS_PER_REPORT = 4  # inverse DFTs per progress report
+_KNEE = 0.5  # where the soft clip of the RMS-normalised noise starts bending (units of A)
+_RMS_SAMPLES = 1 << 16  # pixels the RMS normalisation averages over, at most
 
 
 def _check_params(params):
@@ -61,14 +66,120 @@ def _check_params(params):
     return params
 
 
-def _resolve_seed(seed):
-    """(what to draw from, what to record): a None seed is drawn so the clip can be remade."""
-    if seed is None:
-        seed = int(np.random.SeedSequence().generate_state(1)[0])
-    if isinstance(seed, np.random.Generator):
-        return seed, None
-    rng(seed)  # validates
-    return int(seed), int(seed)
+def _check_flow(flow, params):
+    """The flow mapping's velocity (full-resolution px/frame), or None for the others."""
+    velocity = as_velocity(flow, params.T)
+    if params.mapping == "flow":
+        if velocity is None:
+            raise ValueError(
+                "mapping='flow' needs flow=: a stroke (n, 2) drawn along the flow, or a "
+                "velocity (dy, dx) in pixels per frame"
+            )
+        return velocity
+    if velocity is not None:
+        raise ValueError(f"flow= is only used by mapping='flow', got mapping={params.mapping!r}")
+    return None
+
+
+def _pad_upstream(alpha, velocity, T):
+    """``alpha`` mirrored out on the upstream side(s), and the slices that crop it back.
+
+    The inverse DFT is periodic, so a pattern moving by ``velocity`` (px/frame of this
+    grid) over ``T`` frames pulls in what lies up to ``T |v|`` pixels upstream -- the
+    window's other end, with a seam. A mirrored margin at least that wide (grown to a
+    fast FFT size) keeps the seam outside the window for the whole loop.
+    """
+    from scipy.fft import next_fast_len
+
+    if velocity is None:
+        return alpha, (slice(None), slice(None))
+    pads = []
+    for n, v in zip(alpha.shape, velocity):
+        if v == 0:
+            pads.append((0, 0))
+            continue
+        extra = next_fast_len(n + math.ceil(T * abs(v)) + 2) - n
+        pads.append((extra, 0) if v > 0 else (0, extra))
+    padded = np.pad(alpha, pads, mode="symmetric")
+    crop = tuple(slice(a, a + n) for (a, _), n in zip(pads, alpha.shape))
+    return padded, crop
+
+
+def _bin_reporter(report, start, span):
+    def step(i, k):
+        if i % _BINS_PER_REPORT == 0:
+            report(start + span * i / k, f"inverse DFT, bin {i + 1} of {k}")
+
+    return step
+
+
+def _basis_symmetric(alpha, index, bins, step):
+    r"""Rows (Re B_c, Im B_c) of :math:`B_c = \mathrm{IDFT}_2(F [f_c = c])`, (2K, h w).
+
+    For the paper's mappings: :math:`f_c` is even in :math:`(f_x, f_y)`, so the two
+    real fields :math:`\cos\alpha` and :math:`\sin\alpha` keep Hermitian spectra
+    on each bin, and real FFTs of half the size give Re B_c and Im B_c directly. The
+    inverse DFT is done as its two 1-D passes: a bin is an annulus of spatial
+    frequencies, so the first pass (along y) only needs the columns the annulus
+    crosses, about half of them on average.
+    """
+    import scipy.fft
+
+    h, w = alpha.shape
+    half = scipy.fft.rfft2(np.stack([np.cos(alpha), np.sin(alpha)]), workers=-1)
+    half = half.astype(np.complex64)
+    lookup = np.zeros(int(index.max()) + 1, np.intp)
+    lookup[bins] = np.arange(len(bins))
+    inverse = lookup[index[:, : w // 2 + 1]]
+    k = len(bins)
+    basis = np.empty((2 * k, h * w), np.float32)
+    work = np.empty((2, h, w // 2 + 1), np.complex64)
+    for i in range(k):
+        step(i, k)
+        select = inverse == i
+        cols = np.flatnonzero(select.any(axis=0))
+        c0, c1 = int(cols[0]), int(cols[-1]) + 1
+        work.fill(0)
+        work[:, :, c0:c1] = scipy.fft.ifft(
+            half[:, :, c0:c1] * select[:, c0:c1], axis=-2, workers=-1
+        )
+        basis[2 * i : 2 * i + 2] = scipy.fft.irfft(work, n=w, axis=-1, workers=-1).reshape(2, h * w)
+    return basis
+
+
+def _basis_flow(padded, index, bins, crop, velocity, step):
+    r"""The same rows for the flow mapping, whose :math:`f_c` is not even.
+
+    :math:`B_c` is complex now: full complex inverse DFTs of the padded field, cropped
+    to the window. A bin is a band of spatial frequencies across the velocity, so the
+    first 1-D pass runs only over the columns (flow mostly along x) or rows (mostly
+    along y) the band crosses, and the second only over the window's lines.
+    """
+    import scipy.fft
+
+    rows, cols = crop
+    F = scipy.fft.fft2(np.exp(1j * padded), workers=-1).astype(np.complex64)
+    # Prune across the flow: transform first along the axis the bands run along.
+    along = 0 if abs(velocity[1]) >= abs(velocity[0]) else 1
+    if along == 1:  # work on the transpose, so the code below is written once
+        F, index, rows, cols = F.T, index.T, cols, rows
+    hp, wp = F.shape
+    k = len(bins)
+    out = np.empty((2 * k,) + padded[crop].shape, np.float32)
+    work = np.empty((hp, wp), np.complex64)
+    for i, c in enumerate(bins):
+        step(i, k)
+        select = index == c
+        used = np.flatnonzero(select.any(axis=0))
+        c0, c1 = int(used[0]), int(used[-1]) + 1
+        work.fill(0)
+        work[:, c0:c1] = scipy.fft.ifft(F[:, c0:c1] * select[:, c0:c1], axis=0, workers=-1)
+        B = scipy.fft.ifft(work[rows], axis=1, workers=-1)[:, cols]
+        if along == 1:
+            B = B.T
+        out[2 * i] = B.real
+        out[2 * i + 1] = B.imag
+    return out.reshape(2 * k, -1)
 
 
 def _window(mask, margin=1):
@@ -238,12 +349,13 @@ class FlickerModel:
     True
     """
 
-    def __init__(self, image, mask=None, params=None, *, seed=None, pixel_size=1.0, progress=None):
-        import scipy.fft  # imported here so that `import fluidnb.flicker` stays quick
-
+    def __init__(
+        self, image, mask=None, params=None, *, flow=None, seed=None, pixel_size=1.0, progress=None
+    ):
         report = Progress(progress)
         params = _check_params(params)
-        draw, self.seed = _resolve_seed(seed)
+        self.velocity = _check_flow(flow, params)
+        self.seed = resolve_seed(seed)
         self.params = params
         self.timings = {}
         clock = time.perf_counter()
@@ -253,49 +365,33 @@ class FlickerModel:
         self._scene = scene
         self.window = scene.window
         self.alpha = scene.alpha
+        # The flow mapping moves the pattern, and the DFT wraps it round the window: pad
+        # the upstream side so the seam never travels into view within one loop.
+        v = None if self.velocity is None else self.velocity / scene.pixel_size
+        self._analysed, self._crop = _pad_upstream(self.alpha, v, params.T)
         now = time.perf_counter()
         self.timings["analyse"], clock = now - clock, now
 
-        # Eq. (4) in real-FFT form: e^{j alpha} = cos(alpha) + j sin(alpha), two real
-        # fields whose half spectra restricted to a bin stay Hermitian.
         report(0.1, "spectrum")
-        h, w = self.alpha.shape
-        half = scipy.fft.rfft2(np.stack([np.cos(self.alpha), np.sin(self.alpha)]), workers=-1)
-        fc = temporal_frequencies((h, w), params, pixel_size=scene.pixel_size)[:, : w // 2 + 1]
+        fc = temporal_frequencies(
+            self._analysed.shape, params, pixel_size=scene.pixel_size, velocity=self.velocity
+        )
         index = np.mod(fc, params.T)
-        # The distinct bins in use, and each coefficient's position among them.
+        # The distinct bins in use.
         self.bins = np.flatnonzero(np.bincount(index.ravel(), minlength=params.T))
-        lookup = np.zeros(params.T, np.intp)
-        lookup[self.bins] = np.arange(len(self.bins))
-        inverse = lookup[index]
-        spectrum = noise_spectrum(params.T, params.beta, seed=draw)
+        spectrum = noise_spectrum(params.T, params.beta, seed=self.seed)
         # g_c(t) for the bins in use: (K, T) complex.
         self._signals = temporal_signals(spectrum[self.bins])
         now = time.perf_counter()
         self.timings["spectrum"], clock = now - clock, now
 
-        # B_c = IDFT2(F [f_c = c]) for each bin, stored as rows (Re B_c, Im B_c). The
-        # inverse DFT is done as its two 1-D passes: a bin is an annulus of spatial
-        # frequencies, so the first pass (along y) only needs the columns the annulus
-        # crosses, about half of them on average.
-        k = len(self.bins)
-        basis = np.empty((2 * k, h * w), np.float32)
-        half = half.astype(np.complex64)
-        work = np.empty((2, h, w // 2 + 1), np.complex64)
-        for i in range(k):
-            if i % _BINS_PER_REPORT == 0:
-                report(0.15 + 0.6 * i / k, f"inverse DFT, bin {i + 1} of {k}")
-            select = inverse == i
-            cols = np.flatnonzero(select.any(axis=0))
-            c0, c1 = int(cols[0]), int(cols[-1]) + 1
-            work.fill(0)
-            work[:, :, c0:c1] = scipy.fft.ifft(
-                half[:, :, c0:c1] * select[:, c0:c1], axis=-2, workers=-1
+        progress_bins = _bin_reporter(report, 0.15, 0.6)
+        if v is None:
+            self._basis = _basis_symmetric(self.alpha, index, self.bins, progress_bins)
+        else:
+            self._basis = _basis_flow(
+                self._analysed, index, self.bins, self._crop, v, progress_bins
             )
-            basis[2 * i : 2 * i + 2] = scipy.fft.irfft(work, n=w, axis=-1, workers=-1).reshape(
-                2, h * w
-            )
-        self._basis = basis
         now = time.perf_counter()
         self.timings["synthesis"], clock = now - clock, now
 
@@ -306,30 +402,72 @@ class FlickerModel:
         # Im(B g) = Re B Im g + Im B Re g, with A folded in.
         self._coefficients = self._make_coefficients(params.A)
         if params.beta > 0:
-            # The random phases can add up anywhere in the loop, so the peak needs every
+            # The random phases can add up anywhere in the loop, so the scale needs every
             # frame: one product for all of them (the fastest way to make them), kept,
             # so the frames are not computed twice.
             report(0.8, "noise normalisation")
             table = self._coefficients @ self._basis  # (T, h * w): A Im I_out
-            inside = scene.mask[self.window].ravel()
-            if inside.all():
-                peak = max(float(table.max()), -float(table.min()))
+            inside = np.flatnonzero(scene.mask[self.window].ravel())
+            if params.noise_norm == "peak":
+                part = table if len(inside) == table.shape[1] else table[:, inside]
+                peak = max(float(part.max()), -float(part.min())) if part.size else 0.0
+                self.normalisation = peak / params.A if peak > 0 else 1.0
+                table *= np.float32(1.0 / self.normalisation)
             else:
-                peak = np.maximum(table.max(axis=0), -table.min(axis=0))
-                peak = float(peak[inside].max())
-            self.normalisation = peak / params.A if peak > 0 else 1.0
+                self.normalisation = self._rms_ratio(table, inside)
+                # Heights relative to C in units of A, then bent smoothly into (-1, 1).
+                # (As a ratio of RMS the normalisation is in units of A already.)
+                table *= np.float32(1.0 / (params.A * self.normalisation))
+                soft_clip(table, _KNEE, out=table)
+                table *= np.float32(params.A)
             self._table = table
-        # Heights relative to C are ``rows * height_scale``; the shading kernel's input
-        # (pre-scaled slopes) is ``rows * slope_scale``, or, without a table, a product
-        # with coefficients that have it folded in.
-        self._height_scale = np.float32(1.0 / self.normalisation)
-        self._slope_scale = np.float32(scene.slope_scale / self.normalisation)
+        # The shading kernel's input (pre-scaled slopes) is ``table * slope_scale``, or,
+        # without a table, a product with coefficients that have it folded in.
+        self._slope_scale = np.float32(scene.slope_scale)
         self._slope_coefficients = self._make_coefficients(params.A * scene.slope_scale)
         self.timings["normalise"] = time.perf_counter() - clock
         report(1.0, "ready")
 
+    def _rms_ratio(self, table, inside):
+        """The divisor that gives the noisy heights, soft-clipped, the RMS of the quiet ones.
+
+        Both RMS are taken over the whole loop and the region: every pixel of it up to
+        ``_RMS_SAMPLES`` values, else an even sample (a ratio of averages needs no
+        more). The soft clip lowers the RMS, so the divisor is found by bisection (the
+        clipped RMS grows monotonically as the divisor shrinks).
+        """
+        T = self.params.T
+        step = max(1, -(-len(inside) * T // _RMS_SAMPLES))
+        inside = inside[::step]
+        if not len(inside):
+            return 1.0
+        quiet_signals = temporal_signals(np.eye(T)[self.bins])
+        quiet = self._make_coefficients(self.params.A, quiet_signals) @ self._basis[:, inside]
+        target = float(np.sqrt(np.mean(np.square(quiet, dtype=np.float64))))
+        noisy = table[:, inside].astype(np.float64) / self.params.A
+        actual = float(np.sqrt(np.mean(np.square(noisy))))
+        if target == 0 or actual == 0:
+            return 1.0
+        goal = min(target / self.params.A, 0.999)  # a soft clip stays below 1
+
+        def clipped_rms(divisor):
+            return float(np.sqrt(np.mean(np.square(soft_clip(noisy / divisor, _KNEE)))))
+
+        lo, hi = 1e-3 * actual / goal, actual / goal  # bracket: clipped rms >= / <= goal
+        for _ in range(50):
+            mid = math.sqrt(lo * hi)
+            if clipped_rms(mid) > goal:
+                lo = mid
+            else:
+                hi = mid
+            if hi / lo < 1 + 1e-7:
+                break
+        return math.sqrt(lo * hi)
+
     @classmethod
-    def reduced(cls, image, mask=None, params=None, *, size=128, seed=None, progress=None):
+    def reduced(
+        cls, image, mask=None, params=None, *, flow=None, size=128, seed=None, progress=None
+    ):
         """A model of a reduced copy of the photo that behaves like the full-size one.
 
         The photo and the region are resized so that the longest side is ``size``
@@ -364,7 +502,7 @@ class FlickerModel:
         region = None if mask is None else as_mask(mask, (h, w), name="mask")
         scale = max(h, w) / size
         if scale <= 1:
-            return cls(img, region, params, seed=seed, progress=progress)
+            return cls(img, region, params, flow=flow, seed=seed, progress=progress)
         shape = (max(1, round(h / scale)), max(1, round(w / scale)))
         small = np.clip(resize(img, shape), 0.0, 1.0)
         small_mask = None
@@ -373,15 +511,24 @@ class FlickerModel:
             # A reduced pixel moves when most of it is painted; a tiny region still shows.
             small_mask = cover > 0.5 if (cover > 0.5).any() else cover > 0
         pixel_size = max(h / shape[0], w / shape[1])
-        return cls(small, small_mask, params, seed=seed, pixel_size=pixel_size, progress=progress)
+        # A stroke is in full-resolution pixels, and so is the velocity the model takes.
+        return cls(
+            small,
+            small_mask,
+            params,
+            flow=flow,
+            seed=seed,
+            pixel_size=pixel_size,
+            progress=progress,
+        )
 
     # ------------------------------------------------------------------ internals
     @property
     def _n_blocks(self):
         return -(-self.params.T // _BLOCK)
 
-    def _make_coefficients(self, factor):
-        g = self._signals.T * factor  # (T, K) complex128
+    def _make_coefficients(self, factor, signals=None):
+        g = (self._signals if signals is None else signals).T * factor  # (T, K) complex
         coef = np.empty((g.shape[0], 2 * g.shape[1]), np.float32)
         coef[:, 0::2] = g.imag
         coef[:, 1::2] = g.real
@@ -401,8 +548,9 @@ class FlickerModel:
         """Frame ``t`` (any integer: period T), (h, w): heights relative to C or slopes."""
         t = int(t) % self.params.T
         if self._table is not None:
-            scale = self._height_scale if which == "height" else self._slope_scale
-            return (self._table[t] * scale).reshape(self.alpha.shape)
+            if which == "height":
+                return self._table[t].reshape(self.alpha.shape).copy()
+            return (self._table[t] * self._slope_scale).reshape(self.alpha.shape)
         b = t // _BLOCK
         key = (which, b)
         if key not in self._cache:
@@ -446,14 +594,21 @@ class FlickerModel:
 
     @property
     def spectrum(self):
-        """:math:`F(f_x, f_y)` of Eq. (4) over the window, complex128, fft2 order."""
-        return phase_spectrum(self.alpha)
+        """:math:`F(f_x, f_y)` of Eq. (4) over the window, complex128, fft2 order.
+
+        For the flow mapping, of the window with its mirrored upstream margin; crop an
+        inverse transform with ``_crop`` to get back to the window.
+        """
+        return phase_spectrum(self._analysed)
 
     @property
     def frequencies(self):
         """:math:`f_c` of every spatial frequency of the window (Eq. (7)-(9)), int, fft2 order."""
         return temporal_frequencies(
-            self.alpha.shape, self.params, pixel_size=self._scene.pixel_size
+            self._analysed.shape,
+            self.params,
+            pixel_size=self._scene.pixel_size,
+            velocity=self.velocity,
         )
 
     def height(self, t):
@@ -491,11 +646,14 @@ class FlickerModel:
         Returns
         -------
         ndarray, shape (h, w), complex128
-            ``height(t)[window] == C + A * field(t).imag`` up to float32 rounding.
+            ``height(t)[window] == C + A * field(t).imag`` up to float32 rounding
+            (with ``noise_norm="rms"``, of ``C + A * soft_clip(field(t).imag)``).
         """
         t = self._check_t(t) % self.params.T
         g = self._signals[:, t] / self.normalisation
         re, im = self._basis[0::2].astype(np.float64), self._basis[1::2].astype(np.float64)
+        # Rows are (Re B_c, Im B_c) for the flow mapping and (IDFT(cos part), IDFT(sin
+        # part)) for the others: either way B_c = rows[0] + j rows[1].
         return ((g @ re) + 1j * (g @ im)).reshape(self.alpha.shape)
 
     def frame(self, t):
@@ -549,11 +707,12 @@ class FlickerModel:
             timings=timings,
             bins=len(self.bins),
             normalisation=self.normalisation,
+            velocity=None if self.velocity is None else self.velocity.tolist(),
             pixel_size=self._scene.pixel_size,
         )
 
 
-def flicker(image, mask=None, params=None, *, seed=None, progress=None):
+def flicker(image, mask=None, params=None, *, flow=None, seed=None, progress=None):
     r"""Animate a photo with flicker ("yuragi") from its spatio-temporal spectrum.
 
     The method of Yamamoto & Sakamoto [1]_: the luminance is a pseudo-height whose
@@ -618,11 +777,11 @@ def flicker(image, mask=None, params=None, *, seed=None, progress=None):
     (0, ['analyse', 'normalise', 'render', 'spectrum', 'synthesis'])
     """
     first, second = Progress(progress).split(0.4)
-    model = FlickerModel(image, mask, params, seed=seed, progress=first)
+    model = FlickerModel(image, mask, params, flow=flow, seed=seed, progress=first)
     return model.clip(progress=second)
 
 
-def preview(image, mask=None, params=None, *, size=128, seed=None, progress=None):
+def preview(image, mask=None, params=None, *, flow=None, size=128, seed=None, progress=None):
     """A reduced-size flicker clip that looks like the full one, fast enough to follow a slider.
 
     The photo and the region are resized so the longest side is ``size`` pixels;
@@ -655,7 +814,9 @@ def preview(image, mask=None, params=None, *, size=128, seed=None, progress=None
     (50, 64)
     """
     first, second = Progress(progress).split(0.4)
-    model = FlickerModel.reduced(image, mask, params, size=size, seed=seed, progress=first)
+    model = FlickerModel.reduced(
+        image, mask, params, flow=flow, size=size, seed=seed, progress=first
+    )
     return model.clip(progress=second)
 
 

@@ -21,11 +21,13 @@ from .._validation import check_array, check_choice, check_int, check_range
 from ._params import BRANCHES, FlickerParams
 
 __all__ = [
+    "check_velocity",
     "harmonic_height",
     "height_from_luminance",
     "initial_phase",
     "noise_spectrum",
     "phase_spectrum",
+    "soft_clip",
     "temporal_frequencies",
     "temporal_signals",
 ]
@@ -181,15 +183,25 @@ def _frequency_grid(shape, pixel_size):
     return ny[:, None], nx[None, :]
 
 
-def temporal_frequencies(shape, params=None, *, pixel_size=1.0, rounded=True):
+def temporal_frequencies(shape, params=None, *, pixel_size=1.0, rounded=True, velocity=None):
     r"""Map every spatial frequency to a temporal frequency :math:`f_c`, Eq. (6)-(9).
 
     The mapping keeps :math:`f_x, f_y` and sets :math:`f_t` on one of three surfaces,
-    all symmetric about the :math:`f_t` axis (Sec. 3.2):
+    all symmetric about the :math:`f_t` axis (Yamamoto & Sakamoto, sec. 3.2):
 
     * plane, Eq. (7): :math:`f_c = f_0`
     * convex, Eq. (8): :math:`f_c = f_0 + \kappa' (\nu_x^2 + \nu_y^2)`
     * concave, Eq. (9): :math:`f_c = f_0 - \kappa' (\nu_x^2 + \nu_y^2)`
+
+    or, beyond the paper, on a plane tilted by a velocity :math:`v` (px/frame):
+
+    * flow: :math:`f_c = f_0 - T \, (v_y \nu_y + v_x \nu_x)`
+
+    A component :math:`e^{j 2\pi (\nu \cdot x + f_c t / T)}` with this :math:`f_c`
+    is :math:`e^{j 2\pi f_0 t / T} e^{j 2\pi \nu \cdot (x - v t)}`: the whole
+    pattern moves by :math:`v` per frame while it oscillates at :math:`f_0` (the
+    minus sign is what makes it move *along* :math:`v` with the inverse DFT's
+    :math:`e^{+j \ldots}`). Rounded to whole bins, the loop still closes.
 
     with :math:`\nu` in cycles per pixel of the full-resolution image and the
     curvature :math:`\kappa' = \kappa (\lceil T/2 \rceil - 1 - f_0) / (1/2)`, so that
@@ -212,6 +224,9 @@ def temporal_frequencies(shape, params=None, *, pixel_size=1.0, rounded=True):
         Round to whole bins (what the method uses: an integer number of
         oscillations per loop makes the clip loop seamlessly with period ``T``).
         ``False`` returns the continuous surface, for plots.
+    velocity : array_like, shape (2,), optional
+        :math:`v = (v_y, v_x)` in full-resolution pixels per frame, ``dy > 0`` down
+        the image; needed by (and only used by) the flow mapping.
 
     Returns
     -------
@@ -236,6 +251,12 @@ def temporal_frequencies(shape, params=None, *, pixel_size=1.0, rounded=True):
     pixel_size = check_range("pixel_size", pixel_size, 0, lo_open=True)
     if params.mapping == "plane":
         fc = np.full((h, w), float(params.f0))
+    elif params.mapping == "flow":
+        if velocity is None:
+            raise ValueError("the flow mapping needs velocity=(dy, dx) in pixels per frame")
+        vy, vx = check_velocity(velocity)
+        ny, nx = _frequency_grid((h, w), pixel_size)
+        fc = params.f0 - params.T * (vy * ny + vx * nx)
     else:
         ny, nx = _frequency_grid((h, w), pixel_size)
         top = math.ceil(params.T / 2) - 1  # the highest bin strictly below T/2
@@ -246,6 +267,31 @@ def temporal_frequencies(shape, params=None, *, pixel_size=1.0, rounded=True):
         # rint rounds halves to even: symmetric, unlike rounding half away from zero.
         return np.rint(fc).astype(np.int64)
     return fc
+
+
+#: The fastest flow accepted, in pixels per frame: beyond about 1 px/frame the finest
+#: detail already wraps round the temporal circle (it aliases and seems to run back).
+MAX_SPEED = 4.0
+
+
+def check_velocity(velocity, name="velocity"):
+    """A flow velocity ``(dy, dx)`` in pixels per frame, checked: finite, ``|v| <= 4``.
+
+    Examples
+    --------
+    >>> check_velocity([0, 0.5]).tolist()
+    [0.0, 0.5]
+    """
+    v = check_array(name, velocity, ndim=1, dtype_kinds="iuf").astype(np.float64)
+    if v.shape != (2,):
+        raise ValueError(f"{name} must be (dy, dx) in pixels per frame, got shape {v.shape}")
+    speed = float(np.hypot(*v))
+    if speed > MAX_SPEED:
+        raise ValueError(
+            f"{name} must be at most {MAX_SPEED:g} pixels per frame, got {speed:.3g} "
+            "(draw a shorter stroke: its length is the distance travelled in one loop)"
+        )
+    return v
 
 
 def noise_spectrum(T, beta, *, seed=None):
@@ -338,3 +384,45 @@ def temporal_signals(spectrum, times=None):
     # and the unsigned bins give identical angles.
     angle = 2 * np.pi * np.mod(np.outer(ft, t), T) / T
     return U @ np.exp(1j * angle)
+
+
+def soft_clip(u, knee=0.5, *, out=None):
+    r"""Squash values into (-1, 1): identity for :math:`|u| \le` ``knee``, then tanh.
+
+    .. math:: \sigma(u) = \mathrm{sign}(u) \big(k + (1 - k)
+              \tanh\frac{|u| - k}{1 - k}\big) \quad (|u| > k)
+
+    The slope is 1 on both sides of the knee, so a height pushed past
+    :math:`C \pm A` by the noise is bent smoothly back instead of cut into a
+    plateau (a plateau has no slope, and the shading would go flat there).
+
+    Parameters
+    ----------
+    u : array_like
+        Heights relative to :math:`C`, in units of :math:`A`.
+    knee : float
+        In [0, 1): where the bending starts.
+    out : ndarray, optional
+        Where to write the result (may be ``u`` itself, float32 or float64).
+
+    Returns
+    -------
+    ndarray, float32 for float32 input, else float64
+
+    Examples
+    --------
+    >>> np.round(soft_clip(np.array([0.2, 0.5, 1.0, 9.0, -9.0])), 3).tolist()
+    [0.2, 0.5, 0.881, 1.0, -1.0]
+    """
+    knee = check_range("knee", knee, 0, 1, hi_open=True)
+    u = np.asarray(u)
+    if u.dtype != np.float32:
+        u = u.astype(np.float64)
+    k = u.dtype.type(knee)
+    inner = np.clip(u, -k, k)
+    rest = np.subtract(u, inner, out=out)
+    rest /= 1 - k
+    np.tanh(rest, out=rest)
+    rest *= 1 - k
+    rest += inner
+    return rest
