@@ -9,16 +9,20 @@ where the temporal spectrum :math:`N_c` depends only on the integer bin
           B_c = \mathrm{IDFT}_2\big(F \cdot [f_c = c]\big), \quad
           g_c(t) = \sum_{f_t} N_c(f_t) e^{j 2\pi f_t t / T}
 
-There are only K distinct bins (1 for the plane, ~T/2 for the curved surfaces), so the
-model makes K inverse 2-D DFTs once (real FFTs of :math:`\cos\alpha` and
-:math:`\sin\alpha`, whose spectra restricted to a bin stay Hermitian because
-:math:`f_c` is even in :math:`(f_x, f_y)`), and then each frame's height
+There are only K distinct bins (1 for the plane, ~T/2 for the curved surfaces and the
+flow), so the model makes K inverse 2-D DFTs once (for the paper's mappings real FFTs
+of :math:`\cos\alpha` and :math:`\sin\alpha`, whose spectra restricted to a bin stay
+Hermitian because :math:`f_c` is even in :math:`(f_x, f_y)`; for the flow mapping,
+which is not even, complex ones), and then each frame's height
 :math:`C + A \, \mathrm{Im}\, I_{out}` is a matrix product over the K bins. Frames
 are made in aligned blocks of ``_BLOCK``: a matrix product's rounding depends on how
 many rows it has, and computing a single frame through its block makes
 :meth:`FlickerModel.frame` bit-identical to the same frame of the whole clip. With
-noise, the normalisation needs the peak over the whole loop, so the heights of all
-frames are made at once (one product, the fastest way) and kept.
+noise, the normalisation needs the whole loop (its RMS, or its peak), so the heights of
+all frames are made at once (one product, the fastest way) and kept.
+
+:func:`fluidnb.flicker._reference.flicker_reference` is the same model written out
+literally (one 3-D spectrum, one 3-D inverse DFT); the tests check this one against it.
 """
 
 from __future__ import annotations
@@ -320,10 +324,14 @@ class FlickerModel:
         :math:`\alpha` over the window (Eq. (3)).
     bins : ndarray of int
         The K distinct temporal bins :math:`f_c \bmod T` in use.
+    velocity : ndarray, shape (2,), or None
+        :math:`v = (v_y, v_x)` of the flow mapping, full-resolution px/frame.
     normalisation : float
-        With noise, the peak of :math:`|\mathrm{Im}\, I_{out}|` over the region and
-        the loop, by which the field is divided so that the heights span exactly
-        :math:`[C - A, C + A]`; 1 without noise (the heights are then Eq. (5) as it
+        With noise, what :math:`I_{out}` is divided by: with ``noise_norm="rms"``
+        the factor that gives the soft-clipped heights the RMS of the same mapping
+        without noise (over the region and the loop); with ``"peak"`` the peak of
+        :math:`|\mathrm{Im}\, I_{out}|`, so the heights span exactly
+        :math:`[C - A, C + A]`. 1 without noise (the heights are then Eq. (5) as it
         is, so frame 0 is the photo).
     timings : dict of str to float
         Seconds per stage of the precomputation.
@@ -336,8 +344,24 @@ class FlickerModel:
     so :math:`|I_{out}|` is no longer 1 at every pixel and, without noise, the height
     can leave :math:`[C - A, C + A]` by some tenths of A where they add up; it is not
     clipped (only its slopes are used, and clipping would flatten them into
-    plateaus). With noise the field is divided by its peak (:attr:`normalisation`),
-    which keeps every height in :math:`[C - A, C + A]`.
+    plateaus).
+
+    With noise (decision of spec 01-flicker; Eq. (10) leaves the scale open) the
+    default divides the field so that its RMS swing is that of the clip without
+    noise, and bends the few heights that pass :math:`C \pm A` back with
+    :func:`soft_clip`: :math:`H = C + A \, \sigma(\mathrm{Im}\, I_{out})`. Divided by
+    its peak instead (``noise_norm="peak"``), the loudest moment of the loop sets the
+    scale and the typical swing falls to about a third of the noise-free one.
+
+    The random phase :math:`\phi(f_t)` of Eq. (10) is shared by every spatial
+    frequency, so the noise speeds up and slows down the whole region at once; the
+    paper names this as its open problem (Yamamoto & Sakamoto, sec. 5).
+
+    The flow mapping's pattern moves round the periodic DFT domain; the window is
+    mirrored out upstream by at least the distance travelled in one loop, so the
+    seam never comes into view. A structure can only travel and still loop if it
+    moves a whole number of its wavelengths per loop: structures larger than
+    :math:`T |v|` pixels stay in place and only oscillate.
 
     Examples
     --------

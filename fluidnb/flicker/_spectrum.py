@@ -1,4 +1,4 @@
-r"""The steps of the spatio-temporal frequency method (Sec. 2.1 and 3 of the paper).
+r"""The steps of the spatio-temporal frequency method (Yamamoto & Sakamoto, 2012, sec. 2.1 and 3).
 
 Each function is one step, with the paper's equation number, so that a notebook can
 run and plot them one at a time; :class:`~fluidnb.flicker.FlickerModel` chains the
