@@ -441,9 +441,11 @@ class FlickerModel:
                 self.normalisation = self._rms_ratio(table, inside)
                 # Heights relative to C in units of A, then bent smoothly into (-1, 1).
                 # (As a ratio of RMS the normalisation is in units of A already.)
-                table *= np.float32(1.0 / (params.A * self.normalisation))
-                soft_clip(table, _KNEE, out=table)
-                table *= np.float32(params.A)
+                scale, A = np.float32(1.0 / (params.A * self.normalisation)), np.float32(params.A)
+                for row in table:  # a frame at a time: its passes stay in the cache
+                    row *= scale
+                    soft_clip(row, _KNEE, out=row)
+                    row *= A
             self._table = table
         # The shading kernel's input (pre-scaled slopes) is ``table * slope_scale``, or,
         # without a table, a product with coefficients that have it folded in.
@@ -465,7 +467,9 @@ class FlickerModel:
         inside = inside[::step]
         if not len(inside):
             return 1.0
-        quiet_signals = temporal_signals(np.eye(T)[self.bins])
+        # Without noise each bin is a pure turn, g_c(t) = e^{j 2 pi c t / T}.
+        turns = np.mod(np.outer(self.bins, np.arange(T)), T)
+        quiet_signals = np.exp(2j * np.pi * turns / T)
         quiet = self._make_coefficients(self.params.A, quiet_signals) @ self._basis[:, inside]
         target = float(np.sqrt(np.mean(np.square(quiet, dtype=np.float64))))
         noisy = table[:, inside].astype(np.float64) / self.params.A

@@ -387,21 +387,23 @@ def temporal_signals(spectrum, times=None):
 
 
 def soft_clip(u, knee=0.5, *, out=None):
-    r"""Squash values into (-1, 1): identity for :math:`|u| \le` ``knee``, then tanh.
+    r"""Squash values into (-1, 1): identity for :math:`|u| \le k` (the ``knee``), then bent.
 
-    .. math:: \sigma(u) = \mathrm{sign}(u) \big(k + (1 - k)
-              \tanh\frac{|u| - k}{1 - k}\big) \quad (|u| > k)
+    .. math:: \sigma(u) = \mathrm{sign}(u) \Big(k + (1 - k) \frac{r}{1 + r}\Big),
+              \qquad r = \frac{|u| - k}{1 - k} \quad (|u| > k)
 
-    The slope is 1 on both sides of the knee, so a height pushed past
-    :math:`C \pm A` by the noise is bent smoothly back instead of cut into a
-    plateau (a plateau has no slope, and the shading would go flat there).
+    The slope is 1 on both sides of the knee and :math:`\sigma \to \pm 1` far out, so a
+    height pushed past :math:`C \pm A` by the noise is bent smoothly back instead of
+    cut into a plateau (a plateau has no slope, and the shading would go flat there).
+    (:math:`r / (1 + r)` rather than :math:`\tanh r`: the same shape near the knee,
+    and several times cheaper on a whole clip.)
 
     Parameters
     ----------
     u : array_like
         Heights relative to :math:`C`, in units of :math:`A`.
     knee : float
-        In [0, 1): where the bending starts.
+        :math:`k` in [0, 1): where the bending starts.
     out : ndarray, optional
         Where to write the result (may be ``u`` itself, float32 or float64).
 
@@ -412,7 +414,7 @@ def soft_clip(u, knee=0.5, *, out=None):
     Examples
     --------
     >>> np.round(soft_clip(np.array([0.2, 0.5, 1.0, 9.0, -9.0])), 3).tolist()
-    [0.2, 0.5, 0.881, 1.0, -1.0]
+    [0.2, 0.5, 0.75, 0.972, -0.972]
     """
     knee = check_range("knee", knee, 0, 1, hi_open=True)
     u = np.asarray(u)
@@ -420,9 +422,12 @@ def soft_clip(u, knee=0.5, *, out=None):
         u = u.astype(np.float64)
     k = u.dtype.type(knee)
     inner = np.clip(u, -k, k)
-    rest = np.subtract(u, inner, out=out)
-    rest /= 1 - k
-    np.tanh(rest, out=rest)
-    rest *= 1 - k
-    rest += inner
-    return rest
+    r = np.subtract(u, inner, out=out)  # the signed excess over the knee
+    r /= 1 - k
+    # r / (1 + |r|): keeps the sign, tends to +-1
+    den = np.abs(r)
+    den += 1
+    r /= den
+    r *= 1 - k
+    r += inner
+    return r

@@ -228,7 +228,7 @@ def test_rms_normalised_heights_stay_inside_c_minus_a_to_c_plus_a(mapping):
     # the soft clip is the identity inside its knee: most heights are Eq. (5) as it is
     f = np.stack([model.field(t).imag for t in range(p.T)])
     inner = np.abs(f) <= 0.5
-    assert inner.mean() > 0.3
+    assert inner.mean() > 0.2
     np.testing.assert_allclose((H - p.C)[inner], p.A * f[inner], rtol=0, atol=1e-5)
 
 
