@@ -37,7 +37,7 @@ import numpy as np
 from .._clip import Clip
 from .._image import as_image, as_mask
 from .._progress import Progress
-from .._random import resolve_seed
+from .._random import resolve_seed, rng
 from .._validation import check_int, check_range
 from ._flow import as_velocity
 from ._params import FlickerParams
@@ -48,6 +48,7 @@ from ._spectrum import (
     initial_phase,
     noise_spectrum,
     phase_spectrum,
+    region_weights,
     soft_clip,
     temporal_frequencies,
     temporal_signals,
@@ -58,7 +59,7 @@ __all__ = ["FlickerModel", "base_method", "flicker", "preview"]
 _BLOCK = 16  # frames per matrix product (see the module docstring)
 _THREADS = max(1, min(4, os.cpu_count() or 1))  # threads for the per-pixel shading
 _BINS_PER_REPORT = 4  # inverse DFTs per progress report
-_KNEE = 0.5  # where the soft clip of the RMS-normalised noise starts bending (units of A)
+_KNEE = 0.7  # where the soft clip of the RMS-normalised noise starts bending (units of A)
 _RMS_SAMPLES = 1 << 16  # pixels the RMS normalisation averages over, at most
 
 
@@ -328,8 +329,8 @@ class FlickerModel:
         :math:`v = (v_y, v_x)` of the flow mapping, full-resolution px/frame.
     normalisation : float
         With noise, what :math:`I_{out}` is divided by: with ``noise_norm="rms"``
-        the factor that gives the soft-clipped heights the RMS of the same mapping
-        without noise (over the region and the loop); with ``"peak"`` the peak of
+        the factor that gives the heights the RMS of the same mapping without
+        noise (over the region and the loop; the soft clip comes after); with ``"peak"`` the peak of
         :math:`|\mathrm{Im}\, I_{out}|`, so the heights span exactly
         :math:`[C - A, C + A]`. 1 without noise (the heights are then Eq. (5) as it
         is, so frame 0 is the photo).
@@ -403,9 +404,22 @@ class FlickerModel:
         index = np.mod(fc, params.T)
         # The distinct bins in use.
         self.bins = np.flatnonzero(np.bincount(index.ravel(), minlength=params.T))
-        spectrum = noise_spectrum(params.T, params.beta, seed=self.seed)
-        # g_c(t) for the bins in use: (K, T) complex.
-        self._signals = temporal_signals(spectrum[self.bins])
+        # g_c(t) for the bins in use, (K, T) complex: one set per noise region (one, as
+        # in Eq. (10), unless noise_regions > 1).
+        draw = rng(self.seed)
+        regions = params.noise_regions if params.beta > 0 else 1
+        self._region_signals = [
+            temporal_signals(noise_spectrum(params.T, params.beta, seed=draw)[self.bins])
+            for _ in range(regions)
+        ]
+        self._signals = self._region_signals[0]
+        self._blend = None
+        if regions > 1:
+            # Independent processes blended with weights w_g keep their RMS when divided
+            # by sqrt(sum w_g^2).
+            w = region_weights(self.alpha.shape, regions, seed=draw)
+            w /= np.sqrt(np.sum(w**2, axis=0))
+            self._blend = w.reshape(regions, -1).astype(np.float32)
         now = time.perf_counter()
         self.timings["spectrum"], clock = now - clock, now
 
@@ -431,6 +445,12 @@ class FlickerModel:
             # so the frames are not computed twice.
             report(0.8, "noise normalisation")
             table = self._coefficients @ self._basis  # (T, h * w): A Im I_out
+            if self._blend is not None:
+                table *= self._blend[0]
+                for signals, weight in zip(self._region_signals[1:], self._blend[1:]):
+                    part = self._make_coefficients(params.A, signals) @ self._basis
+                    part *= weight
+                    table += part
             inside = np.flatnonzero(scene.mask[self.window].ravel())
             if params.noise_norm == "peak":
                 part = table if len(inside) == table.shape[1] else table[:, inside]
@@ -455,12 +475,11 @@ class FlickerModel:
         report(1.0, "ready")
 
     def _rms_ratio(self, table, inside):
-        """The divisor that gives the noisy heights, soft-clipped, the RMS of the quiet ones.
+        """RMS of the noisy heights over that of the same mapping without noise.
 
-        Both RMS are taken over the whole loop and the region: every pixel of it up to
+        Both over the whole loop and the region: every pixel of it up to
         ``_RMS_SAMPLES`` values, else an even sample (a ratio of averages needs no
-        more). The soft clip lowers the RMS, so the divisor is found by bisection (the
-        clipped RMS grows monotonically as the divisor shrinks).
+        more).
         """
         T = self.params.T
         step = max(1, -(-len(inside) * T // _RMS_SAMPLES))
@@ -472,25 +491,8 @@ class FlickerModel:
         quiet_signals = np.exp(2j * np.pi * turns / T)
         quiet = self._make_coefficients(self.params.A, quiet_signals) @ self._basis[:, inside]
         target = float(np.sqrt(np.mean(np.square(quiet, dtype=np.float64))))
-        noisy = table[:, inside].astype(np.float64) / self.params.A
-        actual = float(np.sqrt(np.mean(np.square(noisy))))
-        if target == 0 or actual == 0:
-            return 1.0
-        goal = min(target / self.params.A, 0.999)  # a soft clip stays below 1
-
-        def clipped_rms(divisor):
-            return float(np.sqrt(np.mean(np.square(soft_clip(noisy / divisor, _KNEE)))))
-
-        lo, hi = 1e-3 * actual / goal, actual / goal  # bracket: clipped rms >= / <= goal
-        for _ in range(50):
-            mid = math.sqrt(lo * hi)
-            if clipped_rms(mid) > goal:
-                lo = mid
-            else:
-                hi = mid
-            if hi / lo < 1 + 1e-7:
-                break
-        return math.sqrt(lo * hi)
+        actual = float(np.sqrt(np.mean(np.square(table[:, inside], dtype=np.float64))))
+        return actual / target if target > 0 and actual > 0 else 1.0
 
     @classmethod
     def reduced(
@@ -678,11 +680,15 @@ class FlickerModel:
             (with ``noise_norm="rms"``, of ``C + A * soft_clip(field(t).imag)``).
         """
         t = self._check_t(t) % self.params.T
-        g = self._signals[:, t] / self.normalisation
         re, im = self._basis[0::2].astype(np.float64), self._basis[1::2].astype(np.float64)
         # Rows are (Re B_c, Im B_c) for the flow mapping and (IDFT(cos part), IDFT(sin
         # part)) for the others: either way B_c = rows[0] + j rows[1].
-        return ((g @ re) + 1j * (g @ im)).reshape(self.alpha.shape)
+        field = 0
+        for k, signals in enumerate(self._region_signals):
+            g = signals[:, t] / self.normalisation
+            part = (g @ re) + 1j * (g @ im)
+            field = field + (part if self._blend is None else self._blend[k] * part)
+        return field.reshape(self.alpha.shape)
 
     def frame(self, t):
         """Frame ``t`` of the clip, computed alone (bit-identical to ``frames()[t]``).

@@ -62,10 +62,18 @@ class FlickerParams(Params):
     noise_norm : {"rms", "peak"}
         How the noisy field is scaled to the height's range. ``"rms"`` (default, our
         decision): the same RMS height swing as the clip without noise, then a soft
-        clip into :math:`[C - A, C + A]`. ``"peak"``: divided by its peak over the
+        clip into :math:`[C - A, C + A]` (which takes a fifth to a quarter off the
+        loudest frames). ``"peak"``: divided by its peak over the
         loop (Eq. (10) taken literally): every height stays in range, but the few
         frames where the random phases add up set the scale, so the typical swing
         is about half the noise-free one.
+    noise_regions : int
+        Beyond the paper. Eq. (10)'s random phase :math:`\phi(f_t)` is shared by every
+        spatial frequency, so the noise swells and calms the whole region at once (the
+        paper names this its open problem, sec. 5, and suggests flickering regions
+        differently). With ``n > 1`` the region is split into ``n`` soft regions
+        (a smooth partition of unity around random centres), each with its own
+        :math:`\phi`; 1 (default) is Eq. (10) as written.
     A : float
         :math:`A`, the amplitude of the height's oscillation (Eq. (1), (3)), on the
         [0, 1] scale (the paper's 128 of 255).
@@ -145,6 +153,15 @@ class FlickerParams(Params):
         choices=NOISE_NORMS,
         eq="Eq. (10)",
         doc="scale the noisy field to the no-noise RMS swing (soft clip) or to its peak",
+    )
+    noise_regions: int = param(
+        1,
+        lo=1,
+        hi=16,
+        integer=True,
+        eq="Eq. (10)",
+        doc="beyond the paper: independent noise in this many soft regions; 1 = Eq. (10)",
+        ui_range=(1, 9),
     )
     A: float = param(
         _HALF,

@@ -20,7 +20,7 @@ from .._random import resolve_seed, rng
 from ._flow import as_velocity
 from ._params import FlickerParams
 from ._shading import apply_shading, feather_weights, shade
-from ._spectrum import height_from_luminance, soft_clip
+from ._spectrum import height_from_luminance, region_weights, soft_clip
 
 __all__ = ["flicker_reference"]
 
@@ -103,31 +103,27 @@ def flicker_reference(image, params=None, *, flow=None, seed=None):
     f_t = np.arange(T)[:, None, None]
     d = np.abs(f_t - np.mod(fc, T))
     d = np.minimum(d, T - d)
-    if p.beta == 0:
-        U = T * F * (d == 0)
-    else:
-        phi = rng(seed).uniform(0, 2 * np.pi, T)[:, None, None]
-        weight = np.where(d == 0, 1.0, np.maximum(d, 1) ** (-p.beta / 2))
-        U = T * F * weight * np.exp(1j * phi)
-
+    #
     # Eq. (5): the 3-D inverse DFT; the height is C + A Im(I_out).
-    I_out = np.fft.ifftn(U)[window]
-    x = I_out.imag
+    if p.beta == 0:
+        x = np.fft.ifftn(T * F * (d == 0))[window].imag
+    else:
+        weight = np.where(d == 0, 1.0, np.maximum(d, 1) ** (-p.beta / 2))
+        draw = rng(seed)
+        phis = [draw.uniform(0, 2 * np.pi, T)[:, None, None] for _ in range(p.noise_regions)]
+        # Beyond the paper (noise_regions > 1): each soft region its own phi, blended.
+        blend = region_weights(alpha.shape, p.noise_regions, seed=draw)
+        blend /= np.sqrt(np.sum(blend**2, axis=0))
+        x = 0
+        for phi, w_g in zip(phis, blend):
+            U = T * F * weight * np.exp(1j * phi)
+            x = x + w_g * np.fft.ifftn(U)[window].imag
     if p.beta > 0 and p.noise_norm == "peak":
         x = x / np.abs(x).max()  # the loudest moment reaches C +- A
     elif p.beta > 0:
-        # The RMS of the same mapping without noise, then a soft clip into (-1, 1),
-        # with the scale d chosen so the clipped RMS is that RMS.
+        # The RMS of the same mapping without noise, then a soft clip into (-1, 1).
         quiet = np.fft.ifftn(T * F * (d == 0))[window].imag
-        goal = min(np.sqrt(np.mean(quiet**2)), 0.999)
-
-        def clipped_rms(scale):
-            return np.sqrt(np.mean(soft_clip(x / scale) ** 2)) - goal
-
-        from scipy.optimize import brentq
-
-        rms = np.sqrt(np.mean(x**2))
-        x = soft_clip(x / brentq(clipped_rms, 1e-3 * rms / goal, rms / goal, xtol=1e-12))
+        x = soft_clip(x * np.sqrt(np.mean(quiet**2)) / np.sqrt(np.mean(x**2)))
     H = C + A * x
 
     # Sec. 2.1 and our decision: bump-map the height, Lambert shading S_t, and change

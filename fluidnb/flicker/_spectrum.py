@@ -27,6 +27,7 @@ __all__ = [
     "initial_phase",
     "noise_spectrum",
     "phase_spectrum",
+    "region_weights",
     "soft_clip",
     "temporal_frequencies",
     "temporal_signals",
@@ -386,7 +387,64 @@ def temporal_signals(spectrum, times=None):
     return U @ np.exp(1j * angle)
 
 
-def soft_clip(u, knee=0.5, *, out=None):
+def region_weights(shape, n, *, seed=None):
+    r"""A smooth partition of the image into ``n`` soft regions (beyond the paper).
+
+    Each region :math:`g` has a random centre :math:`c_g` (spread out: best of 10
+    candidates, Mitchell 1991); its weight is a Gaussian
+    of the distance, normalised so the weights add up to 1 at every pixel:
+    :math:`w_g(x) \propto \exp(-|x - c_g|^2 / 2\sigma^2)`, with :math:`\sigma` such
+    that each region covers about ``1/n`` of the image. Positions are fractions of the
+    image, so a reduced preview gets the same regions.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        (H, W).
+    n : int
+        Number of regions, >= 1 (1 gives a single weight of 1 everywhere).
+    seed : None, int or numpy.random.Generator
+        For the centres.
+
+    Returns
+    -------
+    ndarray, shape (n, H, W), float64
+        Weights in [0, 1] that sum to 1 over the first axis.
+
+    Examples
+    --------
+    >>> w = region_weights((20, 30), 3, seed=0)
+    >>> w.shape, bool(np.allclose(w.sum(axis=0), 1))
+    ((3, 20, 30), True)
+    """
+    h = check_int("shape[0]", shape[0], 1)
+    w = check_int("shape[1]", shape[1], 1)
+    n = check_int("n", n, 1)
+    aspect = w / h  # distances in units of the image height
+    # Spread the centres out (Mitchell's best candidate): each new one is the farthest
+    # of 10 random candidates from those already placed, so no two regions crowd.
+    gen = rng(seed)
+    centres = gen.random((1, 2))
+    for _ in range(n - 1):
+        cand = gen.random((10, 2))
+        gap = (
+            (cand[:, None, 0] - centres[None, :, 0]) ** 2
+            + (aspect * (cand[:, None, 1] - centres[None, :, 1])) ** 2
+        ).min(axis=1)
+        centres = np.vstack([centres, cand[np.argmax(gap)]])
+    y = (np.arange(h) + 0.5)[:, None] / h
+    x = (np.arange(w) + 0.5)[None, :] / w
+    sigma = 0.6 / math.sqrt(math.pi * n) * math.sqrt(aspect)
+    d2 = (y[None] - centres[:, 0, None, None]) ** 2 + (
+        aspect * (x[None] - centres[:, 1, None, None])
+    ) ** 2
+    logw = -d2 / (2 * sigma**2)
+    logw -= logw.max(axis=0)  # softmax, safe far from every centre
+    weights = np.exp(logw)
+    return weights / weights.sum(axis=0)
+
+
+def soft_clip(u, knee=0.7, *, out=None):
     r"""Squash values into (-1, 1): identity for :math:`|u| \le k` (the ``knee``), then bent.
 
     .. math:: \sigma(u) = \mathrm{sign}(u) \Big(k + (1 - k) \frac{r}{1 + r}\Big),
@@ -413,8 +471,8 @@ def soft_clip(u, knee=0.5, *, out=None):
 
     Examples
     --------
-    >>> np.round(soft_clip(np.array([0.2, 0.5, 1.0, 9.0, -9.0])), 3).tolist()
-    [0.2, 0.5, 0.75, 0.972, -0.972]
+    >>> np.round(soft_clip(np.array([0.2, 0.7, 1.0, 9.0, -9.0])), 3).tolist()
+    [0.2, 0.7, 0.85, 0.99, -0.99]
     """
     knee = check_range("knee", knee, 0, 1, hi_open=True)
     u = np.asarray(u)

@@ -207,22 +207,27 @@ def test_rms_normalised_noise_keeps_the_swing_of_the_clip_without_noise(mapping,
     p = FlickerParams(mapping=mapping, T=64, A=0.4, C=0.5)
     quiet = swing(heights(FlickerModel(img, params=p.replace(beta=0))), p.C)
     target = np.sqrt(np.mean(quiet**2))
-    rms = swing(heights(FlickerModel(img, params=p, seed=seed)), p.C)
+    model = FlickerModel(img, params=p, seed=seed)
+    rms = swing(heights(model), p.C)
     peak = swing(heights(FlickerModel(img, params=p.replace(noise_norm="peak"), seed=seed)), p.C)
-    # Over the loop: the same RMS, soft clip included (measured on a sample of pixels).
-    assert np.sqrt(np.mean(rms**2)) == pytest.approx(target, rel=0.01)
-    assert np.sqrt(np.mean(peak**2)) < 0.7 * target
-    # Frame by frame: the typical frame swings as much as without noise...
-    assert np.median(rms) >= 0.8 * np.median(quiet)
-    assert np.median(peak) < 0.7 * np.median(quiet)
+    # Over the loop: the scaled field has the RMS of the clip without noise (measured on
+    # a sample of the pixels)...
+    field = np.stack([model.field(t).imag for t in range(p.T)])
+    assert np.sqrt(np.mean((p.A * field) ** 2)) == pytest.approx(target, rel=0.02)
+    # ...and the soft clip takes a little off the loudest frames only.
+    assert 0.7 * target <= np.sqrt(np.mean(rms**2)) < target
+    assert np.sqrt(np.mean(peak**2)) < 0.6 * target
+    # Frame by frame: the typical frame swings nearly as much as without noise...
+    assert np.median(rms) >= 0.65 * np.median(quiet)
+    assert np.median(rms) >= 1.4 * np.median(peak)
 
     # ...and the swing is steadier over the loop: the soft clip tames the swells where
     # the random phases add up, which the peak scaling lets set the scale.
     def unsteadiness(s):
         return s.std() / s.mean()
 
-    assert unsteadiness(rms) < 0.7 * unsteadiness(peak)
-    assert rms.min() / rms.max() > 1.5 * peak.min() / peak.max()
+    assert unsteadiness(rms) < 0.85 * unsteadiness(peak)
+    assert rms.min() / rms.max() > 1.3 * peak.min() / peak.max()
 
 
 @pytest.mark.parametrize("mapping", SYMMETRIC)
@@ -235,8 +240,8 @@ def test_rms_normalised_heights_stay_inside_c_minus_a_to_c_plus_a(mapping):
     assert H.max() < p.C + p.A
     # the soft clip is the identity inside its knee: most heights are Eq. (5) as it is
     f = np.stack([model.field(t).imag for t in range(p.T)])
-    inner = np.abs(f) <= 0.5
-    assert inner.mean() > 0.2
+    inner = np.abs(f) <= 0.7
+    assert inner.mean() > 0.5
     np.testing.assert_allclose((H - p.C)[inner], p.A * f[inner], rtol=0, atol=1e-5)
 
 
@@ -406,3 +411,45 @@ def test_inputs_are_not_modified():
     flicker(img, mask, FlickerParams(T=8, f0=2), seed=0)
     assert np.array_equal(img, img0)
     assert np.array_equal(mask, mask0)
+
+
+# ---------------------------------------------------------------------- noise regions
+
+
+def _speed(H, cols):
+    """Mean |H(t+1) - H(t)| of the columns ``cols`` in each frame: (T,)."""
+    part = H[:, :, cols]
+    return np.abs(np.roll(part, -1, axis=0) - part).mean(axis=(1, 2))
+
+
+@pytest.mark.parametrize("mapping", ["plane", "convex"])
+def test_noise_regions_let_distant_parts_speed_up_at_different_times(mapping):
+    # Eq. (10)'s phi(f_t) is shared by every spatial frequency: the two ends of the
+    # picture speed up and slow down in lockstep (the paper's open problem, sec. 5).
+    # With independent noise per soft region they no longer do.
+    img = photo((48, 144))
+    left, right = slice(0, 36), slice(108, 144)
+    for regions, low, high in ((1, 0.95, 1.0), (4, -0.5, 0.5)):
+        corr = []
+        for seed in range(4):
+            p = FlickerParams(mapping=mapping, T=64, noise_regions=regions)
+            H = heights(FlickerModel(img, params=p, seed=seed))
+            corr.append(np.corrcoef(_speed(H, left), _speed(H, right))[0, 1])
+        assert low <= np.mean(corr) <= high, (regions, corr)
+
+
+def test_noise_regions_are_a_partition_and_one_region_is_eq10():
+    from fluidnb.flicker import region_weights
+
+    w = region_weights((30, 50), 5, seed=1)
+    np.testing.assert_allclose(w.sum(axis=0), 1.0)
+    assert (w.max(axis=(1, 2)) > 0.8).all()  # each region has a core of its own
+    img = photo()
+    one = FlickerModel(img, params=FlickerParams(T=16, noise_regions=1), seed=3)
+    paper = FlickerModel(img, params=FlickerParams(T=16), seed=3)
+    assert np.array_equal(one.frames(), paper.frames())
+    quiet = FlickerParams(T=16, beta=0)  # no noise: nothing to split
+    assert np.array_equal(
+        FlickerModel(img, params=quiet.replace(noise_regions=4), seed=3).frames(),
+        FlickerModel(img, params=quiet, seed=3).frames(),
+    )

@@ -33,3 +33,14 @@ def test_the_reference_is_the_falling_branch_too_and_grey():
     model = FlickerModel(img, params=p, seed=3)
     np.testing.assert_allclose(heights(model), H_ref, rtol=0, atol=2e-5)
     np.testing.assert_allclose(model.frames(), frames_ref, rtol=0, atol=2e-4)
+
+
+@pytest.mark.parametrize("mapping", ["convex", "flow"])
+def test_the_fast_path_equals_the_reference_with_noise_regions(mapping):
+    img = photo((18, 26, 3), seed=2)
+    p = FlickerParams(mapping=mapping, T=16, f0=3, noise_regions=3, bump=4.0, k=2.0)
+    flow = FLOWS[mapping]
+    H_ref, frames_ref = flicker_reference(img, p, flow=flow, seed=5)
+    model = FlickerModel(img, params=p, flow=flow, seed=5)
+    np.testing.assert_allclose(heights(model), H_ref, rtol=0, atol=2e-5)
+    np.testing.assert_allclose(model.frames(), frames_ref, rtol=0, atol=2e-4)
