@@ -357,6 +357,9 @@ class FlickerModel:
     The random phase :math:`\phi(f_t)` of Eq. (10) is shared by every spatial
     frequency, so the noise speeds up and slows down the whole region at once; the
     paper names this as its open problem (Yamamoto & Sakamoto, sec. 5).
+    ``noise_regions = n > 1`` (beyond the paper) gives each of ``n`` soft regions
+    (:func:`region_weights`) its own phases and blends the heights with weights
+    :math:`w_g / \sqrt{\sum_g w_g^2}`, which keeps the RMS of the independent parts.
 
     The flow mapping's pattern moves round the periodic DFT domain; the window is
     mirrored out upstream by at least the distance travelled in one loop, so the
