@@ -9,7 +9,14 @@ import ipywidgets as W
 from traitlets import Int
 
 from fluidnb import as_image
-from fluidnb.flicker import FlickerModel, FlickerParams, analysis_figure, flicker, preview
+from fluidnb.flicker import (
+    FlickerModel,
+    FlickerParams,
+    analysis_figure,
+    flicker,
+    flow_velocity,
+    preview,
+)
 
 from ._app import App
 from ._canvas import DrawingCanvas
@@ -27,6 +34,9 @@ class FlickerApp(App):
     progress and Cancel); the player plays it and exports GIF or MP4. **Analyse**
     shows the 2-D spectrum, the mapping surface, the temporal spectrum of the probe
     pixel (click with the points tool) and the paper's Fig. 8-11 difference images.
+    For the ``flow`` mapping, draw a stroke along the stream with the stroke tool
+    (layer "flow"): its direction is the direction of flow and its length the
+    distance the surface travels in one loop (the last stroke counts).
 
     Parameters
     ----------
@@ -78,7 +88,11 @@ class FlickerApp(App):
         self.preview_size = int(preview_size or (64 if quick else 128))
         self._model_lock = threading.Lock()
         canvas = DrawingCanvas(
-            self.image, masks=["region"], points=["probe"], display_size=display_size
+            self.image,
+            masks=["region"],
+            strokes=["flow"],
+            points=["probe"],
+            display_size=display_size,
         )
         canvas.select("brush", "region")
         canvas.brush_radius = max(2.0, max(self.image.shape[:2]) / 24)
@@ -109,7 +123,9 @@ class FlickerApp(App):
         self.analysis.add_class("fluidnb-analysis")
         hint = W.HTML(
             "<span style='opacity:0.7'>Paint the region to animate (nothing painted: the "
-            "whole photo). Points tool: pick the pixel whose spectrum Analyse shows.</span>"
+            "whole photo). Mapping <i>flow</i>: draw a stroke along the stream (its "
+            "length = how far it travels in one loop). Points tool: pick the pixel "
+            "whose spectrum Analyse shows.</span>"
         )
         super().__init__(
             panel=panel,
@@ -128,6 +144,23 @@ class FlickerApp(App):
         mask = self.canvas.get_mask("region")
         return mask if mask.any() else None
 
+    def flow(self, params=None):
+        """The velocity (dy, dx) in px/frame of the last flow stroke, or None.
+
+        Only for the flow mapping (None for the others); raises a ValueError that
+        says what to draw when the flow mapping has no stroke yet.
+        """
+        params = self.panel.params if params is None else params
+        if params.mapping != "flow":
+            return None
+        strokes = [s for s in self.canvas.get_strokes("flow") if len(s) >= 2]
+        if not strokes:
+            raise ValueError(
+                "mapping 'flow': draw a stroke along the flow with the stroke tool "
+                "(its length is the distance travelled in one loop)"
+            )
+        return flow_velocity(strokes[-1], params.T)
+
     def probe(self):
         """The last point placed with the points tool (row, col), or None."""
         points = self.canvas.get_points("probe")
@@ -135,10 +168,16 @@ class FlickerApp(App):
 
     # ------------------------------------------------------------------ library calls
     def _preview(self, params):
-        return preview(self.image, self.region(), params, size=self.preview_size, seed=self.seed)
+        flow = self.flow(params)
+        return preview(
+            self.image, self.region(), params, flow=flow, size=self.preview_size, seed=self.seed
+        )
 
     def _run(self, params, progress):
-        return flicker(self.image, self.region(), params, seed=self.seed, progress=progress)
+        flow = self.flow(params)
+        return flicker(
+            self.image, self.region(), params, flow=flow, seed=self.seed, progress=progress
+        )
 
     def show_analysis(self, pixel=None):
         """Draw the analysis figure for the current settings (at preview resolution).
@@ -158,7 +197,12 @@ class FlickerApp(App):
         try:
             with self._model_lock:  # one analysis at a time (a double click)
                 model = FlickerModel.reduced(
-                    self.image, self.region(), params, size=2 * self.preview_size, seed=self.seed
+                    self.image,
+                    self.region(),
+                    params,
+                    flow=self.flow(params),
+                    size=2 * self.preview_size,
+                    seed=self.seed,
                 )
                 pixel = pixel if pixel is not None else self.probe()
                 if pixel is not None:

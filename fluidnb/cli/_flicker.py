@@ -29,6 +29,14 @@ def register(sub):
         help="region to animate: an image of the same size, white = animate "
         "(default: the whole image)",
     )
+    p.add_argument(
+        "--flow",
+        default=None,
+        metavar="DY,DX|STROKES.json",
+        help="for --mapping flow: the velocity in pixels per frame (e.g. 0,0.5 = to the "
+        "right), or a strokes file (fluidnb.sketch.save_strokes) drawn along the flow, "
+        "whose length is the distance travelled in one loop",
+    )
     add_params_options(p, FlickerParams)
     add_seed_option(p)
     add_output_option(p)
@@ -43,7 +51,29 @@ def _flicker(args):
     params = params_from_args(FlickerParams, args)
     image = as_image(args.image, name="IMAGE")
     mask = None if args.mask is None else as_mask(args.mask, image.shape[:2], name="--mask")
-    clip = flicker(image, mask, params, seed=args.seed, progress=TextProgress())
+    flow = _flow(args.flow, image.shape[:2])
+    if flow is not None and params.mapping != "flow":
+        params = params.replace(mapping="flow")  # --flow alone means the flow mapping
+    clip = flicker(image, mask, params, flow=flow, seed=args.seed, progress=TextProgress())
     out = clip.save(args.output)
     print(f"wrote {out} ({len(clip)} frames, {clip.fps:g} fps, seed {clip.metadata['seed']})")
     return 0
+
+
+def _flow(text, shape):
+    """``--flow``: "DY,DX" in pixels per frame, or a strokes file."""
+    if text is None:
+        return None
+    if text.lower().endswith(".json"):
+        from ..sketch import load_strokes
+
+        strokes, _ = load_strokes(text, shape)
+        return strokes
+    try:
+        dy, dx = (float(x) for x in text.split(","))
+    except ValueError:
+        raise ValueError(
+            f"--flow must be DY,DX in pixels per frame (e.g. 0,0.5) or a strokes .json file, "
+            f"got {text!r}"
+        ) from None
+    return (dy, dx)

@@ -9,20 +9,25 @@ where the temporal spectrum :math:`N_c` depends only on the integer bin
           B_c = \mathrm{IDFT}_2\big(F \cdot [f_c = c]\big), \quad
           g_c(t) = \sum_{f_t} N_c(f_t) e^{j 2\pi f_t t / T}
 
-There are only K distinct bins (1 for the plane, ~T/2 for the curved surfaces), so the
-model makes K inverse 2-D DFTs once (real FFTs of :math:`\cos\alpha` and
-:math:`\sin\alpha`, whose spectra restricted to a bin stay Hermitian because
-:math:`f_c` is even in :math:`(f_x, f_y)`), and then each frame's height
+There are only K distinct bins (1 for the plane, ~T/2 for the curved surfaces and the
+flow), so the model makes K inverse 2-D DFTs once (for the paper's mappings real FFTs
+of :math:`\cos\alpha` and :math:`\sin\alpha`, whose spectra restricted to a bin stay
+Hermitian because :math:`f_c` is even in :math:`(f_x, f_y)`; for the flow mapping,
+which is not even, complex ones), and then each frame's height
 :math:`C + A \, \mathrm{Im}\, I_{out}` is a matrix product over the K bins. Frames
 are made in aligned blocks of ``_BLOCK``: a matrix product's rounding depends on how
 many rows it has, and computing a single frame through its block makes
 :meth:`FlickerModel.frame` bit-identical to the same frame of the whole clip. With
-noise, the normalisation needs the peak over the whole loop, so the heights of all
-frames are made at once (one product, the fastest way) and kept.
+noise, the normalisation needs the whole loop (its RMS, or its peak), so the heights of
+all frames are made at once (one product, the fastest way) and kept.
+
+:func:`fluidnb.flicker._reference.flicker_reference` is the same model written out
+literally (one 3-D spectrum, one 3-D inverse DFT); the tests check this one against it.
 """
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -32,8 +37,9 @@ import numpy as np
 from .._clip import Clip
 from .._image import as_image, as_mask
 from .._progress import Progress
-from .._random import rng
+from .._random import resolve_seed, rng
 from .._validation import check_int, check_range
+from ._flow import as_velocity
 from ._params import FlickerParams
 from ._shading import _lambert_frame, _Relight, _Work, feather_weights, light_vector
 from ._spectrum import (
@@ -42,6 +48,8 @@ from ._spectrum import (
     initial_phase,
     noise_spectrum,
     phase_spectrum,
+    region_weights,
+    soft_clip,
     temporal_frequencies,
     temporal_signals,
 )
@@ -51,6 +59,8 @@ __all__ = ["FlickerModel", "base_method", "flicker", "preview"]
 _BLOCK = 16  # frames per matrix product (see the module docstring)
 _THREADS = max(1, min(4, os.cpu_count() or 1))  # threads for the per-pixel shading
 _BINS_PER_REPORT = 4  # inverse DFTs per progress report
+_KNEE = 0.7  # where the soft clip of the RMS-normalised noise starts bending (units of A)
+_RMS_SAMPLES = 1 << 16  # pixels the RMS normalisation averages over, at most
 
 
 def _check_params(params):
@@ -61,14 +71,120 @@ def _check_params(params):
     return params
 
 
-def _resolve_seed(seed):
-    """(what to draw from, what to record): a None seed is drawn so the clip can be remade."""
-    if seed is None:
-        seed = int(np.random.SeedSequence().generate_state(1)[0])
-    if isinstance(seed, np.random.Generator):
-        return seed, None
-    rng(seed)  # validates
-    return int(seed), int(seed)
+def _check_flow(flow, params):
+    """The flow mapping's velocity (full-resolution px/frame), or None for the others."""
+    velocity = as_velocity(flow, params.T)
+    if params.mapping == "flow":
+        if velocity is None:
+            raise ValueError(
+                "mapping='flow' needs flow=: a stroke (n, 2) drawn along the flow, or a "
+                "velocity (dy, dx) in pixels per frame"
+            )
+        return velocity
+    if velocity is not None:
+        raise ValueError(f"flow= is only used by mapping='flow', got mapping={params.mapping!r}")
+    return None
+
+
+def _pad_upstream(alpha, velocity, T):
+    """``alpha`` mirrored out on the upstream side(s), and the slices that crop it back.
+
+    The inverse DFT is periodic, so a pattern moving by ``velocity`` (px/frame of this
+    grid) over ``T`` frames pulls in what lies up to ``T |v|`` pixels upstream -- the
+    window's other end, with a seam. A mirrored margin at least that wide (grown to a
+    fast FFT size) keeps the seam outside the window for the whole loop.
+    """
+    from scipy.fft import next_fast_len
+
+    if velocity is None:
+        return alpha, (slice(None), slice(None))
+    pads = []
+    for n, v in zip(alpha.shape, velocity):
+        if v == 0:
+            pads.append((0, 0))
+            continue
+        extra = next_fast_len(n + math.ceil(T * abs(v)) + 2) - n
+        pads.append((extra, 0) if v > 0 else (0, extra))
+    padded = np.pad(alpha, pads, mode="symmetric")
+    crop = tuple(slice(a, a + n) for (a, _), n in zip(pads, alpha.shape))
+    return padded, crop
+
+
+def _bin_reporter(report, start, span):
+    def step(i, k):
+        if i % _BINS_PER_REPORT == 0:
+            report(start + span * i / k, f"inverse DFT, bin {i + 1} of {k}")
+
+    return step
+
+
+def _basis_symmetric(alpha, index, bins, step):
+    r"""Rows (Re B_c, Im B_c) of :math:`B_c = \mathrm{IDFT}_2(F [f_c = c])`, (2K, h w).
+
+    For the paper's mappings: :math:`f_c` is even in :math:`(f_x, f_y)`, so the two
+    real fields :math:`\cos\alpha` and :math:`\sin\alpha` keep Hermitian spectra
+    on each bin, and real FFTs of half the size give Re B_c and Im B_c directly. The
+    inverse DFT is done as its two 1-D passes: a bin is an annulus of spatial
+    frequencies, so the first pass (along y) only needs the columns the annulus
+    crosses, about half of them on average.
+    """
+    import scipy.fft
+
+    h, w = alpha.shape
+    half = scipy.fft.rfft2(np.stack([np.cos(alpha), np.sin(alpha)]), workers=-1)
+    half = half.astype(np.complex64)
+    lookup = np.zeros(int(index.max()) + 1, np.intp)
+    lookup[bins] = np.arange(len(bins))
+    inverse = lookup[index[:, : w // 2 + 1]]
+    k = len(bins)
+    basis = np.empty((2 * k, h * w), np.float32)
+    work = np.empty((2, h, w // 2 + 1), np.complex64)
+    for i in range(k):
+        step(i, k)
+        select = inverse == i
+        cols = np.flatnonzero(select.any(axis=0))
+        c0, c1 = int(cols[0]), int(cols[-1]) + 1
+        work.fill(0)
+        work[:, :, c0:c1] = scipy.fft.ifft(
+            half[:, :, c0:c1] * select[:, c0:c1], axis=-2, workers=-1
+        )
+        basis[2 * i : 2 * i + 2] = scipy.fft.irfft(work, n=w, axis=-1, workers=-1).reshape(2, h * w)
+    return basis
+
+
+def _basis_flow(padded, index, bins, crop, velocity, step):
+    r"""The same rows for the flow mapping, whose :math:`f_c` is not even.
+
+    :math:`B_c` is complex now: full complex inverse DFTs of the padded field, cropped
+    to the window. A bin is a band of spatial frequencies across the velocity, so the
+    first 1-D pass runs only over the columns (flow mostly along x) or rows (mostly
+    along y) the band crosses, and the second only over the window's lines.
+    """
+    import scipy.fft
+
+    rows, cols = crop
+    F = scipy.fft.fft2(np.exp(1j * padded), workers=-1).astype(np.complex64)
+    # Prune across the flow: transform first along the axis the bands run along.
+    along = 0 if abs(velocity[1]) >= abs(velocity[0]) else 1
+    if along == 1:  # work on the transpose, so the code below is written once
+        F, index, rows, cols = F.T, index.T, cols, rows
+    hp, wp = F.shape
+    k = len(bins)
+    out = np.empty((2 * k,) + padded[crop].shape, np.float32)
+    work = np.empty((hp, wp), np.complex64)
+    for i, c in enumerate(bins):
+        step(i, k)
+        select = index == c
+        used = np.flatnonzero(select.any(axis=0))
+        c0, c1 = int(used[0]), int(used[-1]) + 1
+        work.fill(0)
+        work[:, c0:c1] = scipy.fft.ifft(F[:, c0:c1] * select[:, c0:c1], axis=0, workers=-1)
+        B = scipy.fft.ifft(work[rows], axis=1, workers=-1)[:, cols]
+        if along == 1:
+            B = B.T
+        out[2 * i] = B.real
+        out[2 * i + 1] = B.imag
+    return out.reshape(2 * k, -1)
 
 
 def _window(mask, margin=1):
@@ -209,10 +325,14 @@ class FlickerModel:
         :math:`\alpha` over the window (Eq. (3)).
     bins : ndarray of int
         The K distinct temporal bins :math:`f_c \bmod T` in use.
+    velocity : ndarray, shape (2,), or None
+        :math:`v = (v_y, v_x)` of the flow mapping, full-resolution px/frame.
     normalisation : float
-        With noise, the peak of :math:`|\mathrm{Im}\, I_{out}|` over the region and
-        the loop, by which the field is divided so that the heights span exactly
-        :math:`[C - A, C + A]`; 1 without noise (the heights are then Eq. (5) as it
+        With noise, what :math:`I_{out}` is divided by: with ``noise_norm="rms"``
+        the factor that gives the heights the RMS of the same mapping without
+        noise (over the region and the loop; the soft clip comes after); with ``"peak"`` the peak of
+        :math:`|\mathrm{Im}\, I_{out}|`, so the heights span exactly
+        :math:`[C - A, C + A]`. 1 without noise (the heights are then Eq. (5) as it
         is, so frame 0 is the photo).
     timings : dict of str to float
         Seconds per stage of the precomputation.
@@ -225,8 +345,27 @@ class FlickerModel:
     so :math:`|I_{out}|` is no longer 1 at every pixel and, without noise, the height
     can leave :math:`[C - A, C + A]` by some tenths of A where they add up; it is not
     clipped (only its slopes are used, and clipping would flatten them into
-    plateaus). With noise the field is divided by its peak (:attr:`normalisation`),
-    which keeps every height in :math:`[C - A, C + A]`.
+    plateaus).
+
+    With noise (decision of spec 01-flicker; Eq. (10) leaves the scale open) the
+    default divides the field so that its RMS swing is that of the clip without
+    noise, and bends the few heights that pass :math:`C \pm A` back with
+    :func:`soft_clip`: :math:`H = C + A \, \sigma(\mathrm{Im}\, I_{out})`. Divided by
+    its peak instead (``noise_norm="peak"``), the loudest moment of the loop sets the
+    scale and the typical swing falls to about a third of the noise-free one.
+
+    The random phase :math:`\phi(f_t)` of Eq. (10) is shared by every spatial
+    frequency, so the noise speeds up and slows down the whole region at once; the
+    paper names this as its open problem (Yamamoto & Sakamoto, sec. 5).
+    ``noise_regions = n > 1`` (beyond the paper) gives each of ``n`` soft regions
+    (:func:`region_weights`) its own phases and blends the heights with weights
+    :math:`w_g / \sqrt{\sum_g w_g^2}`, which keeps the RMS of the independent parts.
+
+    The flow mapping's pattern moves round the periodic DFT domain; the window is
+    mirrored out upstream by at least the distance travelled in one loop, so the
+    seam never comes into view. A structure can only travel and still loop if it
+    moves a whole number of its wavelengths per loop: structures larger than
+    :math:`T |v|` pixels stay in place and only oscillate.
 
     Examples
     --------
@@ -238,12 +377,13 @@ class FlickerModel:
     True
     """
 
-    def __init__(self, image, mask=None, params=None, *, seed=None, pixel_size=1.0, progress=None):
-        import scipy.fft  # imported here so that `import fluidnb.flicker` stays quick
-
+    def __init__(
+        self, image, mask=None, params=None, *, flow=None, seed=None, pixel_size=1.0, progress=None
+    ):
         report = Progress(progress)
         params = _check_params(params)
-        draw, self.seed = _resolve_seed(seed)
+        self.velocity = _check_flow(flow, params)
+        self.seed = resolve_seed(seed)
         self.params = params
         self.timings = {}
         clock = time.perf_counter()
@@ -253,49 +393,46 @@ class FlickerModel:
         self._scene = scene
         self.window = scene.window
         self.alpha = scene.alpha
+        # The flow mapping moves the pattern, and the DFT wraps it round the window: pad
+        # the upstream side so the seam never travels into view within one loop.
+        v = None if self.velocity is None else self.velocity / scene.pixel_size
+        self._analysed, self._crop = _pad_upstream(self.alpha, v, params.T)
         now = time.perf_counter()
         self.timings["analyse"], clock = now - clock, now
 
-        # Eq. (4) in real-FFT form: e^{j alpha} = cos(alpha) + j sin(alpha), two real
-        # fields whose half spectra restricted to a bin stay Hermitian.
         report(0.1, "spectrum")
-        h, w = self.alpha.shape
-        half = scipy.fft.rfft2(np.stack([np.cos(self.alpha), np.sin(self.alpha)]), workers=-1)
-        fc = temporal_frequencies((h, w), params, pixel_size=scene.pixel_size)[:, : w // 2 + 1]
+        fc = temporal_frequencies(
+            self._analysed.shape, params, pixel_size=scene.pixel_size, velocity=self.velocity
+        )
         index = np.mod(fc, params.T)
-        # The distinct bins in use, and each coefficient's position among them.
+        # The distinct bins in use.
         self.bins = np.flatnonzero(np.bincount(index.ravel(), minlength=params.T))
-        lookup = np.zeros(params.T, np.intp)
-        lookup[self.bins] = np.arange(len(self.bins))
-        inverse = lookup[index]
-        spectrum = noise_spectrum(params.T, params.beta, seed=draw)
-        # g_c(t) for the bins in use: (K, T) complex.
-        self._signals = temporal_signals(spectrum[self.bins])
+        # g_c(t) for the bins in use, (K, T) complex: one set per noise region (one, as
+        # in Eq. (10), unless noise_regions > 1).
+        draw = rng(self.seed)
+        regions = params.noise_regions if params.beta > 0 else 1
+        self._region_signals = [
+            temporal_signals(noise_spectrum(params.T, params.beta, seed=draw)[self.bins])
+            for _ in range(regions)
+        ]
+        self._signals = self._region_signals[0]
+        self._blend = None
+        if regions > 1:
+            # Independent processes blended with weights w_g keep their RMS when divided
+            # by sqrt(sum w_g^2).
+            w = region_weights(self.alpha.shape, regions, seed=draw)
+            w /= np.sqrt(np.sum(w**2, axis=0))
+            self._blend = w.reshape(regions, -1).astype(np.float32)
         now = time.perf_counter()
         self.timings["spectrum"], clock = now - clock, now
 
-        # B_c = IDFT2(F [f_c = c]) for each bin, stored as rows (Re B_c, Im B_c). The
-        # inverse DFT is done as its two 1-D passes: a bin is an annulus of spatial
-        # frequencies, so the first pass (along y) only needs the columns the annulus
-        # crosses, about half of them on average.
-        k = len(self.bins)
-        basis = np.empty((2 * k, h * w), np.float32)
-        half = half.astype(np.complex64)
-        work = np.empty((2, h, w // 2 + 1), np.complex64)
-        for i in range(k):
-            if i % _BINS_PER_REPORT == 0:
-                report(0.15 + 0.6 * i / k, f"inverse DFT, bin {i + 1} of {k}")
-            select = inverse == i
-            cols = np.flatnonzero(select.any(axis=0))
-            c0, c1 = int(cols[0]), int(cols[-1]) + 1
-            work.fill(0)
-            work[:, :, c0:c1] = scipy.fft.ifft(
-                half[:, :, c0:c1] * select[:, c0:c1], axis=-2, workers=-1
+        progress_bins = _bin_reporter(report, 0.15, 0.6)
+        if v is None:
+            self._basis = _basis_symmetric(self.alpha, index, self.bins, progress_bins)
+        else:
+            self._basis = _basis_flow(
+                self._analysed, index, self.bins, self._crop, v, progress_bins
             )
-            basis[2 * i : 2 * i + 2] = scipy.fft.irfft(work, n=w, axis=-1, workers=-1).reshape(
-                2, h * w
-            )
-        self._basis = basis
         now = time.perf_counter()
         self.timings["synthesis"], clock = now - clock, now
 
@@ -306,30 +443,64 @@ class FlickerModel:
         # Im(B g) = Re B Im g + Im B Re g, with A folded in.
         self._coefficients = self._make_coefficients(params.A)
         if params.beta > 0:
-            # The random phases can add up anywhere in the loop, so the peak needs every
+            # The random phases can add up anywhere in the loop, so the scale needs every
             # frame: one product for all of them (the fastest way to make them), kept,
             # so the frames are not computed twice.
             report(0.8, "noise normalisation")
             table = self._coefficients @ self._basis  # (T, h * w): A Im I_out
-            inside = scene.mask[self.window].ravel()
-            if inside.all():
-                peak = max(float(table.max()), -float(table.min()))
+            if self._blend is not None:
+                table *= self._blend[0]
+                for signals, weight in zip(self._region_signals[1:], self._blend[1:]):
+                    part = self._make_coefficients(params.A, signals) @ self._basis
+                    part *= weight
+                    table += part
+            inside = np.flatnonzero(scene.mask[self.window].ravel())
+            if params.noise_norm == "peak":
+                part = table if len(inside) == table.shape[1] else table[:, inside]
+                peak = max(float(part.max()), -float(part.min())) if part.size else 0.0
+                self.normalisation = peak / params.A if peak > 0 else 1.0
+                table *= np.float32(1.0 / self.normalisation)
             else:
-                peak = np.maximum(table.max(axis=0), -table.min(axis=0))
-                peak = float(peak[inside].max())
-            self.normalisation = peak / params.A if peak > 0 else 1.0
+                self.normalisation = self._rms_ratio(table, inside)
+                # Heights relative to C in units of A, then bent smoothly into (-1, 1).
+                # (As a ratio of RMS the normalisation is in units of A already.)
+                scale, A = np.float32(1.0 / (params.A * self.normalisation)), np.float32(params.A)
+                for row in table:  # a frame at a time: its passes stay in the cache
+                    row *= scale
+                    soft_clip(row, _KNEE, out=row)
+                    row *= A
             self._table = table
-        # Heights relative to C are ``rows * height_scale``; the shading kernel's input
-        # (pre-scaled slopes) is ``rows * slope_scale``, or, without a table, a product
-        # with coefficients that have it folded in.
-        self._height_scale = np.float32(1.0 / self.normalisation)
-        self._slope_scale = np.float32(scene.slope_scale / self.normalisation)
+        # The shading kernel's input (pre-scaled slopes) is ``table * slope_scale``, or,
+        # without a table, a product with coefficients that have it folded in.
+        self._slope_scale = np.float32(scene.slope_scale)
         self._slope_coefficients = self._make_coefficients(params.A * scene.slope_scale)
         self.timings["normalise"] = time.perf_counter() - clock
         report(1.0, "ready")
 
+    def _rms_ratio(self, table, inside):
+        """RMS of the noisy heights over that of the same mapping without noise.
+
+        Both over the whole loop and the region: every pixel of it up to
+        ``_RMS_SAMPLES`` values, else an even sample (a ratio of averages needs no
+        more).
+        """
+        T = self.params.T
+        step = max(1, -(-len(inside) * T // _RMS_SAMPLES))
+        inside = inside[::step]
+        if not len(inside):
+            return 1.0
+        # Without noise each bin is a pure turn, g_c(t) = e^{j 2 pi c t / T}.
+        turns = np.mod(np.outer(self.bins, np.arange(T)), T)
+        quiet_signals = np.exp(2j * np.pi * turns / T)
+        quiet = self._make_coefficients(self.params.A, quiet_signals) @ self._basis[:, inside]
+        target = float(np.sqrt(np.mean(np.square(quiet, dtype=np.float64))))
+        actual = float(np.sqrt(np.mean(np.square(table[:, inside], dtype=np.float64))))
+        return actual / target if target > 0 and actual > 0 else 1.0
+
     @classmethod
-    def reduced(cls, image, mask=None, params=None, *, size=128, seed=None, progress=None):
+    def reduced(
+        cls, image, mask=None, params=None, *, flow=None, size=128, seed=None, progress=None
+    ):
         """A model of a reduced copy of the photo that behaves like the full-size one.
 
         The photo and the region are resized so that the longest side is ``size``
@@ -364,7 +535,7 @@ class FlickerModel:
         region = None if mask is None else as_mask(mask, (h, w), name="mask")
         scale = max(h, w) / size
         if scale <= 1:
-            return cls(img, region, params, seed=seed, progress=progress)
+            return cls(img, region, params, flow=flow, seed=seed, progress=progress)
         shape = (max(1, round(h / scale)), max(1, round(w / scale)))
         small = np.clip(resize(img, shape), 0.0, 1.0)
         small_mask = None
@@ -373,15 +544,24 @@ class FlickerModel:
             # A reduced pixel moves when most of it is painted; a tiny region still shows.
             small_mask = cover > 0.5 if (cover > 0.5).any() else cover > 0
         pixel_size = max(h / shape[0], w / shape[1])
-        return cls(small, small_mask, params, seed=seed, pixel_size=pixel_size, progress=progress)
+        # A stroke is in full-resolution pixels, and so is the velocity the model takes.
+        return cls(
+            small,
+            small_mask,
+            params,
+            flow=flow,
+            seed=seed,
+            pixel_size=pixel_size,
+            progress=progress,
+        )
 
     # ------------------------------------------------------------------ internals
     @property
     def _n_blocks(self):
         return -(-self.params.T // _BLOCK)
 
-    def _make_coefficients(self, factor):
-        g = self._signals.T * factor  # (T, K) complex128
+    def _make_coefficients(self, factor, signals=None):
+        g = (self._signals if signals is None else signals).T * factor  # (T, K) complex
         coef = np.empty((g.shape[0], 2 * g.shape[1]), np.float32)
         coef[:, 0::2] = g.imag
         coef[:, 1::2] = g.real
@@ -401,8 +581,9 @@ class FlickerModel:
         """Frame ``t`` (any integer: period T), (h, w): heights relative to C or slopes."""
         t = int(t) % self.params.T
         if self._table is not None:
-            scale = self._height_scale if which == "height" else self._slope_scale
-            return (self._table[t] * scale).reshape(self.alpha.shape)
+            if which == "height":
+                return self._table[t].reshape(self.alpha.shape).copy()
+            return (self._table[t] * self._slope_scale).reshape(self.alpha.shape)
         b = t // _BLOCK
         key = (which, b)
         if key not in self._cache:
@@ -446,14 +627,21 @@ class FlickerModel:
 
     @property
     def spectrum(self):
-        """:math:`F(f_x, f_y)` of Eq. (4) over the window, complex128, fft2 order."""
-        return phase_spectrum(self.alpha)
+        """:math:`F(f_x, f_y)` of Eq. (4) over the window, complex128, fft2 order.
+
+        For the flow mapping, of the window with its mirrored upstream margin; crop an
+        inverse transform with ``_crop`` to get back to the window.
+        """
+        return phase_spectrum(self._analysed)
 
     @property
     def frequencies(self):
         """:math:`f_c` of every spatial frequency of the window (Eq. (7)-(9)), int, fft2 order."""
         return temporal_frequencies(
-            self.alpha.shape, self.params, pixel_size=self._scene.pixel_size
+            self._analysed.shape,
+            self.params,
+            pixel_size=self._scene.pixel_size,
+            velocity=self.velocity,
         )
 
     def height(self, t):
@@ -491,12 +679,19 @@ class FlickerModel:
         Returns
         -------
         ndarray, shape (h, w), complex128
-            ``height(t)[window] == C + A * field(t).imag`` up to float32 rounding.
+            ``height(t)[window] == C + A * field(t).imag`` up to float32 rounding
+            (with ``noise_norm="rms"``, of ``C + A * soft_clip(field(t).imag)``).
         """
         t = self._check_t(t) % self.params.T
-        g = self._signals[:, t] / self.normalisation
         re, im = self._basis[0::2].astype(np.float64), self._basis[1::2].astype(np.float64)
-        return ((g @ re) + 1j * (g @ im)).reshape(self.alpha.shape)
+        # Rows are (Re B_c, Im B_c) for the flow mapping and (IDFT(cos part), IDFT(sin
+        # part)) for the others: either way B_c = rows[0] + j rows[1].
+        field = 0
+        for k, signals in enumerate(self._region_signals):
+            g = signals[:, t] / self.normalisation
+            part = (g @ re) + 1j * (g @ im)
+            field = field + (part if self._blend is None else self._blend[k] * part)
+        return field.reshape(self.alpha.shape)
 
     def frame(self, t):
         """Frame ``t`` of the clip, computed alone (bit-identical to ``frames()[t]``).
@@ -549,11 +744,12 @@ class FlickerModel:
             timings=timings,
             bins=len(self.bins),
             normalisation=self.normalisation,
+            velocity=None if self.velocity is None else self.velocity.tolist(),
             pixel_size=self._scene.pixel_size,
         )
 
 
-def flicker(image, mask=None, params=None, *, seed=None, progress=None):
+def flicker(image, mask=None, params=None, *, flow=None, seed=None, progress=None):
     r"""Animate a photo with flicker ("yuragi") from its spatio-temporal spectrum.
 
     The method of Yamamoto & Sakamoto [1]_: the luminance is a pseudo-height whose
@@ -618,11 +814,11 @@ def flicker(image, mask=None, params=None, *, seed=None, progress=None):
     (0, ['analyse', 'normalise', 'render', 'spectrum', 'synthesis'])
     """
     first, second = Progress(progress).split(0.4)
-    model = FlickerModel(image, mask, params, seed=seed, progress=first)
+    model = FlickerModel(image, mask, params, flow=flow, seed=seed, progress=first)
     return model.clip(progress=second)
 
 
-def preview(image, mask=None, params=None, *, size=128, seed=None, progress=None):
+def preview(image, mask=None, params=None, *, flow=None, size=128, seed=None, progress=None):
     """A reduced-size flicker clip that looks like the full one, fast enough to follow a slider.
 
     The photo and the region are resized so the longest side is ``size`` pixels;
@@ -655,7 +851,9 @@ def preview(image, mask=None, params=None, *, size=128, seed=None, progress=None
     (50, 64)
     """
     first, second = Progress(progress).split(0.4)
-    model = FlickerModel.reduced(image, mask, params, size=size, seed=seed, progress=first)
+    model = FlickerModel.reduced(
+        image, mask, params, flow=flow, size=size, seed=seed, progress=first
+    )
     return model.clip(progress=second)
 
 

@@ -6,10 +6,14 @@ from dataclasses import dataclass
 
 from .._params import Params, param
 
-__all__ = ["MAPPINGS", "FlickerParams"]
+__all__ = ["MAPPINGS", "NOISE_NORMS", "FlickerParams"]
 
-#: The mapping surfaces of Sec. 3.2: Eq. (7) plane, Eq. (8) convex, Eq. (9) concave.
-MAPPINGS = ("plane", "convex", "concave")
+#: The mapping surfaces: the paper's Eq. (7) plane, Eq. (8) convex, Eq. (9) concave
+#: (Yamamoto & Sakamoto, sec. 3.2), and "flow", a plane tilted by a velocity (beyond
+#: the paper: ripples carried one way, for streams).
+MAPPINGS = ("plane", "convex", "concave", "flow")
+#: How the noisy field is brought to the height's range (Eq. (10) leaves it open).
+NOISE_NORMS = ("rms", "peak")
 #: Which half of the sine each pixel starts on (Eq. (3) and the text after it).
 BRANCHES = ("rising", "falling")
 
@@ -33,7 +37,10 @@ class FlickerParams(Params):
         :math:`f_c = f_0` (Eq. (7): the simple harmonic motion of Eq. (1)),
         ``"convex"`` :math:`f_c = f_0 + \kappa' (\nu_x^2 + \nu_y^2)` (Eq. (8): fine
         detail moves faster), ``"concave"`` :math:`f_c = f_0 - \kappa' (\nu_x^2 +
-        \nu_y^2)` (Eq. (9): fine detail moves slower, the paper's unnatural case).
+        \nu_y^2)` (Eq. (9): fine detail moves slower, the paper's unnatural case),
+        ``"flow"`` :math:`f_c = f_0 - T \, (v \cdot \nu)` (beyond the paper: every
+        spatial frequency travels along the velocity :math:`v` given to
+        :func:`~fluidnb.flicker.flicker` as ``flow=``; :math:`v = 0` is the plane).
     T : int
         :math:`T`, the number of frames, which is also the period of the loop
         (Eq. (5)); >= 2.
@@ -52,6 +59,21 @@ class FlickerParams(Params):
         :math:`\beta`, the noise exponent: the power at :math:`\Delta f` bins from
         :math:`f_c` is :math:`1/\Delta f^\beta` (Eq. (10), the paper's
         :math:`\beta = 2`). 0 switches the noise off.
+    noise_norm : {"rms", "peak"}
+        How the noisy field is scaled to the height's range. ``"rms"`` (default, our
+        decision): the same RMS height swing as the clip without noise, then a soft
+        clip into :math:`[C - A, C + A]` (which takes a fifth to a quarter off the
+        loudest frames). ``"peak"``: divided by its peak over the
+        loop (Eq. (10) taken literally): every height stays in range, but the few
+        frames where the random phases add up set the scale, so the typical swing
+        is about half the noise-free one.
+    noise_regions : int
+        Beyond the paper. Eq. (10)'s random phase :math:`\phi(f_t)` is shared by every
+        spatial frequency, so the noise swells and calms the whole region at once (the
+        paper names this its open problem, sec. 5, and suggests flickering regions
+        differently). With ``n > 1`` the region is split into ``n`` soft regions
+        (a smooth partition of unity around random centres), each with its own
+        :math:`\phi`; 1 (default) is Eq. (10) as written.
     A : float
         :math:`A`, the amplitude of the height's oscillation (Eq. (1), (3)), on the
         [0, 1] scale (the paper's 128 of 255).
@@ -125,6 +147,21 @@ class FlickerParams(Params):
         doc="noise exponent, power 1/df^beta around fc; 0 = no noise",
         step=0.1,
         ui_range=(0, 4),
+    )
+    noise_norm: str = param(
+        "rms",
+        choices=NOISE_NORMS,
+        eq="Eq. (10)",
+        doc="scale the noisy field to the no-noise RMS swing (soft clip) or to its peak",
+    )
+    noise_regions: int = param(
+        1,
+        lo=1,
+        hi=16,
+        integer=True,
+        eq="Eq. (10)",
+        doc="beyond the paper: independent noise in this many soft regions; 1 = Eq. (10)",
+        ui_range=(1, 9),
     )
     A: float = param(
         _HALF,

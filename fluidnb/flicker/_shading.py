@@ -1,4 +1,4 @@
-r"""Bump mapping, Lambert shading and relighting of the photo (Sec. 2.1, method [4]).
+r"""Bump mapping, Lambert shading, relighting (Yamamoto & Sakamoto, 2012, sec. 2.1, method [4]).
 
 The height :math:`H` is a pseudo-relief (its slopes matter, not its values): each
 frame's normals come from the height's gradient (bump mapping [6]), a parallel light

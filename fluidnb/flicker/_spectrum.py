@@ -1,4 +1,4 @@
-r"""The steps of the spatio-temporal frequency method (Sec. 2.1 and 3 of the paper).
+r"""The steps of the spatio-temporal frequency method (Yamamoto & Sakamoto, 2012, sec. 2.1 and 3).
 
 Each function is one step, with the paper's equation number, so that a notebook can
 run and plot them one at a time; :class:`~fluidnb.flicker.FlickerModel` chains the
@@ -21,11 +21,14 @@ from .._validation import check_array, check_choice, check_int, check_range
 from ._params import BRANCHES, FlickerParams
 
 __all__ = [
+    "check_velocity",
     "harmonic_height",
     "height_from_luminance",
     "initial_phase",
     "noise_spectrum",
     "phase_spectrum",
+    "region_weights",
+    "soft_clip",
     "temporal_frequencies",
     "temporal_signals",
 ]
@@ -181,15 +184,25 @@ def _frequency_grid(shape, pixel_size):
     return ny[:, None], nx[None, :]
 
 
-def temporal_frequencies(shape, params=None, *, pixel_size=1.0, rounded=True):
+def temporal_frequencies(shape, params=None, *, pixel_size=1.0, rounded=True, velocity=None):
     r"""Map every spatial frequency to a temporal frequency :math:`f_c`, Eq. (6)-(9).
 
     The mapping keeps :math:`f_x, f_y` and sets :math:`f_t` on one of three surfaces,
-    all symmetric about the :math:`f_t` axis (Sec. 3.2):
+    all symmetric about the :math:`f_t` axis (Yamamoto & Sakamoto, sec. 3.2):
 
     * plane, Eq. (7): :math:`f_c = f_0`
     * convex, Eq. (8): :math:`f_c = f_0 + \kappa' (\nu_x^2 + \nu_y^2)`
     * concave, Eq. (9): :math:`f_c = f_0 - \kappa' (\nu_x^2 + \nu_y^2)`
+
+    or, beyond the paper, on a plane tilted by a velocity :math:`v` (px/frame):
+
+    * flow: :math:`f_c = f_0 - T \, (v_y \nu_y + v_x \nu_x)`
+
+    A component :math:`e^{j 2\pi (\nu \cdot x + f_c t / T)}` with this :math:`f_c`
+    is :math:`e^{j 2\pi f_0 t / T} e^{j 2\pi \nu \cdot (x - v t)}`: the whole
+    pattern moves by :math:`v` per frame while it oscillates at :math:`f_0` (the
+    minus sign is what makes it move *along* :math:`v` with the inverse DFT's
+    :math:`e^{+j \ldots}`). Rounded to whole bins, the loop still closes.
 
     with :math:`\nu` in cycles per pixel of the full-resolution image and the
     curvature :math:`\kappa' = \kappa (\lceil T/2 \rceil - 1 - f_0) / (1/2)`, so that
@@ -212,6 +225,9 @@ def temporal_frequencies(shape, params=None, *, pixel_size=1.0, rounded=True):
         Round to whole bins (what the method uses: an integer number of
         oscillations per loop makes the clip loop seamlessly with period ``T``).
         ``False`` returns the continuous surface, for plots.
+    velocity : array_like, shape (2,), optional
+        :math:`v = (v_y, v_x)` in full-resolution pixels per frame, ``dy > 0`` down
+        the image; needed by (and only used by) the flow mapping.
 
     Returns
     -------
@@ -236,6 +252,12 @@ def temporal_frequencies(shape, params=None, *, pixel_size=1.0, rounded=True):
     pixel_size = check_range("pixel_size", pixel_size, 0, lo_open=True)
     if params.mapping == "plane":
         fc = np.full((h, w), float(params.f0))
+    elif params.mapping == "flow":
+        if velocity is None:
+            raise ValueError("the flow mapping needs velocity=(dy, dx) in pixels per frame")
+        vy, vx = check_velocity(velocity)
+        ny, nx = _frequency_grid((h, w), pixel_size)
+        fc = params.f0 - params.T * (vy * ny + vx * nx)
     else:
         ny, nx = _frequency_grid((h, w), pixel_size)
         top = math.ceil(params.T / 2) - 1  # the highest bin strictly below T/2
@@ -246,6 +268,31 @@ def temporal_frequencies(shape, params=None, *, pixel_size=1.0, rounded=True):
         # rint rounds halves to even: symmetric, unlike rounding half away from zero.
         return np.rint(fc).astype(np.int64)
     return fc
+
+
+#: The fastest flow accepted, in pixels per frame: beyond about 1 px/frame the finest
+#: detail already wraps round the temporal circle (it aliases and seems to run back).
+MAX_SPEED = 4.0
+
+
+def check_velocity(velocity, name="velocity"):
+    """A flow velocity ``(dy, dx)`` in pixels per frame, checked: finite, ``|v| <= 4``.
+
+    Examples
+    --------
+    >>> check_velocity([0, 0.5]).tolist()
+    [0.0, 0.5]
+    """
+    v = check_array(name, velocity, ndim=1, dtype_kinds="iuf").astype(np.float64)
+    if v.shape != (2,):
+        raise ValueError(f"{name} must be (dy, dx) in pixels per frame, got shape {v.shape}")
+    speed = float(np.hypot(*v))
+    if speed > MAX_SPEED:
+        raise ValueError(
+            f"{name} must be at most {MAX_SPEED:g} pixels per frame, got {speed:.3g} "
+            "(draw a shorter stroke: its length is the distance travelled in one loop)"
+        )
+    return v
 
 
 def noise_spectrum(T, beta, *, seed=None):
@@ -338,3 +385,107 @@ def temporal_signals(spectrum, times=None):
     # and the unsigned bins give identical angles.
     angle = 2 * np.pi * np.mod(np.outer(ft, t), T) / T
     return U @ np.exp(1j * angle)
+
+
+def region_weights(shape, n, *, seed=None):
+    r"""A smooth partition of the image into ``n`` soft regions (beyond the paper).
+
+    Each region :math:`g` has a random centre :math:`c_g` (spread out: best of 10
+    candidates, Mitchell 1991); its weight is a Gaussian
+    of the distance, normalised so the weights add up to 1 at every pixel:
+    :math:`w_g(x) \propto \exp(-|x - c_g|^2 / 2\sigma^2)`, with :math:`\sigma` such
+    that each region covers about ``1/n`` of the image. Positions are fractions of the
+    image, so a reduced preview gets the same regions.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        (H, W).
+    n : int
+        Number of regions, >= 1 (1 gives a single weight of 1 everywhere).
+    seed : None, int or numpy.random.Generator
+        For the centres.
+
+    Returns
+    -------
+    ndarray, shape (n, H, W), float64
+        Weights in [0, 1] that sum to 1 over the first axis.
+
+    Examples
+    --------
+    >>> w = region_weights((20, 30), 3, seed=0)
+    >>> w.shape, bool(np.allclose(w.sum(axis=0), 1))
+    ((3, 20, 30), True)
+    """
+    h = check_int("shape[0]", shape[0], 1)
+    w = check_int("shape[1]", shape[1], 1)
+    n = check_int("n", n, 1)
+    aspect = w / h  # distances in units of the image height
+    # Spread the centres out (Mitchell's best candidate): each new one is the farthest
+    # of 10 random candidates from those already placed, so no two regions crowd.
+    gen = rng(seed)
+    centres = gen.random((1, 2))
+    for _ in range(n - 1):
+        cand = gen.random((10, 2))
+        gap = (
+            (cand[:, None, 0] - centres[None, :, 0]) ** 2
+            + (aspect * (cand[:, None, 1] - centres[None, :, 1])) ** 2
+        ).min(axis=1)
+        centres = np.vstack([centres, cand[np.argmax(gap)]])
+    y = (np.arange(h) + 0.5)[:, None] / h
+    x = (np.arange(w) + 0.5)[None, :] / w
+    sigma = 0.6 / math.sqrt(math.pi * n) * math.sqrt(aspect)
+    d2 = (y[None] - centres[:, 0, None, None]) ** 2 + (
+        aspect * (x[None] - centres[:, 1, None, None])
+    ) ** 2
+    logw = -d2 / (2 * sigma**2)
+    logw -= logw.max(axis=0)  # softmax, safe far from every centre
+    weights = np.exp(logw)
+    return weights / weights.sum(axis=0)
+
+
+def soft_clip(u, knee=0.7, *, out=None):
+    r"""Squash values into (-1, 1): identity for :math:`|u| \le k` (the ``knee``), then bent.
+
+    .. math:: \sigma(u) = \mathrm{sign}(u) \Big(k + (1 - k) \frac{r}{1 + r}\Big),
+              \qquad r = \frac{|u| - k}{1 - k} \quad (|u| > k)
+
+    The slope is 1 on both sides of the knee and :math:`\sigma \to \pm 1` far out, so a
+    height pushed past :math:`C \pm A` by the noise is bent smoothly back instead of
+    cut into a plateau (a plateau has no slope, and the shading would go flat there).
+    (:math:`r / (1 + r)` rather than :math:`\tanh r`: the same shape near the knee,
+    and several times cheaper on a whole clip.)
+
+    Parameters
+    ----------
+    u : array_like
+        Heights relative to :math:`C`, in units of :math:`A`.
+    knee : float
+        :math:`k` in [0, 1): where the bending starts.
+    out : ndarray, optional
+        Where to write the result (may be ``u`` itself, float32 or float64).
+
+    Returns
+    -------
+    ndarray, float32 for float32 input, else float64
+
+    Examples
+    --------
+    >>> np.round(soft_clip(np.array([0.2, 0.7, 1.0, 9.0, -9.0])), 3).tolist()
+    [0.2, 0.7, 0.85, 0.99, -0.99]
+    """
+    knee = check_range("knee", knee, 0, 1, hi_open=True)
+    u = np.asarray(u)
+    if u.dtype != np.float32:
+        u = u.astype(np.float64)
+    k = u.dtype.type(knee)
+    inner = np.clip(u, -k, k)
+    r = np.subtract(u, inner, out=out)  # the signed excess over the knee
+    r /= 1 - k
+    # r / (1 + |r|): keeps the sign, tends to +-1
+    den = np.abs(r)
+    den += 1
+    r /= den
+    r *= 1 - k
+    r += inner
+    return r

@@ -110,4 +110,23 @@ def test_help_lists_every_parameter(capsys):
         main(["flicker", "--help"])
     text = capsys.readouterr().out
     for name in FlickerParams.specs():
-        assert f"--{name}" in text
+        assert "--" + name.replace("_", "-") in text
+    assert "--flow" in text
+
+
+def test_flow_from_a_velocity_or_a_strokes_file(files, capsys):
+    from fluidnb.sketch import save_strokes
+
+    out = files / "flow.npz"
+    args = ["flicker", str(files / "photo.png"), "--T", "16", "--f0", "2", "--seed", "0"]
+    assert main([*args, "--flow", "0,0.5", "-o", str(out)]) == 0
+    clip = Clip.load(out)
+    assert clip.metadata["params"]["mapping"] == "flow"  # --flow alone picks the mapping
+    assert clip.metadata["velocity"] == [0.0, 0.5]
+    save_strokes(files / "s.json", [np.array([[20.0, 30.0], [20.0, 22.0]])], (40, 40))
+    assert main([*args, "--mapping", "flow", "--flow", str(files / "s.json"), "-o", str(out)]) == 0
+    assert Clip.load(out).metadata["velocity"] == [0.0, -0.5]
+    assert main([*args, "--flow", "left", "-o", str(out)]) == 2
+    assert "--flow must be DY,DX" in capsys.readouterr().err
+    assert main([*args, "--mapping", "flow", "-o", str(out)]) == 2
+    assert "needs flow=" in capsys.readouterr().err

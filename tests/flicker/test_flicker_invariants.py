@@ -15,7 +15,8 @@ from fluidnb.flicker import (
     temporal_frequencies,
 )
 
-MAPPINGS = ("plane", "convex", "concave")
+MAPPINGS = ("plane", "convex", "concave", "flow")
+SYMMETRIC = ("plane", "convex", "concave")
 
 
 def photo(shape=(24, 40, 3), seed=0):
@@ -65,9 +66,10 @@ def test_plane_without_noise_gives_the_base_methods_frames():
 def test_without_noise_frame0_is_the_input(mapping, branch, shape):
     img = photo(shape)
     p = FlickerParams(mapping=mapping, beta=0, T=16, branch=branch, bump=8.0, k=2.0)
-    model = FlickerModel(img, params=p)
+    flow = (0.5, 0.25) if mapping == "flow" else None
+    model = FlickerModel(img, params=p, flow=flow)
     np.testing.assert_allclose(model.height(0), height_from_luminance(img), rtol=0, atol=1e-6)
-    clip = flicker(img, params=p)
+    clip = flicker(img, params=p, flow=flow)
     np.testing.assert_allclose(clip.frames[0], img, rtol=0, atol=1e-5)
     assert np.abs(clip.frames[5] - img).max() > 0.01
 
@@ -80,10 +82,16 @@ def test_the_clip_has_period_T_and_its_end_flows_into_its_start(mapping):
     img = photo()
     T = 16
     p = FlickerParams(mapping=mapping, beta=0, T=T)
-    model = FlickerModel(img, params=p)
+    flow = (0.3, -0.2) if mapping == "flow" else None
+    model = FlickerModel(img, params=p, flow=flow)
+    # Eq. (5) summed directly at a time past the loop, t + T (no index wrapped): each
+    # spatial frequency turns f_c times per loop, so it is frame t again -- only
+    # because f_c is a whole number of bins.
+    F, fc = model.spectrum, model.frequencies
+    crop = model._crop
     for t in (0, 3, 15):
-        assert np.array_equal(model.frame(t + T), model.frame(t))
-        assert np.array_equal(model.frame(t - 2 * T), model.frame(t))
+        later = np.fft.ifft2(F * np.exp(2j * np.pi * fc * (t + T) / T))[crop]
+        np.testing.assert_allclose(later, model.field(t), rtol=0, atol=1e-5)
     H = heights(model)
     steps = np.abs(np.diff(H, axis=0)).max(axis=(1, 2))
     wrap = np.abs(H[0] - H[-1]).max()
@@ -174,15 +182,67 @@ def test_noise_power_falls_as_distance_to_the_minus_beta(beta):
     assert checked > 20
 
 
-@pytest.mark.parametrize("mapping", MAPPINGS)
-def test_with_noise_the_heights_span_exactly_c_minus_a_to_c_plus_a(mapping):
+@pytest.mark.parametrize("mapping", SYMMETRIC)
+def test_peak_normalised_noise_spans_exactly_c_minus_a_to_c_plus_a(mapping):
     img = photo()
-    p = FlickerParams(mapping=mapping, T=16, A=0.4, C=0.55)
+    p = FlickerParams(mapping=mapping, T=16, A=0.4, C=0.55, noise_norm="peak")
     model = FlickerModel(img, params=p, seed=2)
     H = heights(model)
     assert H.min() >= p.C - p.A - 1e-6
     assert H.max() <= p.C + p.A + 1e-6
     assert max(p.C - H.min(), H.max() - p.C) == pytest.approx(p.A, abs=1e-5)
+
+
+def swing(H, C):
+    """RMS of the height about C in each frame, over the region: (T,)."""
+    return np.sqrt(np.mean((H - C) ** 2, axis=(1, 2)))
+
+
+@pytest.mark.parametrize("mapping", SYMMETRIC)
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_rms_normalised_noise_keeps_the_swing_of_the_clip_without_noise(mapping, seed):
+    # The decision of spec 01-flicker (Eq. (10)): the noise changes the rhythm, not the
+    # size of the swing. Divided by its peak (Eq. (10) literally) the swing halves.
+    img = photo((32, 48))
+    p = FlickerParams(mapping=mapping, T=64, A=0.4, C=0.5)
+    quiet = swing(heights(FlickerModel(img, params=p.replace(beta=0))), p.C)
+    target = np.sqrt(np.mean(quiet**2))
+    model = FlickerModel(img, params=p, seed=seed)
+    rms = swing(heights(model), p.C)
+    peak = swing(heights(FlickerModel(img, params=p.replace(noise_norm="peak"), seed=seed)), p.C)
+    # Over the loop: the scaled field has the RMS of the clip without noise (measured on
+    # a sample of the pixels)...
+    field = np.stack([model.field(t).imag for t in range(p.T)])
+    assert np.sqrt(np.mean((p.A * field) ** 2)) == pytest.approx(target, rel=0.02)
+    # ...and the soft clip takes a little off the loudest frames only.
+    assert 0.7 * target <= np.sqrt(np.mean(rms**2)) < target
+    assert np.sqrt(np.mean(peak**2)) < 0.6 * target
+    # Frame by frame: the typical frame swings nearly as much as without noise...
+    assert np.median(rms) >= 0.65 * np.median(quiet)
+    assert np.median(rms) >= 1.4 * np.median(peak)
+
+    # ...and the swing is steadier over the loop: the soft clip tames the swells where
+    # the random phases add up, which the peak scaling lets set the scale.
+    def unsteadiness(s):
+        return s.std() / s.mean()
+
+    assert unsteadiness(rms) < 0.85 * unsteadiness(peak)
+    assert rms.min() / rms.max() > 1.3 * peak.min() / peak.max()
+
+
+@pytest.mark.parametrize("mapping", SYMMETRIC)
+def test_rms_normalised_heights_stay_inside_c_minus_a_to_c_plus_a(mapping):
+    img = photo()
+    p = FlickerParams(mapping=mapping, T=16, A=0.4, C=0.55)
+    model = FlickerModel(img, params=p, seed=2)
+    H = heights(model)
+    assert H.min() > p.C - p.A
+    assert H.max() < p.C + p.A
+    # the soft clip is the identity inside its knee: most heights are Eq. (5) as it is
+    f = np.stack([model.field(t).imag for t in range(p.T)])
+    inner = np.abs(f) <= 0.7
+    assert inner.mean() > 0.5
+    np.testing.assert_allclose((H - p.C)[inner], p.A * f[inner], rtol=0, atol=1e-5)
 
 
 def test_noise_makes_the_oscillation_irregular():
@@ -237,8 +297,10 @@ def test_same_seed_same_frames_and_different_seeds_different_noise():
     c = flicker(img, params=p, seed=6)
     assert np.array_equal(a.frames, b.frames)
     assert np.abs(a.frames - c.frames).max() > 0.01
+    # A Generator gives one int, recorded, which remakes the clip.
     gen = flicker(img, params=p, seed=np.random.default_rng(5))
-    assert gen.metadata["seed"] is None
+    assert isinstance(gen.metadata["seed"], int)
+    assert np.array_equal(flicker(img, params=p, seed=gen.metadata["seed"]).frames, gen.frames)
     quiet = FlickerParams(T=16, beta=0)
     assert np.array_equal(
         flicker(img, params=quiet, seed=1).frames, flicker(img, params=quiet, seed=2).frames
@@ -349,3 +411,45 @@ def test_inputs_are_not_modified():
     flicker(img, mask, FlickerParams(T=8, f0=2), seed=0)
     assert np.array_equal(img, img0)
     assert np.array_equal(mask, mask0)
+
+
+# ---------------------------------------------------------------------- noise regions
+
+
+def _speed(H, cols):
+    """Mean |H(t+1) - H(t)| of the columns ``cols`` in each frame: (T,)."""
+    part = H[:, :, cols]
+    return np.abs(np.roll(part, -1, axis=0) - part).mean(axis=(1, 2))
+
+
+@pytest.mark.parametrize("mapping", ["plane", "convex"])
+def test_noise_regions_let_distant_parts_speed_up_at_different_times(mapping):
+    # Eq. (10)'s phi(f_t) is shared by every spatial frequency: the two ends of the
+    # picture speed up and slow down in lockstep (the paper's open problem, sec. 5).
+    # With independent noise per soft region they no longer do.
+    img = photo((48, 144))
+    left, right = slice(0, 36), slice(108, 144)
+    for regions, low, high in ((1, 0.95, 1.0), (4, -0.5, 0.5)):
+        corr = []
+        for seed in range(4):
+            p = FlickerParams(mapping=mapping, T=64, noise_regions=regions)
+            H = heights(FlickerModel(img, params=p, seed=seed))
+            corr.append(np.corrcoef(_speed(H, left), _speed(H, right))[0, 1])
+        assert low <= np.mean(corr) <= high, (regions, corr)
+
+
+def test_noise_regions_are_a_partition_and_one_region_is_eq10():
+    from fluidnb.flicker import region_weights
+
+    w = region_weights((30, 50), 5, seed=1)
+    np.testing.assert_allclose(w.sum(axis=0), 1.0)
+    assert (w.max(axis=(1, 2)) > 0.8).all()  # each region has a core of its own
+    img = photo()
+    one = FlickerModel(img, params=FlickerParams(T=16, noise_regions=1), seed=3)
+    paper = FlickerModel(img, params=FlickerParams(T=16), seed=3)
+    assert np.array_equal(one.frames(), paper.frames())
+    quiet = FlickerParams(T=16, beta=0)  # no noise: nothing to split
+    assert np.array_equal(
+        FlickerModel(img, params=quiet.replace(noise_regions=4), seed=3).frames(),
+        FlickerModel(img, params=quiet, seed=3).frames(),
+    )

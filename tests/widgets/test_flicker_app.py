@@ -120,3 +120,25 @@ def test_analysis_figure_for_the_probe_pixel(app):
     png = app.show_analysis()
     assert png[:4] == b"\x89PNG"
     assert app.analysis.value == png
+
+
+def test_a_flow_stroke_sets_the_velocity_and_its_reverse_reverses_the_motion(app):
+    h, w = app.image.shape[:2]
+    app.panel.set("beta", 0.0)
+    app.panel.set("f0", 2)
+    app.panel.set("mapping", "flow")
+    app.wait_preview()
+    assert "draw a stroke along the flow" in app.status  # nothing drawn yet
+    # 8 px to the right in one loop of T = 16 frames: 0.5 px/frame.
+    app.canvas.draw_stroke([[h / 2, w / 2 - 4], [h / 2, w / 2 + 4]], layer="flow")
+    app.wait_preview()
+    clip = app.player.clip
+    np.testing.assert_allclose(clip.metadata["velocity"], [0.0, 0.5])
+    app.canvas.draw_stroke([[h / 2, w / 2 + 4], [h / 2, w / 2 - 4]], layer="flow")
+    app.wait_preview()
+    assert app.player.clip.metadata["velocity"] == [0.0, -0.5]
+    # The full run uses the same (last) stroke, and the loop closes.
+    run = app.run(timeout=60)
+    assert run.metadata["velocity"] == [0.0, -0.5]
+    assert run.metadata["params"]["mapping"] == "flow"
+    np.testing.assert_allclose(run.frames[0], app.image, atol=1e-5)
