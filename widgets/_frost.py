@@ -1,4 +1,4 @@
-"""The frost app: paint a region, click seed points, tune beta/gamma/alpha/rth, optimise beta."""
+"""The frost app: paint a region, click start points, tune beta/gamma/alpha/rth, optimise beta."""
 
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ _RUN_CLIP_FRAMES = 120
 class FrostApp(App):
     """Frost growing over a painted region (Amano, Sato & Itoh; Reiter 2005), interactively.
 
-    Paint the region with the brush (eraser and fill too), click one or more seed
+    Paint the region with the brush (eraser and fill too), click one or more start
     points with the points tool, and move the sliders: a coarse live preview follows.
     **Optimise β** runs the optimiser for the target end frame in the background and
     fills its table (step, β, end frame) as it goes, then sets the β slider.
@@ -46,8 +46,8 @@ class FrostApp(App):
         The picture; by default the ``"leaf"`` sample.
     region : array_like of bool, optional
         A region to start with (the image's size).
-    seeds : array_like, shape (n, 2), optional
-        Seed points to start with, (row, col) in image pixels.
+    starts : array_like, shape (n, 2), optional
+        Start points to start with, (row, col) in image pixels.
     params : FrostParams, optional
         Starting parameters (the paper's by default).
     seed : int
@@ -61,7 +61,7 @@ class FrostApp(App):
     --------
     >>> app = FrostApp(quick=True)
     >>> app.canvas.paint([[48, 30], [48, 90]], radius=20)
-    >>> app.canvas.click([48, 60], layer="seeds")
+    >>> app.canvas.click([48, 60], layer="starts")
     >>> app.panel.set("beta", 0.6)
     >>> clip = app.run(timeout=120)
     >>> clip.metadata["method"]
@@ -77,7 +77,7 @@ class FrostApp(App):
         image=None,
         *,
         region=None,
-        seeds=None,
+        starts=None,
         params=None,
         seed=0,
         quick=False,
@@ -95,7 +95,7 @@ class FrostApp(App):
         self._rows = []
         self._rows_lock = threading.Lock()
         canvas = DrawingCanvas(
-            self.image, masks=["region"], points=["seeds"], display_size=display_size
+            self.image, masks=["region"], points=["starts"], display_size=display_size
         )
         canvas.brush_radius = max(2.0, max(self.image.shape[:2]) / 16)
         panel = ParamPanel(params)
@@ -133,7 +133,7 @@ class FrostApp(App):
         self.table.add_class("fluidnb-optimise-table")
         hint = W.HTML(
             "<span style='opacity:0.7'>Brush: paint where frost may grow. Points tool "
-            "(layer <b>seeds</b>): click start points. The preview runs on a coarse "
+            "(layer <b>starts</b>): click start points. The preview runs on a coarse "
             "lattice; Run uses the spacing you set.</span>"
         )
         super().__init__(
@@ -153,8 +153,8 @@ class FrostApp(App):
         canvas.select("brush", "region")
         if region is not None:
             self.set_region(region)
-        if seeds is not None:
-            self.set_seeds(seeds)
+        if starts is not None:
+            self.set_starts(starts)
         self.observe(lambda _: self.request_preview(), "seed")
         self._show_table()
 
@@ -163,9 +163,9 @@ class FrostApp(App):
         """Replace the painted region (undoable on the canvas)."""
         self.canvas.set_mask(as_mask(mask, self.image.shape[:2], name="region"), "region")
 
-    def set_seeds(self, points):
-        """Replace the seed points, (n, 2) (row, col) in image pixels."""
-        self.canvas.set_points(np.asarray(points, float).reshape(-1, 2), "seeds")
+    def set_starts(self, points):
+        """Replace the start points, (n, 2) (row, col) in image pixels."""
+        self.canvas.set_points(np.asarray(points, float).reshape(-1, 2), "starts")
 
     def region(self):
         """The painted region as bool (H, W); ValueError if nothing is painted."""
@@ -174,18 +174,18 @@ class FrostApp(App):
             raise ValueError("region is empty: paint where frost may grow with the brush")
         return mask
 
-    def seed_points(self):
-        """The seed points (n, 2) (row, col); ValueError if there are none."""
-        points = self.canvas.get_points("seeds")
+    def starts(self):
+        """The start points (n, 2) (row, col); ValueError if there are none."""
+        points = self.canvas.get_points("starts")
         if len(points) == 0:
             raise ValueError(
-                "no seed point: choose the points tool, layer 'seeds', and click in the region"
+                "no start point: choose the points tool, layer 'starts', and click in the region"
             )
         return points
 
     def _lattice(self, spacing):
         lattice = HexLattice.from_mask(self.region(), spacing)
-        return lattice, lattice.snap(self.seed_points())
+        return lattice, lattice.snap(self.starts())
 
     # ------------------------------------------------------------------ library calls
     def _preview(self, params):
@@ -194,7 +194,7 @@ class FrostApp(App):
         extent = max(rows.max() - rows.min(), cols.max() - cols.min()) + 1
         spacing = max(params.spacing, extent / _PREVIEW_CELLS)
         lattice = HexLattice.from_mask(region, spacing)
-        cells = lattice.snap(self.seed_points())
+        cells = lattice.snap(self.starts())
         coarse = params.replace(
             spacing=spacing,
             max_frames=min(params.max_frames, _PREVIEW_FRAMES),

@@ -1,7 +1,7 @@
 """Frost growth on a hexagonal lattice (Amano, Sato, Itoh; Reiter 2005).
 
-Paint a region, pick seed points, and frost grows over it by Reiter's cellular
-automaton for snow crystals with the seed paper's random threshold ``rth``; the
+Paint a region, pick start points, and frost grows over it by Reiter's cellular
+automaton for snow crystals with the paper's random threshold ``rth``; the
 initial vapour ``beta`` can be optimised so the growth ends at a chosen frame.
 
 - :class:`HexLattice` -- lattice points in the region and the boundary ring around it.

@@ -1,4 +1,4 @@
-"""The hexagonal lattice of the frost simulation (seed Sec. 3.1, Fig. 2).
+"""The hexagonal lattice of the frost simulation (Amano et al., sec. 3.1, Fig. 2).
 
 Lattice points sit on a regular triangular lattice (each point has six neighbours at
 the same distance: Reiter's hexagonal cells) with spacing ``s`` pixels:
@@ -20,7 +20,7 @@ neighbour is at the same offset (+1, -stride + 1, -stride, -1, +stride - 1, +str
 from every point, so the update is a handful of contiguous shifted slices.
 
 Every point has a kind: a *cell* of the painted region, a point of the *boundary
-ring* just outside it (seed Sec. 3.3: "one size larger than the sketched region"), or
+ring* just outside it (Amano et al., sec. 3.3: "one size larger than the sketched region"), or
 *outside* (not simulated). The ring is every non-region point with a region
 neighbour, so each region cell's six neighbours are all cells or ring points.
 """
@@ -318,9 +318,9 @@ class HexLattice:
         centroid = self.points.mean(axis=0)
         return int(np.argmin(((self.points - centroid) ** 2).sum(axis=1)))
 
-    # ------------------------------------------------------------------ seeds
+    # ------------------------------------------------------------------ starts
     def snap(self, points_rc):
-        """Cells for seed points given in pixel (row, col) coordinates.
+        """Cells for start points given in pixel (row, col) coordinates.
 
         Each point goes to the nearest cell of the region; several points may be
         given, and points landing on the same cell count once.
@@ -328,7 +328,7 @@ class HexLattice:
         Parameters
         ----------
         points_rc : array_like, shape (n, 2) or (2,)
-            Seed points, (row, col) in image pixels.
+            Start points, (row, col) in image pixels.
 
         Returns
         -------
@@ -347,19 +347,19 @@ class HexLattice:
         >>> lat.snap([lat.origin + 3]).tolist()  # near the centre
         [9]
         """
-        pts = check_array("seed points", points_rc, ndim=(1, 2), dtype_kinds="iuf")
+        pts = check_array("start points", points_rc, ndim=(1, 2), dtype_kinds="iuf")
         pts = pts.reshape(-1, 2) if pts.ndim == 1 and pts.size == 2 else pts
         if pts.ndim != 2 or pts.shape[1] != 2:
             raise ValueError(
-                f"seed points must be (row, col) pairs of shape (n, 2), got {pts.shape}"
+                f"start points must be (row, col) pairs of shape (n, 2), got {pts.shape}"
             )
         pts = pts.astype(float)
         dist, idx = self._cell_tree().query(pts)
         for (row, col), d in zip(pts, dist):
             if not self._inside(row, col, d):
                 raise ValueError(
-                    f"seed point (row, col) = ({row:g}, {col:g}) is outside the region; "
-                    "place seeds on the painted area"
+                    f"start point (row, col) = ({row:g}, {col:g}) is outside the region; "
+                    "place start points on the painted area"
                 )
         return np.unique(idx).astype(np.intp)
 

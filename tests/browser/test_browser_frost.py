@@ -16,7 +16,7 @@ app.panel.set("beta", 0.6)  # quick growth, so the full run stays short
 def report_inputs(_=None):
     dump("inputs.json", {
         "region": int(app.canvas.get_mask("region").sum()),
-        "seeds": app.canvas.get_points("seeds").tolist(),
+        "seeds": app.canvas.get_points("starts").tolist(),
         "tool": app.canvas.tool,
         "shape": list(app.image.shape[:2]),
     })

@@ -18,16 +18,16 @@ def files(tmp_path):
     return tmp_path
 
 
-def test_frost_writes_a_clip_with_seed_points_as_x_y(files, capsys):
+def test_frost_writes_a_clip_with_start_points_as_x_y(files, capsys):
     out = files / "frost.npz"
     argv = [
         "frost",
         str(files / "window.png"),
         "--region",
         str(files / "mask.png"),
-        "--seed-point",
+        "--start",
         "48,36",
-        "--seed-point",
+        "--start",
         "30,20",
         "--beta",
         "0.6",
@@ -56,7 +56,7 @@ def test_frost_writes_a_clip_with_seed_points_as_x_y(files, capsys):
     assert "ends at frame" in printed
     saved = np.load(files / "freeze.npz")
     assert saved["end_frame"] == meta["end_frame"]
-    # X,Y = column,row: the seed at column 48, row 36 froze at frame 0.
+    # X,Y = column,row: the start point at column 48, row 36 froze at frame 0.
     points = saved["points_rc"]
     first = points[saved["freeze_frame"] == 0]
     assert np.hypot(*(first - [36, 48]).T).min() < 3
@@ -70,7 +70,7 @@ def test_frost_target_optimises_beta_and_prints_the_table(files, capsys):
         str(files / "window.png"),
         "--region",
         str(files / "mask.png"),
-        "--seed-point",
+        "--start",
         "48,36",
         "--spacing",
         "4",
@@ -95,12 +95,12 @@ def test_frost_target_optimises_beta_and_prints_the_table(files, capsys):
 def test_frost_bad_input_is_a_clear_error(files, capsys):
     base = ["frost", str(files / "window.png"), "--region", str(files / "mask.png")]
     out = ["-o", str(files / "x.npz")]
-    assert main([*base, "--seed-point", "2,2", *out]) == 2
+    assert main([*base, "--start", "2,2", *out]) == 2
     err = capsys.readouterr().err
-    assert "--seed-point 2,2 (X,Y = column,row) is outside the region" in err
-    assert main([*base, "--seed-point", "48,36", "--rth", "1.5", *out]) == 2
+    assert "--start 2,2 (X,Y = column,row) is outside the region" in err
+    assert main([*base, "--start", "48,36", "--rth", "1.5", *out]) == 2
     assert "rth must be in [0, 1], got 1.5" in capsys.readouterr().err
-    assert main([*base, "--seed-point", "48,36", "--spacing", "90", *out]) == 2
+    assert main([*base, "--start", "48,36", "--spacing", "90", *out]) == 2
     assert "leaves no lattice point inside" in capsys.readouterr().err
     blank = files / "blank.png"
     Image.fromarray(np.zeros((72, 96), np.uint8)).save(blank)
@@ -111,7 +111,7 @@ def test_frost_bad_input_is_a_clear_error(files, capsys):
                 str(files / "window.png"),
                 "--region",
                 str(blank),
-                "--seed-point",
+                "--start",
                 "48,36",
                 *out,
             ]
@@ -120,8 +120,8 @@ def test_frost_bad_input_is_a_clear_error(files, capsys):
     )
     assert "--region is empty" in capsys.readouterr().err
     with pytest.raises(SystemExit):
-        build_parser().parse_args(["frost", "img.png", "--seed-point", "3;4", "-o", "x.npz"])
-    assert "seed point must be X,Y" in capsys.readouterr().err
+        build_parser().parse_args(["frost", "img.png", "--start", "3;4", "-o", "x.npz"])
+    assert "start point must be X,Y" in capsys.readouterr().err
 
 
 def test_frost_help_lists_every_parameter():
@@ -139,7 +139,7 @@ def test_frost_help_lists_every_parameter():
         "--target",
         "--fps",
         "--solver",
-        "--seed-point",
+        "--start",
         "--eta",
     ):
         assert flag in text

@@ -30,7 +30,7 @@ def frost_amount(clip, region):
     return np.array([(d[region] > 0.05).mean() for d in diff])
 
 
-def test_frames_show_frost_growing_from_the_seed_inside_the_region(scene):
+def test_frames_show_frost_growing_from_the_start_point_inside_the_region(scene):
     image, region = scene
     lat = HexLattice.from_mask(region, 3.0)
     res = grow(lat, [[36, 30]], FrostParams(beta=0.5), seed=0)
@@ -47,12 +47,12 @@ def test_frames_show_frost_growing_from_the_seed_inside_the_region(scene):
     assert np.array_equal(
         clip.frames[:, ~region], np.broadcast_to(image[~region], (len(clip), *image[~region].shape))
     )
-    # Frame 0 is the image with only the seed's cell frozen.
+    # Frame 0 is the image with only the paper's cell frozen.
     first = np.abs(clip.frames[0] - image).sum(-1) > 1e-6
     rows, cols = np.nonzero(first)
     assert first.any()
     assert np.hypot(rows - 36, cols - 30).max() <= 3.5 * 3.0
-    # Early frost sits around the seed.
+    # Early frost sits around the start point.
     early = next(i for i, a in enumerate(amount) if a > 0.02)
     changed = np.abs(clip.frames[early] - image).sum(-1) > 0.05
     rows, cols = np.nonzero(changed)
@@ -123,7 +123,7 @@ def test_frost_pipeline_errors_keep_inputs(scene):
 
 
 def test_direction_dependent_beta_evens_out_the_arrival_at_the_boundary():
-    # A long region with the seed near its left end: uniform beta reaches the near
+    # A long region with the start point near its left end: uniform beta reaches the near
     # boundary long before the far one; beta(theta) closes most of that gap.
     yy, xx = np.mgrid[0:60, 0:100]
     region = ((yy - 30) / 25) ** 2 + ((xx - 50) / 48) ** 2 <= 1
