@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from .._progress import Progress
 from .._random import resolve_seed
 from .._validation import check_choice, check_int, check_range
+from ._estimate import estimate_end_frame
 from ._reiter import _check_lattice, _check_params, _start_cells, grow
 
 __all__ = ["OptimiseResult", "OptimiseStep", "optimise_beta"]
@@ -247,6 +248,7 @@ def optimise_beta(
     starts = _start_cells(lattice, starts)
     target = params.target if target is None else target
     target = check_int("target", target, 1, params.max_frames)
+    _check_fast_enough(lattice, starts, target, params)
     method = check_choice("method", method, _METHODS)
     beta0 = check_range("beta0", beta0, 0, 1)
     eta = check_range("eta", eta, 0, lo_open=True)
@@ -417,6 +419,28 @@ def _probe(objective, record, target, tol, lo, hi, max_iter):
             if _within(end, target, tol):
                 return True, f"converged next to a jump ({jump}): T_sim = {end}"
     return False, f"no beta found with T_sim within {tol:g} of {target}: {jump}"
+
+
+def _check_fast_enough(lattice, starts, target, params):
+    """Refuse a target sooner than the front can possibly get there.
+
+    Ice spreads at most one cell a frame, so no beta < 1 ends before the coverage's
+    hop distance from the start points (beta = 1 is ice everywhere at frame 0: no
+    growth at all, which would otherwise "converge" for a target of a frame or two).
+    """
+    fastest = estimate_end_frame(lattice, starts, params).fastest
+    if fastest < 0:
+        raise ValueError(
+            "the start points cannot reach enough of the region (it is painted in pieces): "
+            "add a start point in every piece"
+        )
+    if target < fastest:
+        raise ValueError(
+            f"target must be >= {fastest} frames for this region and these start points, "
+            f"got {target}: ice spreads at most one cell a frame, and {params.coverage:.0%} "
+            f"of the region lies up to {fastest} cells from the start points; choose a "
+            "later target, add start points or use a larger spacing"
+        )
 
 
 def _check_reachable(objective, record, target, tol, rows):
