@@ -10,7 +10,8 @@ initial vapour ``beta`` can be optimised so the growth ends at a chosen frame.
   the balance of vapour, and the gamma that ends it at a target frame.
 - :func:`optimise_beta` -- steepest descent (the paper) or bracketing + secant.
 - :func:`direction_beta` -- a beta that varies with direction (the paper's future work).
-- :func:`render` / :func:`frost` -- draw the frost over an image as a :class:`fluidnb.Clip`.
+- :func:`render` / :func:`frost` -- draw the frost as ice on an image, a :class:`fluidnb.Clip`;
+  :func:`render_ice` / :func:`ice_mass` -- one frame of it, from the cells' ice mass.
 """
 
 from ._direction import DirectionBeta, direction_beta
@@ -21,7 +22,7 @@ from ._params import FrostParams
 from ._pipeline import frost
 from ._reference import reference_setup
 from ._reiter import FrostResult, grow, step
-from ._render import FrostLook, render
+from ._render import FrostLook, ice_mass, render, render_ice
 
 __all__ = [
     "DIRECTIONS",
@@ -39,8 +40,10 @@ __all__ = [
     "frost",
     "gamma_for_target",
     "grow",
+    "ice_mass",
     "optimise_beta",
     "reference_setup",
     "render",
+    "render_ice",
     "step",
 ]
