@@ -11,7 +11,15 @@ import numpy as np
 from traitlets import Int
 
 from fluidnb import Progress, as_image, as_mask
-from fluidnb.frost import FrostParams, HexLattice, grow, optimise_beta, render
+from fluidnb.frost import (
+    FrostParams,
+    HexLattice,
+    estimate_end_frame,
+    gamma_for_target,
+    grow,
+    optimise_beta,
+    render,
+)
 
 from ._app import App
 from ._canvas import DrawingCanvas
@@ -131,6 +139,19 @@ class FrostApp(App):
         self._optimise_button.on_click(lambda _: self.optimise())
         self.table = W.HTML()
         self.table.add_class("fluidnb-optimise-table")
+        # How long the run will take, from the balance of vapour, before anyone waits.
+        self.length = W.HTML()
+        self.length.add_class("fluidnb-frost-length")
+        self._gamma_button = W.Button(
+            description="Fit γ to the target",
+            icon="clock-o",
+            tooltip="set gamma so the frost ends near the target end frame",
+            layout=W.Layout(width="auto"),
+        )
+        self._gamma_button.add_class("fluidnb-fit-gamma")
+        self._gamma_button.on_click(lambda _: self.fit_gamma())
+        self.estimate = None  #: The last EndFrameEstimate (full lattice), or None.
+        self.gamma_fit = None  #: The last GammaFit.
         hint = W.HTML(
             "<span style='opacity:0.7'>Brush: paint where frost may grow. Points tool "
             "(layer <b>starts</b>): click start points. The preview runs on a coarse "
@@ -144,6 +165,8 @@ class FrostApp(App):
             title="Frost — Amano, Sato & Itoh (Reiter's automaton)",
             extra=[
                 self._seed,
+                self.length,
+                self._gamma_button,
                 W.HBox([self._solver, self._optimise_button]),
                 self._eta,
                 self.table,
@@ -200,6 +223,7 @@ class FrostApp(App):
             max_frames=min(params.max_frames, _PREVIEW_FRAMES),
             target=min(params.target, _PREVIEW_FRAMES),
         )
+        self._show_length(params)
         result = grow(lattice, cells, coarse, seed=self.seed)
         every = max(1, math.ceil(result.n_frames / _PREVIEW_CLIP_FRAMES))
         size = min(_PREVIEW_SIZE, max(self.image.shape[:2]))
@@ -216,6 +240,64 @@ class FrostApp(App):
         size = min(480, max(self.image.shape[:2]))
         clip = render(self.image, lattice, result, every=every, size=size, progress=draw_report)
         return clip.with_metadata(seed=self.seed, n_cells=lattice.n_cells)
+
+    # ------------------------------------------------------------------ length
+    def _show_length(self, params):
+        """Say up front how long the run will take (mass balance) and what gamma fits."""
+        try:
+            lattice, cells = self._lattice(params.spacing)
+            est = estimate_end_frame(lattice, cells, params)
+            gamma = est.gamma_for(params.target)
+        except ValueError as exc:
+            self.estimate = None
+            self.length.value = f"<span style='color:#b00020'>{html.escape(str(exc))}</span>"
+            return
+        self.estimate = est
+        if math.isinf(est.frames):
+            text = "At these settings the frost never covers the region."
+        else:
+            seconds = est.frames / params.fps
+            text = (
+                f"Length: at γ = {params.gamma:g} this region ends near frame "
+                f"<b>{est.frames:,.0f}</b> ({seconds:,.0f} s at {params.fps:g} fps; mass "
+                f"balance, {est.rings:.0f} rings of cells × {est.ring_frames:.0f} frames)"
+            )
+            if est.frames > params.max_frames:
+                text += f", beyond the frame limit {params.max_frames}: a run would stop first"
+        if not math.isnan(gamma):
+            long = est.frames > 1.5 * params.target
+            colour = "#b00020" if long else "inherit"
+            text = f"<span style='color:{colour}'>{text}.</span> "
+            text += f"γ ≈ {gamma:.3g} ends near the target {params.target}."
+            self._gamma_button.description = f"Use γ for {params.target} frames (≈ {gamma:.3g})"
+        self.length.value = text
+
+    def fit_gamma(self):
+        """Set gamma so the run ends near the target (what the **Use γ** button does).
+
+        Runs :func:`fluidnb.frost.gamma_for_target` in the background (the mass-balance
+        gamma, corrected by a few runs of about the target's length) and sets the γ
+        slider. Returns False if another computation is running.
+        """
+        seed = self.seed
+
+        def task(params, progress):
+            lattice, cells = self._lattice(params.spacing)
+            progress(0.1, "fitting γ…")
+            return gamma_for_target(lattice, cells, params.target, params, seed=seed)
+
+        return self.start_task(
+            task, self._gamma_fitted, message="fitting γ to the target…", busy=(self._gamma_button,)
+        )
+
+    def _gamma_fitted(self, fit, seconds):
+        self.gamma_fit = fit
+        self.panel.set("gamma", fit.gamma)
+        end = "never" if fit.end_frame is None else fit.end_frame
+        return (
+            f"γ = {fit.gamma:.4g} ends at frame {end} (target {fit.target}; the "
+            f"mass balance alone gave {fit.mass_balance_gamma:.4g}) in {seconds:.1f} s"
+        )
 
     # ------------------------------------------------------------------ optimiser
     def optimise(self):

@@ -95,7 +95,14 @@ def _frost(args):
     from .._image import as_image, as_mask
     from .._progress import TextProgress
     from .._random import resolve_seed
-    from ..frost import FrostParams, HexLattice, grow, optimise_beta, render
+    from ..frost import (
+        FrostParams,
+        HexLattice,
+        estimate_end_frame,
+        grow,
+        optimise_beta,
+        render,
+    )
 
     params = params_from_args(FrostParams, args)
     image = as_image(args.image, name="IMAGE", mode="rgb")
@@ -117,6 +124,11 @@ def _frost(args):
     # clip can be made again.
     seed = resolve_seed(args.seed)
     print(f"lattice: {lattice.n_cells} cells, spacing {params.spacing:g} px")
+    # Say up front how long it will take (the balance of vapour), before anyone waits.
+    est = estimate_end_frame(lattice, starts, params)
+    print(f"at gamma = {params.gamma:g} the frost {est}")
+    if est.frames > params.max_frames:
+        print(f"  beyond --max-frames {params.max_frames}: raise --gamma to end sooner")
     optimise = None
     if args.target is not None:
         result = optimise_beta(

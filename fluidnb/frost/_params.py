@@ -78,7 +78,7 @@ class FrostParams(Params):
         eq="Eq. (1)",
         doc="vapour added each step to ice and (if r > rth) frontier cells",
         log=True,
-        ui_range=(1e-4, 0.1),
+        ui_range=(1e-4, 1.0),  # up to 1: hand-painted regions need gamma >> 0.005 to end soon
     )
     alpha: float = param(
         1.0,

@@ -102,6 +102,14 @@ def test_frost_bad_input_is_a_clear_error(files, capsys):
     assert "rth must be in [0, 1], got 1.5" in capsys.readouterr().err
     assert main([*base, "--start", "48,36", "--spacing", "90", *out]) == 2
     assert "leaves no lattice point inside" in capsys.readouterr().err
+    # Too fine a lattice is refused before anything is allocated, naming what fits.
+    assert main([*base, "--start", "48,36", "--spacing", "0.001", *out]) == 2
+    err = capsys.readouterr().err
+    assert "spacing=0.001 px would lay" in err
+    assert "spacing must be >= 0.05 px" in err
+    # A target sooner than the ice can travel is refused with the reason.
+    assert main([*base, "--start", "48,36", "--target", "1", *out]) == 2
+    assert "ice spreads at most one cell a frame" in capsys.readouterr().err
     blank = files / "blank.png"
     Image.fromarray(np.zeros((72, 96), np.uint8)).save(blank)
     assert (

@@ -128,3 +128,26 @@ def test_setters_preload_a_region_and_starts():
             a.set_region(region[:10])
     finally:
         a.close()
+
+
+def test_the_app_says_up_front_how_long_the_papers_gamma_takes_and_fits_gamma_to_the_target(app):
+    paint_and_start(app)
+    app.panel.set("gamma", 0.005)  # the paper's value: far too slow for a painted region
+    app.panel.set("target", 120)
+    app.wait_preview()
+    est = app.estimate
+    assert est is not None
+    assert est.frames > 600
+    text = app.length.value
+    assert f"{est.frames:,.0f}" in text
+    assert "ends near the target 120" in text
+    assert "Use γ for 120 frames" in app._gamma_button.description
+    app._gamma_button.click()
+    app.wait(120)
+    fit = app.gamma_fit
+    assert fit is not None, app.status
+    assert fit.gamma > 0.02
+    assert app.panel.params.gamma == pytest.approx(fit.gamma)
+    assert "ends at frame" in app.status
+    clip = app.run(timeout=120)
+    assert abs(clip.metadata["end_frame"] - 120) <= 0.1 * 120
