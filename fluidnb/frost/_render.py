@@ -112,7 +112,7 @@ class FrostLook:
         azimuth=135.0,
         elevation=40.0,
         relief=1.5,
-        specular=0.5,
+        specular=0.3,
         shininess=30.0,
         blur=0.6,
         refraction=0.4,
@@ -331,7 +331,7 @@ class _Surface:
         # Shading acts on the ice layer only: where there is no ice, nothing changes.
         # Light and shade on the ice only (none where there is none); translucent ice
         # scatters light into its own shadows, so they stay soft.
-        shade = 1.0 + 0.6 * (np.minimum(lambert, 1.6) - 1.0)
+        shade = 1.0 + 0.45 * (np.minimum(lambert, 1.6) - 1.0)
         out *= (1.0 + (shade - 1.0) * cover * np.clip(theta * 3.0, 0.0, 1.0))[..., None]
         out += (spec * cover * np.clip(theta * 3.0, 0.0, 1.0))[..., None]
         return out, alpha, theta, cover
