@@ -43,6 +43,11 @@ class FrostApp(App):
 
     Paint the region with the brush (eraser and fill too), click one or more start
     points with the points tool, and move the sliders: a coarse live preview follows.
+    Under the sliders the app says how long the run will take (the mass-balance
+    estimate of the end frame, :func:`fluidnb.frost.estimate_end_frame`) and which γ
+    would end at the target; **Use γ** fits γ to the target with a few short runs
+    (:func:`fluidnb.frost.gamma_for_target`) -- with the paper's γ = 0.005 a painted
+    region takes thousands of frames.
     **Optimise β** runs the optimiser for the target end frame in the background and
     fills its table (step, β, end frame) as it goes, then sets the β slider.
     **Run** grows the frost on the full lattice and draws it over the image (with
