@@ -280,9 +280,6 @@ class _Surface:
         )
         self.smooth = 0.5 * self.spacing  # smoothing of the thickness field, pixels
         self.grain, self.glints = _grain(self.box_shape)
-        self.rows, self.cols = np.mgrid[0 : self.box_shape[0], 0 : self.box_shape[1]].astype(
-            np.float32
-        )
 
     def _field(self, per_cell):
         """Per-cell values -> a smooth field over the box (barycentric, then Gaussian)."""
@@ -293,17 +290,26 @@ class _Surface:
         return field
 
     def draw(self, cover_cell, thick_cell):
-        """One frame over the box: (rgb, alpha, thickness), all zero where there is no ice."""
+        """One frame over the box: the ice pixels and their colours and layers.
+
+        Returns ``(where, rgb, alpha, theta, cover)``: ``where`` the flat indices (in the
+        box) of the region's pixels that show ice, ``rgb`` (n, 3) their colour, and the
+        full-box fields ``alpha`` (0 off the ice), ``theta`` and ``cover``.
+        """
         look = self.look
         cover = np.clip(self._field(cover_cell), 0.0, 1.0) * self.edge
         theta = self._field(thick_cell)
         # The surface: thickness, plus a grain of facets on the ice (none off it).
         height = theta * (1.0 + look.grain * 0.03 * self.grain)
         gy, gx = np.gradient(height)
+        # Only pixels with ice change: do the per-pixel work on those alone.
+        where = np.flatnonzero(self.region.ravel() & (cover.ravel() > 0))
+        c, th = cover.ravel()[where], theta.ravel()[where]
+        gy, gx = gy.ravel()[where], gx.ravel()[where]
         # Slopes per spacing, so the look does not depend on the picture's resolution;
         # rows point down the image, y up: the y slope changes sign.
-        sx = look.relief * gx * self.spacing
-        sy = -look.relief * gy * self.spacing
+        sx = look.relief * self.spacing * gx
+        sy = -look.relief * self.spacing * gy
         norm = 1.0 / np.sqrt(sx * sx + sy * sy + 1.0)
         lx, ly, lz = look.light
         lambert = np.clip((-sx * lx - sy * ly + lz) * norm, 0.0, None) / lz  # 1 when flat
@@ -311,37 +317,56 @@ class _Surface:
         hn = math.sqrt(hx * hx + hy * hy + hz * hz)
         n_dot_h = np.clip((-sx * hx - sy * hy + hz) * norm / hn, 0.0, 1.0)
         spec = look.specular * n_dot_h**look.shininess
-        spec += look.sparkle * (self.glints > 0.995) * n_dot_h**4
-        # The photo through the ice: softened with thickness, shifted along the slope.
-        soft = np.clip(theta * 1.5, 0.0, 1.0)[..., None]
-        under = self.photo + (self.blurred - self.photo) * soft
-        shift = look.refraction * self.spacing
-        if shift > 0:
-            coords = [self.rows - shift * gy * self.spacing, self.cols - shift * gx * self.spacing]
-            under = np.stack(
-                [
-                    ndimage.map_coordinates(under[..., c], coords, order=1, mode="nearest")
-                    for c in range(3)
-                ],
-                axis=-1,
-            )
-        alpha = cover * look.opacity * (1.0 - np.exp(-_DEPTH * theta * theta))
-        colour = _THIN + (_THICK - _THIN) * np.clip(theta, 0.0, 1.0)[..., None]
-        out = under + (colour - under) * alpha[..., None]
-        # Shading acts on the ice layer only: where there is no ice, nothing changes.
-        # Light and shade on the ice only (none where there is none); translucent ice
-        # scatters light into its own shadows, so they stay soft.
+        spec += look.sparkle * (self.glints.ravel()[where] > 0.995) * n_dot_h**4
+        # The photo through the ice: shifted along the slope (refraction) and softened
+        # with the thickness.
+        under = self._refracted(where, gy, gx)
+        soft = np.clip(th * 1.5, 0.0, 1.0)[:, None]
+        under = under[0] + (under[1] - under[0]) * soft
+        a = c * look.opacity * (1.0 - np.exp(-_DEPTH * th * th))
+        colour = _THIN + (_THICK - _THIN) * np.clip(th, 0.0, 1.0)[:, None]
+        rgb = under + (colour - under) * a[:, None]
+        # Light and shade on the ice layer; translucent ice scatters light into its own
+        # shadows, so they stay soft.
+        on_ice = c * np.clip(th * 3.0, 0.0, 1.0)
         shade = 1.0 + 0.45 * (np.minimum(lambert, 1.6) - 1.0)
-        out *= (1.0 + (shade - 1.0) * cover * np.clip(theta * 3.0, 0.0, 1.0))[..., None]
-        out += (spec * cover * np.clip(theta * 3.0, 0.0, 1.0))[..., None]
-        return out, alpha, theta, cover
+        rgb *= (1.0 + (shade - 1.0) * on_ice)[:, None]
+        rgb += (spec * on_ice)[:, None]
+        alpha = np.zeros(self.box_shape, np.float32)
+        alpha.ravel()[where] = a
+        return where, rgb, alpha, theta, cover
+
+    def _refracted(self, where, gy, gx):
+        """Sharp and blurred photo at the ice pixels, sampled along the slope (bilinear)."""
+        shift = self.look.refraction * self.spacing * self.spacing
+        h, w = self.box_shape
+        rows, cols = np.divmod(where, w)
+        if shift == 0:
+            return self.photo.reshape(-1, 3)[where], self.blurred.reshape(-1, 3)[where]
+        y = np.clip(rows - shift * gy, 0, h - 1)
+        x = np.clip(cols - shift * gx, 0, w - 1)
+        y0 = np.minimum(y.astype(np.intp), h - 2) if h > 1 else np.zeros_like(rows)
+        x0 = np.minimum(x.astype(np.intp), w - 2) if w > 1 else np.zeros_like(cols)
+        fy, fx = (y - y0)[:, None].astype(np.float32), (x - x0)[:, None].astype(np.float32)
+        i00 = y0 * w + x0
+        i01 = i00 + (x0 + 1 < w)  # the neighbour to the right, or the pixel itself
+        i10 = i00 + w * (y0 + 1 < h)
+        i11 = i10 + (x0 + 1 < w)
+        out = []
+        for img in (self.photo, self.blurred):
+            flat = img.reshape(-1, 3)
+            top = np.take(flat, i00, axis=0)
+            top += (np.take(flat, i01, axis=0) - top) * fx
+            bottom = np.take(flat, i10, axis=0)
+            bottom += (np.take(flat, i11, axis=0) - bottom) * fx
+            out.append(top + (bottom - top) * fy)
+        return out
 
     def compose(self, frame, cover_cell, thick_cell):
         """Draw into ``frame`` (the photo, full size) in place; returns the layers."""
-        rgb, alpha, theta, cover = self.draw(cover_cell, thick_cell)
-        box = frame[self.box]
-        ice = self.region & (cover > 0)
-        box[ice] = rgb[ice]
+        where, rgb, alpha, theta, cover = self.draw(cover_cell, thick_cell)
+        rows, cols = np.divmod(where, self.box_shape[1])
+        frame[self.box][rows, cols] = rgb  # the box is a view of the frame
         return alpha, theta, cover
 
 
