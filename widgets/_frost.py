@@ -261,16 +261,18 @@ class FrostApp(App):
         if math.isinf(est.frames):
             text = "At these settings the frost never covers the region."
         else:
-            seconds = est.frames / params.fps
+            seconds = est.likely / params.fps
             text = (
                 f"Length: at γ = {params.gamma:g} this region ends near frame "
-                f"<b>{est.frames:,.0f}</b> ({seconds:,.0f} s at {params.fps:g} fps; mass "
-                f"balance, {est.rings:.0f} rings of cells × {est.ring_frames:.0f} frames)"
+                f"<b>{est.likely:,.0f}</b> ({seconds:,.0f} s at {params.fps:g} fps; mass "
+                f"balance: at most {est.frames:,.0f}, {est.rings:.0f} rings of cells × "
+                f"{est.ring_frames:.0f} frames)"
             )
-            if est.frames > params.max_frames:
+            if est.likely > params.max_frames:
                 text += f", beyond the frame limit {params.max_frames}: a run would stop first"
         if not math.isnan(gamma):
-            long = est.frames > 1.5 * params.target
+            gamma *= est.likely / est.frames  # the likelier length, as gamma_for_target starts
+            long = est.likely > 1.5 * params.target
             colour = "#b00020" if long else "inherit"
             text = f"<span style='color:{colour}'>{text}.</span> "
             text += f"γ ≈ {gamma:.3g} ends near the target {params.target}."

@@ -41,6 +41,7 @@ def test_estimate_bounds_real_runs_and_the_front_never_beats_one_cell_a_frame(rt
         end = grow(lat, starts, p, seed=0).end_frame
         assert est.fastest <= end <= est.frames
         assert end >= 0.35 * est.frames  # the right order of magnitude
+        assert 0.6 * est.likely <= end <= 1.3 * est.likely
         # Even nearly saturated vapour cannot beat one cell a frame.
         quick = grow(lat, starts, p.replace(beta=0.999), seed=0).end_frame
         assert est.fastest <= quick
@@ -61,12 +62,12 @@ def test_the_papers_gamma_on_a_painted_region_takes_thousands_of_frames_gamma_fo
     # T_sim falls in steps as gamma grows (here from 257 to 234 between gamma = 0.0702
     # and 0.0705): the fit lands next to the target, beta fine-tunes from there.
     assert abs(run.end_frame - 240) <= 0.05 * 240
-    # The mass balance alone already lands within a factor of two.
+    # The estimate alone (no runs) already lands within a factor of 1.5.
     alone = gamma_for_target(lat, starts, 240, p, refine=0)
     assert alone.end_frame is None
     assert alone.steps == ()
     end = grow(lat, starts, p.replace(gamma=alone.gamma), seed=0).end_frame
-    assert 120 <= end <= 240
+    assert 240 / 1.5 <= end <= 240 * 1.5
 
 
 def test_targets_sooner_than_the_front_can_travel_are_refused():
