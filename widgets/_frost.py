@@ -50,7 +50,7 @@ class FrostApp(App):
     region takes thousands of frames.
     **Optimise β** runs the optimiser for the target end frame in the background and
     fills its table (step, β, end frame) as it goes, then sets the β slider.
-    **Run** grows the frost on the full lattice and draws it over the image (with
+    **Run** grows the frost on the full lattice and draws it as ice on the image (with
     progress and Cancel); the player plays it and exports GIF or MP4.
 
     Parameters
@@ -151,7 +151,7 @@ class FrostApp(App):
             description="Fit γ to the target",
             icon="clock-o",
             tooltip="set gamma so the frost ends near the target end frame",
-            layout=W.Layout(width="auto"),
+            layout=W.Layout(width="max-content"),
         )
         self._gamma_button.add_class("fluidnb-fit-gamma")
         self._gamma_button.on_click(lambda _: self.fit_gamma())

@@ -35,7 +35,7 @@ def frost(
     Builds the hexagonal lattice in the region (Sec. 3.1 of [1]_), optionally
     optimises :math:`\beta` so the run ends at ``params.target`` (Sec. 3.4), grows
     the frost with Reiter's automaton and the random threshold (Sec. 3.2-3.3) and
-    draws it over the image.
+    draws it as ice lying on the image (:func:`render`).
 
     Parameters
     ----------

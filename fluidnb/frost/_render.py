@@ -251,6 +251,8 @@ class _Surface:
         # Work in the region's bounding box (plus room for the smoothing): frost is small
         # next to the photo more often than not.
         rows, cols = np.nonzero(region)
+        if rows.size == 0:  # the region shrank to nothing at this output size
+            rows, cols = np.zeros(1, np.intp), np.zeros(1, np.intp)
         scale = shape[0] / lattice.image_shape[0]
         self.spacing = max(lattice.spacing * scale, 1e-6)  # one spacing in output pixels
         pad = int(math.ceil(3 * self.spacing)) + 2
