@@ -65,6 +65,13 @@ def register(sub):
         "'steepest' (the paper's steepest descent, Eq. (3)); default secant",
     )
     p.add_argument(
+        "--fit-gamma",
+        action="store_true",
+        help="with --target: first set gamma so the run ends near the target (the "
+        "mass-balance estimate, corrected by a few short runs), then optimise beta; the "
+        "paper's gamma = 0.005 takes thousands of frames on a region painted by hand",
+    )
+    p.add_argument(
         "--eta",
         type=float,
         default=1e-6,
@@ -99,6 +106,7 @@ def _frost(args):
         FrostParams,
         HexLattice,
         estimate_end_frame,
+        gamma_for_target,
         grow,
         optimise_beta,
         render,
@@ -127,8 +135,14 @@ def _frost(args):
     # Say up front how long it will take (the balance of vapour), before anyone waits.
     est = estimate_end_frame(lattice, starts, params)
     print(f"at gamma = {params.gamma:g} the frost {est}")
-    if est.frames > params.max_frames:
-        print(f"  beyond --max-frames {params.max_frames}: raise --gamma to end sooner")
+    if est.likely > params.max_frames:
+        print(f"  beyond --max-frames {params.max_frames}: raise --gamma (or use --fit-gamma)")
+    if args.fit_gamma:
+        if args.target is None:
+            raise ValueError("--fit-gamma needs --target: the end frame to fit gamma to")
+        fit = gamma_for_target(lattice, starts, params.target, params, seed=seed)
+        params = params.replace(gamma=fit.gamma)
+        print(f"gamma = {fit.gamma:.4g} ends at frame {fit.end_frame} (target {fit.target})")
     optimise = None
     if args.target is not None:
         result = optimise_beta(

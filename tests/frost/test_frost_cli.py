@@ -92,6 +92,22 @@ def test_frost_target_optimises_beta_and_prints_the_table(files, capsys):
     assert abs(meta["end_frame"] - 120) <= 4
 
 
+def test_frost_says_how_long_the_papers_gamma_takes_and_fit_gamma_fixes_it(files, capsys):
+    base = ["frost", str(files / "window.png"), "--region", str(files / "mask.png")]
+    argv = [*base, "--start", "20,36", "--spacing", "2", "--every", "40", "--seed", "0"]
+    assert main([*argv, "--max-frames", "400", "-o", str(files / "slow.npz")]) == 0
+    printed = capsys.readouterr().out
+    assert "at gamma = 0.005 the frost ends near frame" in printed
+    assert "beyond --max-frames 400" in printed
+    assert Clip.load(files / "slow.npz").metadata["end_frame"] is None  # it never got there
+    out = files / "fast.npz"
+    assert main([*argv, "--target", "100", "--fit-gamma", "-o", str(out)]) == 0
+    assert "gamma = " in capsys.readouterr().out
+    meta = Clip.load(out).metadata
+    assert meta["params"]["gamma"] > 0.005
+    assert abs(meta["end_frame"] - 100) <= 4
+
+
 def test_frost_bad_input_is_a_clear_error(files, capsys):
     base = ["frost", str(files / "window.png"), "--region", str(files / "mask.png")]
     out = ["-o", str(files / "x.npz")]
@@ -107,6 +123,8 @@ def test_frost_bad_input_is_a_clear_error(files, capsys):
     err = capsys.readouterr().err
     assert "spacing=0.001 px would lay" in err
     assert "spacing must be >= 0.05 px" in err
+    assert main([*base, "--start", "48,36", "--fit-gamma", *out]) == 2
+    assert "--fit-gamma needs --target" in capsys.readouterr().err
     # A target sooner than the ice can travel is refused with the reason.
     assert main([*base, "--start", "48,36", "--target", "1", *out]) == 2
     assert "ice spreads at most one cell a frame" in capsys.readouterr().err
