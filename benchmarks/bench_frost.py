@@ -1,4 +1,4 @@
-"""Frost growth (Reiter's automaton + the seed's random threshold), timed side by side.
+"""Frost growth (Reiter's automaton + the paper's random threshold), timed side by side.
 
     python benchmarks/bench_frost.py
 
@@ -121,12 +121,12 @@ def main():
     print("| optimiser | runs | time | result | converged | goal |")
     print("|---|---|---|---|---|---|")
     for rth in (0.0, 0.8):
-        lattice, seeds, params = reference_setup(rth)
+        lattice, starts, params = reference_setup(rth)
         for method, eta in (("steepest", 1e-6), ("steepest", 3e-6), ("secant", None)):
             kw = {"eta": eta, "h": 0.02} if eta else {}
 
-            def fit(lattice=lattice, seeds=seeds, params=params, method=method, kw=kw):
-                return optimise_beta(lattice, seeds, 130, params, method=method, seed=0, **kw)
+            def fit(lattice=lattice, starts=starts, params=params, method=method, kw=kw):
+                return optimise_beta(lattice, starts, 130, params, method=method, seed=0, **kw)
 
             res = fit()
             t = best(fit, repeat=3)
@@ -141,11 +141,11 @@ def main():
     yy, xx = np.mgrid[0:h, 0:w]
     region = ((yy - h / 2) / (0.4 * h)) ** 2 + ((xx - w / 2) / (0.4 * w)) ** 2 <= 1
     lattice = HexLattice.from_mask(region, 4.0)
-    seeds = lattice.snap([[h / 2, w / 2]])
+    starts = lattice.snap([[h / 2, w / 2]])
     params = FrostParams(target=300, rth=0.4)
 
     def fit_leaf():
-        return optimise_beta(lattice, seeds, 300, params, seed=0)
+        return optimise_beta(lattice, starts, 300, params, seed=0)
 
     res = fit_leaf()
     t = best(fit_leaf, repeat=2)

@@ -1,4 +1,4 @@
-"""The frost app: paint a region, click seed points, tune beta/gamma/alpha/rth, optimise beta."""
+"""The frost app: paint a region, click start points, tune beta/gamma/alpha/rth, optimise beta."""
 
 from __future__ import annotations
 
@@ -11,7 +11,15 @@ import numpy as np
 from traitlets import Int
 
 from fluidnb import Progress, as_image, as_mask
-from fluidnb.frost import FrostParams, HexLattice, grow, optimise_beta, render
+from fluidnb.frost import (
+    FrostParams,
+    HexLattice,
+    estimate_end_frame,
+    gamma_for_target,
+    grow,
+    optimise_beta,
+    render,
+)
 
 from ._app import App
 from ._canvas import DrawingCanvas
@@ -33,11 +41,16 @@ _RUN_CLIP_FRAMES = 120
 class FrostApp(App):
     """Frost growing over a painted region (Amano, Sato & Itoh; Reiter 2005), interactively.
 
-    Paint the region with the brush (eraser and fill too), click one or more seed
+    Paint the region with the brush (eraser and fill too), click one or more start
     points with the points tool, and move the sliders: a coarse live preview follows.
+    Under the sliders the app says how long the run will take (the mass-balance
+    estimate of the end frame, :func:`fluidnb.frost.estimate_end_frame`) and which γ
+    would end at the target; **Use γ** fits γ to the target with a few short runs
+    (:func:`fluidnb.frost.gamma_for_target`) -- with the paper's γ = 0.005 a painted
+    region takes thousands of frames.
     **Optimise β** runs the optimiser for the target end frame in the background and
     fills its table (step, β, end frame) as it goes, then sets the β slider.
-    **Run** grows the frost on the full lattice and draws it over the image (with
+    **Run** grows the frost on the full lattice and draws it as ice on the image (with
     progress and Cancel); the player plays it and exports GIF or MP4.
 
     Parameters
@@ -46,8 +59,8 @@ class FrostApp(App):
         The picture; by default the ``"leaf"`` sample.
     region : array_like of bool, optional
         A region to start with (the image's size).
-    seeds : array_like, shape (n, 2), optional
-        Seed points to start with, (row, col) in image pixels.
+    starts : array_like, shape (n, 2), optional
+        Start points to start with, (row, col) in image pixels.
     params : FrostParams, optional
         Starting parameters (the paper's by default).
     seed : int
@@ -61,7 +74,7 @@ class FrostApp(App):
     --------
     >>> app = FrostApp(quick=True)
     >>> app.canvas.paint([[48, 30], [48, 90]], radius=20)
-    >>> app.canvas.click([48, 60], layer="seeds")
+    >>> app.canvas.click([48, 60], layer="starts")
     >>> app.panel.set("beta", 0.6)
     >>> clip = app.run(timeout=120)
     >>> clip.metadata["method"]
@@ -77,7 +90,7 @@ class FrostApp(App):
         image=None,
         *,
         region=None,
-        seeds=None,
+        starts=None,
         params=None,
         seed=0,
         quick=False,
@@ -95,7 +108,7 @@ class FrostApp(App):
         self._rows = []
         self._rows_lock = threading.Lock()
         canvas = DrawingCanvas(
-            self.image, masks=["region"], points=["seeds"], display_size=display_size
+            self.image, masks=["region"], points=["starts"], display_size=display_size
         )
         canvas.brush_radius = max(2.0, max(self.image.shape[:2]) / 16)
         panel = ParamPanel(params)
@@ -131,9 +144,22 @@ class FrostApp(App):
         self._optimise_button.on_click(lambda _: self.optimise())
         self.table = W.HTML()
         self.table.add_class("fluidnb-optimise-table")
+        # How long the run will take, from the balance of vapour, before anyone waits.
+        self.length = W.HTML()
+        self.length.add_class("fluidnb-frost-length")
+        self._gamma_button = W.Button(
+            description="Fit γ to the target",
+            icon="clock-o",
+            tooltip="set gamma so the frost ends near the target end frame",
+            layout=W.Layout(width="max-content"),
+        )
+        self._gamma_button.add_class("fluidnb-fit-gamma")
+        self._gamma_button.on_click(lambda _: self.fit_gamma())
+        self.estimate = None  #: The last EndFrameEstimate (full lattice), or None.
+        self.gamma_fit = None  #: The last GammaFit.
         hint = W.HTML(
             "<span style='opacity:0.7'>Brush: paint where frost may grow. Points tool "
-            "(layer <b>seeds</b>): click start points. The preview runs on a coarse "
+            "(layer <b>starts</b>): click start points. The preview runs on a coarse "
             "lattice; Run uses the spacing you set.</span>"
         )
         super().__init__(
@@ -144,6 +170,8 @@ class FrostApp(App):
             title="Frost — Amano, Sato & Itoh (Reiter's automaton)",
             extra=[
                 self._seed,
+                self.length,
+                self._gamma_button,
                 W.HBox([self._solver, self._optimise_button]),
                 self._eta,
                 self.table,
@@ -153,8 +181,8 @@ class FrostApp(App):
         canvas.select("brush", "region")
         if region is not None:
             self.set_region(region)
-        if seeds is not None:
-            self.set_seeds(seeds)
+        if starts is not None:
+            self.set_starts(starts)
         self.observe(lambda _: self.request_preview(), "seed")
         self._show_table()
 
@@ -163,9 +191,9 @@ class FrostApp(App):
         """Replace the painted region (undoable on the canvas)."""
         self.canvas.set_mask(as_mask(mask, self.image.shape[:2], name="region"), "region")
 
-    def set_seeds(self, points):
-        """Replace the seed points, (n, 2) (row, col) in image pixels."""
-        self.canvas.set_points(np.asarray(points, float).reshape(-1, 2), "seeds")
+    def set_starts(self, points):
+        """Replace the start points, (n, 2) (row, col) in image pixels."""
+        self.canvas.set_points(np.asarray(points, float).reshape(-1, 2), "starts")
 
     def region(self):
         """The painted region as bool (H, W); ValueError if nothing is painted."""
@@ -174,18 +202,18 @@ class FrostApp(App):
             raise ValueError("region is empty: paint where frost may grow with the brush")
         return mask
 
-    def seed_points(self):
-        """The seed points (n, 2) (row, col); ValueError if there are none."""
-        points = self.canvas.get_points("seeds")
+    def starts(self):
+        """The start points (n, 2) (row, col); ValueError if there are none."""
+        points = self.canvas.get_points("starts")
         if len(points) == 0:
             raise ValueError(
-                "no seed point: choose the points tool, layer 'seeds', and click in the region"
+                "no start point: choose the points tool, layer 'starts', and click in the region"
             )
         return points
 
     def _lattice(self, spacing):
         lattice = HexLattice.from_mask(self.region(), spacing)
-        return lattice, lattice.snap(self.seed_points())
+        return lattice, lattice.snap(self.starts())
 
     # ------------------------------------------------------------------ library calls
     def _preview(self, params):
@@ -194,12 +222,13 @@ class FrostApp(App):
         extent = max(rows.max() - rows.min(), cols.max() - cols.min()) + 1
         spacing = max(params.spacing, extent / _PREVIEW_CELLS)
         lattice = HexLattice.from_mask(region, spacing)
-        cells = lattice.snap(self.seed_points())
+        cells = lattice.snap(self.starts())
         coarse = params.replace(
             spacing=spacing,
             max_frames=min(params.max_frames, _PREVIEW_FRAMES),
             target=min(params.target, _PREVIEW_FRAMES),
         )
+        self._show_length(params)
         result = grow(lattice, cells, coarse, seed=self.seed)
         every = max(1, math.ceil(result.n_frames / _PREVIEW_CLIP_FRAMES))
         size = min(_PREVIEW_SIZE, max(self.image.shape[:2]))
@@ -216,6 +245,66 @@ class FrostApp(App):
         size = min(480, max(self.image.shape[:2]))
         clip = render(self.image, lattice, result, every=every, size=size, progress=draw_report)
         return clip.with_metadata(seed=self.seed, n_cells=lattice.n_cells)
+
+    # ------------------------------------------------------------------ length
+    def _show_length(self, params):
+        """Say up front how long the run will take (mass balance) and what gamma fits."""
+        try:
+            lattice, cells = self._lattice(params.spacing)
+            est = estimate_end_frame(lattice, cells, params)
+            gamma = est.gamma_for(params.target)
+        except ValueError as exc:
+            self.estimate = None
+            self.length.value = f"<span style='color:#b00020'>{html.escape(str(exc))}</span>"
+            return
+        self.estimate = est
+        if math.isinf(est.frames):
+            text = "At these settings the frost never covers the region."
+        else:
+            seconds = est.likely / params.fps
+            text = (
+                f"Length: at γ = {params.gamma:g} this region ends near frame "
+                f"<b>{est.likely:,.0f}</b> ({seconds:,.0f} s at {params.fps:g} fps; mass "
+                f"balance: at most {est.frames:,.0f}, {est.rings:.0f} rings of cells × "
+                f"{est.ring_frames:.0f} frames)"
+            )
+            if est.likely > params.max_frames:
+                text += f", beyond the frame limit {params.max_frames}: a run would stop first"
+        if not math.isnan(gamma):
+            gamma *= est.likely / est.frames  # the likelier length, as gamma_for_target starts
+            long = est.likely > 1.5 * params.target
+            colour = "#b00020" if long else "inherit"
+            text = f"<span style='color:{colour}'>{text}.</span> "
+            text += f"γ ≈ {gamma:.3g} ends near the target {params.target}."
+            self._gamma_button.description = f"Use γ for {params.target} frames (≈ {gamma:.3g})"
+        self.length.value = text
+
+    def fit_gamma(self):
+        """Set gamma so the run ends near the target (what the **Use γ** button does).
+
+        Runs :func:`fluidnb.frost.gamma_for_target` in the background (the mass-balance
+        gamma, corrected by a few runs of about the target's length) and sets the γ
+        slider. Returns False if another computation is running.
+        """
+        seed = self.seed
+
+        def task(params, progress):
+            lattice, cells = self._lattice(params.spacing)
+            progress(0.1, "fitting γ…")
+            return gamma_for_target(lattice, cells, params.target, params, seed=seed)
+
+        return self.start_task(
+            task, self._gamma_fitted, message="fitting γ to the target…", busy=(self._gamma_button,)
+        )
+
+    def _gamma_fitted(self, fit, seconds):
+        self.gamma_fit = fit
+        self.panel.set("gamma", fit.gamma)
+        end = "never" if fit.end_frame is None else fit.end_frame
+        return (
+            f"γ = {fit.gamma:.4g} ends at frame {end} (target {fit.target}; the "
+            f"mass balance alone gave {fit.mass_balance_gamma:.4g}) in {seconds:.1f} s"
+        )
 
     # ------------------------------------------------------------------ optimiser
     def optimise(self):

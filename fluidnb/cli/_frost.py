@@ -7,13 +7,13 @@ import argparse
 from ._common import add_output_option, add_params_options, add_seed_option, params_from_args
 
 
-def _seed_point(text):
+def _start_point(text):
     """Parse ``X,Y`` (column, row in pixels) into (row, col)."""
     try:
         x, y = (float(v) for v in text.split(","))
     except ValueError:
         raise argparse.ArgumentTypeError(
-            f"seed point must be X,Y (column,row in pixels), got {text!r}"
+            f"start point must be X,Y (column,row in pixels), got {text!r}"
         ) from None
     return (y, x)
 
@@ -26,16 +26,16 @@ def register(sub):
         "frost",
         help="frost growing over a painted region (Amano, Sato & Itoh; Reiter 2005)",
         description=(
-            "Grow frost over the white part of MASK on IMAGE from one or more seed "
+            "Grow frost over the white part of MASK on IMAGE from one or more start "
             "points, with Reiter's hexagonal automaton and the paper's random threshold "
             "rth; with --target, first optimise beta so that 90% of the region is ice "
             "at that frame. Defaults are the paper's (beta 0.35, gamma 0.005, rth 0, "
             "24 fps) and Reiter's alpha = 1."
         ),
         epilog=(
-            "Seed points are X,Y = column,row in image pixels (as image editors show "
+            "Start points are X,Y = column,row in image pixels (as image editors show "
             "them), counted from the top-left pixel; they must lie in the region. "
-            "Example: fluidnb frost leaf.png --region mask.png --seed-point 240,180 "
+            "Example: fluidnb frost leaf.png --region mask.png --start 240,180 "
             "--target 130 -o frost.mp4"
         ),
     )
@@ -48,10 +48,10 @@ def register(sub):
         "(default: the whole image)",
     )
     p.add_argument(
-        "--seed-point",
-        dest="seed_points",
+        "--start",
+        dest="starts",
         action="append",
-        type=_seed_point,
+        type=_start_point,
         required=True,
         metavar="X,Y",
         help="a start point, X,Y = column,row in pixels (repeat for several)",
@@ -63,6 +63,13 @@ def register(sub):
         default="secant",
         help="how --target optimises beta: 'secant' (bracketing + secant, robust) or "
         "'steepest' (the paper's steepest descent, Eq. (3)); default secant",
+    )
+    p.add_argument(
+        "--fit-gamma",
+        action="store_true",
+        help="with --target: first set gamma so the run ends near the target (the "
+        "mass-balance estimate, corrected by a few short runs), then optimise beta; the "
+        "paper's gamma = 0.005 takes thousands of frames on a region painted by hand",
     )
     p.add_argument(
         "--eta",
@@ -94,8 +101,16 @@ def _frost(args):
 
     from .._image import as_image, as_mask
     from .._progress import TextProgress
-    from .._random import rng
-    from ..frost import FrostParams, HexLattice, grow, optimise_beta, render
+    from .._random import resolve_seed
+    from ..frost import (
+        FrostParams,
+        HexLattice,
+        estimate_end_frame,
+        gamma_for_target,
+        grow,
+        optimise_beta,
+        render,
+    )
 
     params = params_from_args(FrostParams, args)
     image = as_image(args.image, name="IMAGE", mode="rgb")
@@ -104,24 +119,35 @@ def _frost(args):
     else:
         region = as_mask(args.region, image.shape[:2], name="--region")
     lattice = HexLattice.from_mask(region, params.spacing)
-    for row, col in args.seed_points:
+    for row, col in args.starts:
         try:
             lattice.snap([row, col])
         except ValueError:
             raise ValueError(
-                f"--seed-point {col:g},{row:g} (X,Y = column,row) is outside the region; "
-                "place seeds on the white part of --region"
+                f"--start {col:g},{row:g} (X,Y = column,row) is outside the region; "
+                "place start points on the white part of --region"
             ) from None
-    seeds = lattice.snap(np.array(args.seed_points, float))
+    starts = lattice.snap(np.array(args.starts, float))
     # One seed for the optimiser and the clip (common random numbers), printed so the
     # clip can be made again.
-    seed = int(rng(None).integers(2**31)) if args.seed is None else args.seed
+    seed = resolve_seed(args.seed)
     print(f"lattice: {lattice.n_cells} cells, spacing {params.spacing:g} px")
+    # Say up front how long it will take (the balance of vapour), before anyone waits.
+    est = estimate_end_frame(lattice, starts, params)
+    print(f"at gamma = {params.gamma:g} the frost {est}")
+    if est.likely > params.max_frames:
+        print(f"  beyond --max-frames {params.max_frames}: raise --gamma (or use --fit-gamma)")
+    if args.fit_gamma:
+        if args.target is None:
+            raise ValueError("--fit-gamma needs --target: the end frame to fit gamma to")
+        fit = gamma_for_target(lattice, starts, params.target, params, seed=seed)
+        params = params.replace(gamma=fit.gamma)
+        print(f"gamma = {fit.gamma:.4g} ends at frame {fit.end_frame} (target {fit.target})")
     optimise = None
     if args.target is not None:
         result = optimise_beta(
             lattice,
-            seeds,
+            starts,
             params.target,
             params,
             method=args.solver,
@@ -135,7 +161,7 @@ def _frost(args):
         print(result.message)
         params = params.replace(beta=result.beta)
         optimise = result.to_dict()
-    grown = grow(lattice, seeds, params, seed=seed, progress=TextProgress())
+    grown = grow(lattice, starts, params, seed=seed, progress=TextProgress())
     print(f"beta = {params.beta:.6g}: {grown.message}")
     clip = render(image, lattice, grown, every=args.every, size=args.size, progress=TextProgress())
     extra = {"seed": seed, "n_cells": lattice.n_cells}

@@ -1,11 +1,11 @@
-r"""A :math:`\beta` that depends on the direction from the seed (the seed's future work).
+r"""A :math:`\beta` that depends on the direction from the start point (the paper's future work).
 
-Sec. 5 of the seed proposes to let the initial value :math:`\beta` vary with the
+Amano et al. (sec. 5) propose to let the initial value :math:`\beta` vary with the
 direction from the start point, chosen with the distance to the boundary in mind, so
 that the frost reaches every part of the region's boundary at the same time. This
 module does that by a few rounds of per-direction Newton steps:
 
-1. split the region into ``n_directions`` angular sectors around each seed;
+1. split the region into ``n_directions`` angular sectors around each start point;
 2. run with a uniform :math:`\beta` and at :math:`\beta + \delta`, and measure in each
    sector :math:`k` the arrival frame :math:`A_k` at the boundary (median freeze frame
    of the region's edge cells in the sector) and the slope
@@ -28,9 +28,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._progress import Progress
-from .._random import rng
+from .._random import resolve_seed
 from .._validation import check_int, check_range
-from ._reiter import _check_lattice, _check_params, _seed_cells, grow
+from ._reiter import _check_lattice, _check_params, _start_cells, grow
 
 __all__ = ["DirectionBeta", "direction_beta"]
 
@@ -49,18 +49,18 @@ class DirectionBeta:
     ----------
     beta : ndarray, shape (n_cells,)
         :math:`\beta(p)` of the best round, to pass as ``grow(..., beta=...)``.
-    sector_beta : ndarray, shape (n_seeds, n_directions)
-        :math:`\beta_k` per seed and sector of the last round (sector 0 points east,
+    sector_beta : ndarray, shape (n_starts, n_directions)
+        :math:`\beta_k` per start point and sector of the last round (sector 0 points east,
         then counter-clockwise as seen on the image).
-    distance : ndarray, shape (n_seeds, n_directions)
-        Median distance (pixels) from the seed to the region's edge in each sector.
-    arrival : ndarray, shape (rounds + 1, n_seeds, n_directions)
+    distance : ndarray, shape (n_starts, n_directions)
+        Median distance (pixels) from the start point to the region's edge in each sector.
+    arrival : ndarray, shape (rounds + 1, n_starts, n_directions)
         :math:`A_k` (frames) of every run, the uniform one first (NaN: empty sector).
     spread : ndarray, shape (rounds + 1,)
         Max - min of :math:`A_k` over the sectors, per run (the uniform one first):
         what the rounds reduce; :attr:`beta` is the round with the smallest.
     sector : ndarray of int, shape (n_cells,)
-        The (seed * n_directions + direction) sector of each cell.
+        The (start * n_directions + direction) sector of each cell.
     seed : int
         The random seed of every run.
     message : str
@@ -80,10 +80,10 @@ class DirectionBeta:
     seconds: float = field(default=0.0, repr=False)
 
 
-def _sectors(lattice, seeds, n_dir):
-    """Nearest seed, angle from it and sector of every cell."""
+def _sectors(lattice, starts, n_dir):
+    """Nearest start point, angle from it and sector of every cell."""
     pts = lattice.points
-    origin = pts[seeds]
+    origin = pts[starts]
     d2 = ((pts[:, None, :] - origin[None, :, :]) ** 2).sum(axis=2)
     owner = np.argmin(d2, axis=1)
     rel = pts - origin[owner]
@@ -125,7 +125,7 @@ def _interpolate(sector_beta, owner, theta, n_dir):
 
 def direction_beta(
     lattice,
-    seeds,
+    starts,
     params=None,
     *,
     n_directions=12,
@@ -140,12 +140,12 @@ def direction_beta(
     ----------
     lattice : HexLattice
         The region's lattice.
-    seeds : array_like
-        Seed cells or (n, 2) pixel points, as for :func:`grow`.
+    starts : array_like
+        Start cells or (n, 2) pixel points, as for :func:`grow`.
     params : FrostParams, optional
         The run's parameters; ``params.beta`` is the starting (uniform) value.
     n_directions : int
-        Angular sectors around each seed (>= 2).
+        Angular sectors around each start point (>= 2).
     rounds : int
         Newton rounds after the two uniform runs (>= 1).
     delta : float
@@ -171,27 +171,23 @@ def direction_beta(
     """
     lattice = _check_lattice(lattice)
     params = _check_params(params)
-    seeds = _seed_cells(lattice, seeds)
+    starts = _start_cells(lattice, starts)
     n_dir = check_int("n_directions", n_directions, 2, 360)
     rounds = check_int("rounds", rounds, 1, 50)
     delta = check_range("delta", delta, 0, 0.5, lo_open=True)
-    if seed is None or isinstance(seed, np.random.Generator):
-        seed = int(rng(seed).integers(2**31))
-    else:
-        rng(seed)
-        seed = int(seed)
+    seed = resolve_seed(seed)  # one int for every run (common random numbers)
     report = Progress(progress)
     started = time.perf_counter()
-    n_seeds = len(seeds)
-    n_sec = n_seeds * n_dir
-    owner, theta, sector, dist = _sectors(lattice, seeds, n_dir)
+    n_starts = len(starts)
+    n_sec = n_starts * n_dir
+    owner, theta, sector, dist = _sectors(lattice, starts, n_dir)
     edge = _edge_cells(lattice)
-    distance = _per_sector(dist, sector, edge, n_sec).reshape(n_seeds, n_dir)
+    distance = _per_sector(dist, sector, edge, n_sec).reshape(n_starts, n_dir)
     total = rounds + 2
 
     def arrivals(beta, i):
         sub = report.sub(i / total, (i + 1) / total)
-        res = grow(lattice, seeds, params, beta=beta, seed=seed, progress=sub)
+        res = grow(lattice, starts, params, beta=beta, seed=seed, progress=sub)
         # A cell that never froze arrives "at the end of the run" (a lower bound).
         f = np.where(res.freeze_frame < 0, res.n_frames + 1, res.freeze_frame)
         return _per_sector(f.astype(float), sector, edge, n_sec)
@@ -220,7 +216,7 @@ def direction_beta(
         # Empty sectors (no edge cells) take the mean of the others.
         new[~present] = new[present].mean() if present.any() else b0
         previous_beta, sector_beta = sector_beta, new
-        beta = _interpolate(sector_beta.reshape(n_seeds, n_dir), owner, theta, n_dir)
+        beta = _interpolate(sector_beta.reshape(n_starts, n_dir), owner, theta, n_dir)
         before, current = current, arrivals(beta, i + 2)
         history.append(current)
         if _spread(current) < best_spread:
@@ -231,7 +227,7 @@ def direction_beta(
             secant = (np.log(current) - np.log(before)) / (sector_beta - previous_beta)
         ok = moved & np.isfinite(secant) & (secant < 0)
         slope = np.where(ok, np.clip(secant, 3 * shared, shared / 3), slope)
-    arrival = np.stack(history).reshape(len(history), n_seeds, n_dir)
+    arrival = np.stack(history).reshape(len(history), n_starts, n_dir)
     spread = np.array([_spread(a) for a in history])
     beta = np.clip(best_beta, 0.0, 1.0)
     beta.setflags(write=False)
@@ -243,7 +239,7 @@ def direction_beta(
     report(1.0, message)
     return DirectionBeta(
         beta=beta,
-        sector_beta=sector_beta.reshape(n_seeds, n_dir),
+        sector_beta=sector_beta.reshape(n_starts, n_dir),
         distance=distance,
         arrival=arrival,
         spread=spread,

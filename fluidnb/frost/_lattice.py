@@ -1,4 +1,4 @@
-"""The hexagonal lattice of the frost simulation (seed Sec. 3.1, Fig. 2).
+"""The hexagonal lattice of the frost simulation (Amano et al., sec. 3.1, Fig. 2).
 
 Lattice points sit on a regular triangular lattice (each point has six neighbours at
 the same distance: Reiter's hexagonal cells) with spacing ``s`` pixels:
@@ -20,7 +20,7 @@ neighbour is at the same offset (+1, -stride + 1, -stride, -1, +stride - 1, +str
 from every point, so the update is a handful of contiguous shifted slices.
 
 Every point has a kind: a *cell* of the painted region, a point of the *boundary
-ring* just outside it (seed Sec. 3.3: "one size larger than the sketched region"), or
+ring* just outside it (Amano et al., sec. 3.3: "one size larger than the sketched region"), or
 *outside* (not simulated). The ring is every non-region point with a region
 neighbour, so each region cell's six neighbours are all cells or ring points.
 """
@@ -47,6 +47,36 @@ ROW = math.sqrt(3.0) / 2.0
 DIRECTIONS = ("E", "NE", "NW", "W", "SW", "SE")
 # The same directions in axial coordinates (dq, dr).
 AXIAL_DIRECTIONS = ((1, 0), (1, -1), (0, -1), (-1, 0), (-1, 1), (0, 1))
+
+
+#: Most lattice points :meth:`HexLattice.from_mask` lays over an image (2048 x 2048):
+#: building and stepping a lattice costs about 100 bytes a point, so this is ~0.4 GB.
+MAX_POINTS = 2048 * 2048
+
+
+def _points_over(shape, spacing):
+    """Lattice points :meth:`HexLattice.from_mask` lays over an image of this shape."""
+    h, w = shape
+    dy = spacing * ROW
+    mi, mj = 3 + math.ceil(1 / dy), 3 + math.ceil(1 / spacing)
+    return (math.ceil((h - 1) / dy) + 2 * mi + 1) * (math.ceil((w - 1) / spacing) + 2 * mj + 1)
+
+
+def _check_size(n_points, spacing, shape):
+    """Refuse a spacing that would lay more than :data:`MAX_POINTS` points, before allocating."""
+    if n_points <= MAX_POINTS:
+        return
+    h, w = shape
+    # n(s) ~ h w / (s^2 sqrt(3)/2): start from that, then step up to a round value that fits.
+    fits = math.sqrt(h * w / (ROW * MAX_POINTS))
+    fits = math.ceil(fits * 100) / 100
+    while _points_over(shape, fits) > MAX_POINTS:
+        fits = round(fits + 0.01, 2)
+    raise ValueError(
+        f"spacing={spacing:g} px would lay {n_points:,} lattice points over the {w}x{h} "
+        f"image, more than the {MAX_POINTS:,} that fit; spacing must be >= {fits:g} px "
+        "for this image (a few pixels is usual: each point is one ice cell)"
+    )
 
 
 def neighbour_any(x, out, parity):
@@ -209,11 +239,16 @@ class HexLattice:
         spacing = check_range("spacing", spacing, 0, lo_open=True)
         h, w = mask.shape
         dy = spacing * ROW
-        # Lattice rows/columns covering the image with a margin of three points (a
-        # half-shifted row can round onto the image at j = -1), so the ring and a further
+        # Lattice rows/columns covering the image with a margin of three points plus a
+        # pixel (a half-shifted row can round onto the image at j = -1; below 1 px
+        # spacing several points round onto one pixel), so the ring and a further
         # outside margin always fit.
-        i = np.arange(-3, int(math.ceil((h - 1) / dy)) + 4)
-        j = np.arange(-3, int(math.ceil((w - 1) / spacing)) + 4)
+        mi, mj = 3 + math.ceil(1 / dy), 3 + math.ceil(1 / spacing)
+        n_rows = int(math.ceil((h - 1) / dy)) + 2 * mi + 1
+        n_cols = int(math.ceil((w - 1) / spacing)) + 2 * mj + 1
+        _check_size(n_rows * n_cols, spacing, (h, w))
+        i = np.arange(-mi, n_rows - mi)
+        j = np.arange(-mj, n_cols - mj)
         ii, jj = np.meshgrid(i, j, indexing="ij")
         y = ii * dy
         x = (jj + 0.5 * (ii & 1)) * spacing
@@ -267,6 +302,11 @@ class HexLattice:
         """
         radius = check_int("radius", radius, 0)
         spacing = check_range("spacing", spacing, 0, lo_open=True)
+        if (2 * radius + 7) ** 2 > MAX_POINTS:
+            most = (math.isqrt(MAX_POINTS) - 7) // 2
+            raise ValueError(
+                f"radius must be <= {most} (at most {MAX_POINTS:,} points), got {radius}"
+            )
         m = radius + 3  # the hexagon, its ring and one outside point, with room to spare
         i = np.arange(-m, m + 1)
         j = np.arange(-m, m + 1)
@@ -318,9 +358,47 @@ class HexLattice:
         centroid = self.points.mean(axis=0)
         return int(np.argmin(((self.points - centroid) ** 2).sum(axis=1)))
 
-    # ------------------------------------------------------------------ seeds
+    def hops(self, cells):
+        """Steps from the nearest of ``cells`` to every cell, along the lattice.
+
+        Ice spreads at most one cell a frame (a cell can freeze only after a
+        neighbour has), so the ice at frame ``t`` lies within ``t`` hops of the start
+        cells: this is the fastest the front can possibly move.
+
+        Parameters
+        ----------
+        cells : array_like of int
+            Start cells (indices into :attr:`points`).
+
+        Returns
+        -------
+        ndarray of int32, shape (n_cells,)
+            Hop distance of every cell (0 at the starts), -1 for cells the starts
+            cannot reach (another part of a region painted in pieces).
+
+        Examples
+        --------
+        >>> lat = HexLattice.hexagon(3)
+        >>> np.bincount(lat.hops([lat.center_cell()])).tolist()  # 1 + 6 + 12 + 18 cells
+        [1, 6, 12, 18]
+        """
+        n = self.n_cells
+        nbrs = self.neighbours[:n]
+        dist = np.full(n, -1, np.int32)
+        front = np.unique(np.asarray(cells, dtype=np.intp))
+        dist[front] = 0
+        k = 0
+        while front.size:  # breadth-first, one whole layer per pass
+            k += 1
+            nxt = nbrs[front].ravel()
+            nxt = np.unique(nxt[(nxt >= 0) & (nxt < n)])
+            front = nxt[dist[nxt] < 0]
+            dist[front] = k
+        return dist
+
+    # ------------------------------------------------------------------ start points
     def snap(self, points_rc):
-        """Cells for seed points given in pixel (row, col) coordinates.
+        """Cells for start points given in pixel (row, col) coordinates.
 
         Each point goes to the nearest cell of the region; several points may be
         given, and points landing on the same cell count once.
@@ -328,7 +406,7 @@ class HexLattice:
         Parameters
         ----------
         points_rc : array_like, shape (n, 2) or (2,)
-            Seed points, (row, col) in image pixels.
+            Start points, (row, col) in image pixels.
 
         Returns
         -------
@@ -347,19 +425,19 @@ class HexLattice:
         >>> lat.snap([lat.origin + 3]).tolist()  # near the centre
         [9]
         """
-        pts = check_array("seed points", points_rc, ndim=(1, 2), dtype_kinds="iuf")
+        pts = check_array("start points", points_rc, ndim=(1, 2), dtype_kinds="iuf")
         pts = pts.reshape(-1, 2) if pts.ndim == 1 and pts.size == 2 else pts
         if pts.ndim != 2 or pts.shape[1] != 2:
             raise ValueError(
-                f"seed points must be (row, col) pairs of shape (n, 2), got {pts.shape}"
+                f"start points must be (row, col) pairs of shape (n, 2), got {pts.shape}"
             )
         pts = pts.astype(float)
         dist, idx = self._cell_tree().query(pts)
         for (row, col), d in zip(pts, dist):
             if not self._inside(row, col, d):
                 raise ValueError(
-                    f"seed point (row, col) = ({row:g}, {col:g}) is outside the region; "
-                    "place seeds on the painted area"
+                    f"start point (row, col) = ({row:g}, {col:g}) is outside the region; "
+                    "place start points on the painted area"
                 )
         return np.unique(idx).astype(np.intp)
 

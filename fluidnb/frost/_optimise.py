@@ -1,14 +1,14 @@
-r"""Choosing :math:`\beta` so the frost ends at a target frame (seed Sec. 3.4).
+r"""Choosing :math:`\beta` so the frost ends at a target frame (Amano et al., sec. 3.4).
 
 The end frame :math:`T_{sim}(\beta)` is the first frame with 90 % of the region frozen.
-The seed minimises :math:`f(\beta) = (T - T_{sim}(\beta))^2` (Eq. (2)) by steepest
+Amano et al. minimise :math:`f(\beta) = (T - T_{sim}(\beta))^2` (Eq. (2)) by steepest
 descent, :math:`\beta_{i+1} = \beta_i - \eta\, \partial f / \partial \beta` (Eq. (3)),
 the derivative by finite differences, and stops once :math:`|T - T_{sim}|` is within
 the frames of 1/6 s at the clip's fps (24 fps: 4 frames).
 
 :math:`T_{sim}` is an integer that falls in steps as :math:`\beta` grows, so its finite
 differences are noisy (zero on a flat step, huge across a jump) and the step
-:math:`\eta f'` depends on the slope of the region at hand. The seed names better
+:math:`\eta f'` depends on the slope of the region at hand. The paper names better
 solvers as future work; :func:`optimise_beta` offers one as its default: bracket the
 target (:math:`T_{sim}` falls with :math:`\beta`), then regula falsi (secant steps kept
 inside the bracket, Illinois variant) with bisection as the fallback.
@@ -23,12 +23,11 @@ import math
 import time
 from dataclasses import dataclass, field
 
-import numpy as np
-
 from .._progress import Progress
-from .._random import rng
+from .._random import resolve_seed
 from .._validation import check_choice, check_int, check_range
-from ._reiter import _check_lattice, _check_params, _seed_cells, grow
+from ._estimate import estimate_end_frame
+from ._reiter import _check_lattice, _check_params, _start_cells, grow
 
 __all__ = ["OptimiseResult", "OptimiseStep", "optimise_beta"]
 
@@ -141,8 +140,8 @@ class OptimiseResult:
 class _Objective:
     """T_sim(beta) with one seed for every run (common random numbers), memoised."""
 
-    def __init__(self, lattice, seeds, params, seed, report):
-        self.lattice, self.seeds, self.params, self.seed = lattice, seeds, params, seed
+    def __init__(self, lattice, starts, params, seed, report):
+        self.lattice, self.starts, self.params, self.seed = lattice, starts, params, seed
         self.report = report
         self.cache = {}
         self.fraction = 0.0
@@ -152,7 +151,7 @@ class _Objective:
         if beta not in self.cache:
             params = self.params.replace(beta=beta)
             sub = self.report.sub(self.fraction, self.fraction)  # cancellation inside runs
-            res = grow(self.lattice, self.seeds, params, seed=self.seed, progress=sub)
+            res = grow(self.lattice, self.starts, params, seed=self.seed, progress=sub)
             self.cache[beta] = res.end_frame
         return self.cache[beta]
 
@@ -167,7 +166,7 @@ class _Objective:
 
 def optimise_beta(
     lattice,
-    seeds,
+    starts,
     target=None,
     params=None,
     *,
@@ -186,15 +185,15 @@ def optimise_beta(
     ----------
     lattice : HexLattice
         The region's lattice.
-    seeds : array_like
-        Seed cells or (n, 2) pixel points, as for :func:`grow`.
+    starts : array_like
+        Start cells or (n, 2) pixel points, as for :func:`grow`.
     target : int, optional
         :math:`T`, the target end frame (default ``params.target``).
     params : FrostParams, optional
         :math:`\gamma, \alpha, r_{th}`, coverage, frame limit, and ``fps`` for the
         stopping band of 1/6 s (24 fps: 4 frames); ``params.beta`` is ignored.
     method : {"secant", "steepest"}
-        ``"steepest"``: the seed's steepest descent (Eq. (3)) on
+        ``"steepest"``: the paper's steepest descent (Eq. (3)) on
         :math:`f(\beta) = (T - T_{sim}(\beta))^2` (Eq. (2)) with a central finite
         difference :math:`f'(\beta) \approx (f(\beta + h) - f(\beta - h)) / 2h`;
         each step is clipped to [0, 1]. ``"secant"`` (default): bracketing, then regula
@@ -233,8 +232,8 @@ def optimise_beta(
     Examples
     --------
     >>> from fluidnb.frost import reference_setup
-    >>> lattice, seeds, params = reference_setup(rth=0.0)
-    >>> res = optimise_beta(lattice, seeds, 130, params, seed=0)
+    >>> lattice, starts, params = reference_setup(rth=0.0)
+    >>> res = optimise_beta(lattice, starts, 130, params, seed=0)
     >>> print(res.table())
     step      beta  end frame  note
        0  0.250000        158  start
@@ -246,9 +245,10 @@ def optimise_beta(
     """
     lattice = _check_lattice(lattice)
     params = _check_params(params)
-    seeds = _seed_cells(lattice, seeds)
+    starts = _start_cells(lattice, starts)
     target = params.target if target is None else target
     target = check_int("target", target, 1, params.max_frames)
+    _check_fast_enough(lattice, starts, target, params)
     method = check_choice("method", method, _METHODS)
     beta0 = check_range("beta0", beta0, 0, 1)
     eta = check_range("eta", eta, 0, lo_open=True)
@@ -256,14 +256,9 @@ def optimise_beta(
     max_iter = check_int("max_iter", max_iter, 1)
     if on_step is not None and not callable(on_step):
         raise ValueError(f"on_step must be None or a callable, got {type(on_step).__name__}")
-    if seed is None or isinstance(seed, np.random.Generator):
-        # Common random numbers need one fixed seed for every evaluation.
-        seed = int(rng(seed).integers(2**31))
-    else:
-        rng(seed)  # validates
-        seed = int(seed)
+    seed = resolve_seed(seed)  # common random numbers: one fixed seed for every evaluation
     report = Progress(progress)
-    objective = _Objective(lattice, seeds, params, seed, report)
+    objective = _Objective(lattice, starts, params, seed, report)
     tol = params.tolerance
     started = time.perf_counter()
     rows = []
@@ -311,7 +306,7 @@ def _best(rows, target, objective):
 
 
 def _steepest(objective, record, target, tol, beta, eta, h, max_iter):
-    """The seed's Eq. (3) with a central finite difference of f (Eq. (2))."""
+    """Amano et al.'s Eq. (3) with a central finite difference of f (Eq. (2))."""
 
     def f(b):
         return (target - objective.as_number(objective(b))) ** 2
@@ -426,6 +421,28 @@ def _probe(objective, record, target, tol, lo, hi, max_iter):
     return False, f"no beta found with T_sim within {tol:g} of {target}: {jump}"
 
 
+def _check_fast_enough(lattice, starts, target, params):
+    """Refuse a target sooner than the front can possibly get there.
+
+    Ice spreads at most one cell a frame, so no beta < 1 ends before the coverage's
+    hop distance from the start points (beta = 1 is ice everywhere at frame 0: no
+    growth at all, which would otherwise "converge" for a target of a frame or two).
+    """
+    fastest = estimate_end_frame(lattice, starts, params).fastest
+    if fastest < 0:
+        raise ValueError(
+            "the start points cannot reach enough of the region (it is painted in pieces): "
+            "add a start point in every piece"
+        )
+    if target < fastest:
+        raise ValueError(
+            f"target must be >= {fastest} frames for this region and these start points, "
+            f"got {target}: ice spreads at most one cell a frame, and {params.coverage:.0%} "
+            f"of the region lies up to {fastest} cells from the start points; choose a "
+            "later target, add start points or use a larger spacing"
+        )
+
+
 def _check_reachable(objective, record, target, tol, rows):
     """Raise a clear ValueError if no beta in [0, 1] can reach the target."""
     ends = [objective.as_number(r.end_frame) for r in rows]
@@ -440,7 +457,7 @@ def _check_reachable(objective, record, target, tol, rows):
         raise ValueError(
             f"target {target} frames cannot be reached: even the slowest growth (beta = 0) "
             f"ends at frame {slowest}, so reachable end frames are 0..{slowest} for this "
-            "region, these seeds and gamma, alpha, rth; lower the target, enlarge the "
+            "region, these starts and gamma, alpha, rth; lower the target, enlarge the "
             "region, use a smaller spacing or a smaller gamma"
         )
 

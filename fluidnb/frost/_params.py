@@ -13,9 +13,9 @@ __all__ = ["FrostParams"]
 class FrostParams(Params):
     r"""Parameters of the frost growth (Reiter's automaton with a random threshold).
 
-    Defaults are the seed's experiment (Sec. 4: :math:`\beta = 0.35`,
+    Defaults are the paper's experiment (Sec. 4: :math:`\beta = 0.35`,
     :math:`\gamma = 0.005`, :math:`r_{th} = 0`, a 24 fps clip, target 130 frames) and
-    Reiter's diffusion weight :math:`\alpha = 1` (the seed leaves :math:`\alpha` to
+    Reiter's diffusion weight :math:`\alpha = 1` (the paper leaves :math:`\alpha` to
     the user; Reiter's figures use 1).
 
     Parameters
@@ -78,7 +78,7 @@ class FrostParams(Params):
         eq="Eq. (1)",
         doc="vapour added each step to ice and (if r > rth) frontier cells",
         log=True,
-        ui_range=(1e-4, 0.1),
+        ui_range=(1e-4, 1.0),  # up to 1: hand-painted regions need gamma >> 0.005 to end soon
     )
     alpha: float = param(
         1.0,

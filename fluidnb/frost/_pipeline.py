@@ -1,14 +1,14 @@
-"""The whole frost method in one call: image + painted region + seed points -> clip."""
+"""The whole frost method in one call: image + painted region + start points -> clip."""
 
 from __future__ import annotations
 
 import time
 
-import numpy as np
+import numpy as np  # noqa: F401  (the doctest below uses np)
 
 from .._image import as_image, as_mask
 from .._progress import Progress
-from .._random import rng
+from .._random import resolve_seed
 from ._lattice import HexLattice
 from ._optimise import optimise_beta
 from ._reiter import _check_params, grow
@@ -20,7 +20,7 @@ __all__ = ["frost"]
 def frost(
     image,
     region,
-    seed_points,
+    starts,
     params=None,
     *,
     seed=None,
@@ -30,12 +30,12 @@ def frost(
     return_result=False,
     progress=None,
 ):
-    r"""Animate frost growing over a painted region of an image from seed points.
+    r"""Animate frost growing over a painted region of an image from start points.
 
     Builds the hexagonal lattice in the region (Sec. 3.1 of [1]_), optionally
     optimises :math:`\beta` so the run ends at ``params.target`` (Sec. 3.4), grows
     the frost with Reiter's automaton and the random threshold (Sec. 3.2-3.3) and
-    draws it over the image.
+    draws it as ice lying on the image (:func:`render`).
 
     Parameters
     ----------
@@ -43,12 +43,12 @@ def frost(
         The picture (anything :func:`fluidnb.as_image` accepts).
     region : array_like of bool, shape (H, W)
         Where frost may grow (a painted mask of the image's size).
-    seed_points : array_like, shape (n, 2)
+    starts : array_like, shape (n, 2)
         Start points, (row, col) in image pixels, inside the region.
     params : FrostParams, optional
         The paper's defaults if omitted.
     seed : None, int or numpy.random.Generator
-        Seeds :math:`r_t(p)`; the seed actually used is stored in the metadata.
+        The random seed of :math:`r_t(p)`; the int actually used is stored in the metadata.
     solver : {None, "secant", "steepest"}
         Optimise :math:`\beta` for ``params.target`` first with this solver.
     every : int
@@ -72,7 +72,7 @@ def frost(
     Raises
     ------
     ValueError
-        For an empty region, seeds outside it, a spacing too large for it, invalid
+        For an empty region, starts outside it, a spacing too large for it, invalid
         parameters, or (with a solver) a target no beta can reach.
 
     References
@@ -96,16 +96,12 @@ def frost(
     started = time.perf_counter()
     img = as_image(image, mode="rgb")
     mask = as_mask(region, shape=img.shape[:2], name="region")
-    if seed is None or isinstance(seed, np.random.Generator):
-        seed = int(rng(seed).integers(2**31))  # recorded, so the clip can be remade
-    else:
-        rng(seed)
-        seed = int(seed)
+    seed = resolve_seed(seed)  # recorded, so the clip can be remade
     report = Progress(progress)
     timings = {}
     t0 = time.perf_counter()
     lattice = HexLattice.from_mask(mask, params.spacing)
-    cells = lattice.snap(seed_points)
+    cells = lattice.snap(starts)
     timings["lattice"] = time.perf_counter() - t0
     extra = {}
     if solver is not None:
@@ -130,7 +126,7 @@ def frost(
         seed=seed,
         timings=timings,
         n_cells=lattice.n_cells,
-        seed_cells=lattice.points[cells].tolist(),
+        start_cells=lattice.points[cells].tolist(),
         **extra,
     )
     return (clip, result) if return_result else clip

@@ -16,7 +16,7 @@ from ._params import FrostParams
 __all__ = ["grow_reference", "reference_setup"]
 
 
-def grow_reference(lattice, seeds, params=None, *, frames, seed=None):
+def grow_reference(lattice, starts, params=None, *, frames, seed=None):
     """Run ``frames`` steps cell by cell; returns (freeze_frame, vapour per frame).
 
     The random numbers are drawn exactly as :func:`fluidnb.frost.grow` draws them
@@ -33,7 +33,7 @@ def grow_reference(lattice, seeds, params=None, *, frames, seed=None):
     where = (np.asarray(lattice.cells) - lo).tolist()
 
     u = [params.beta] * n + [0.0] * n_ring
-    for s in np.asarray(seeds).tolist():
+    for s in np.asarray(starts).tolist():
         u[s] = 1.0
     freeze = [-1] * n
     history = []
@@ -67,7 +67,7 @@ def grow_reference(lattice, seeds, params=None, *, frames, seed=None):
 
 
 def reference_setup(rth=0.0):
-    """A region, seed and parameters on which beta = 0.25 ends near 160 frames (Tables 1-2).
+    """A region, start point and parameters on which beta = 0.25 ends near 160 frames (Tables 1-2).
 
     The paper gives neither its region nor the gamma of its Tables 1-2 (only of its
     Fig. 3). Mass balance shows why a region must be small to end near 160 frames at
@@ -75,10 +75,10 @@ def reference_setup(rth=0.0):
     vapour, the region starts with beta N, and each step adds gamma to at most N cells
     (the boundary ring exchanges none), so T_sim >= (0.9 - beta) / gamma = 130 frames;
     in practice much more, because gamma given to cells already frozen is locked in
-    them. The smallest region (a seed and its six neighbours) ends exactly at
+    them. The smallest region (a start point and its six neighbours) ends exactly at
     (1 - beta) / gamma = 150 frames; a 37-cell hexagon needs 351.
 
-    We keep a region of a useful size -- a hexagon of radius 10 (331 cells), seed at
+    We keep a region of a useful size -- a hexagon of radius 10 (331 cells), start point at
     the centre -- and choose gamma so that beta = 0.25 ends near 160 frames:
     gamma = 0.036 for rth = 0 (frame 158) and gamma = 0.19 for rth = 0.8 (frame 158
     with seed 0). rth = 0.8 needs about five times the gamma because only one frontier
@@ -94,14 +94,14 @@ def reference_setup(rth=0.0):
     Returns
     -------
     lattice : HexLattice
-    seeds : ndarray of intp
+    starts : ndarray of intp
         The centre cell.
     params : FrostParams
         The paper's defaults with this rth and the calibrated gamma.
 
     Examples
     --------
-    >>> lattice, seeds, params = reference_setup(0.0)
+    >>> lattice, starts, params = reference_setup(0.0)
     >>> lattice.n_cells, params.gamma
     (331, 0.036)
     """

@@ -1,4 +1,4 @@
-r"""Reiter's hexagonal automaton with the seed's random threshold (Sec. 3.2-3.3).
+r"""Reiter's hexagonal automaton with the paper's random threshold (Sec. 3.2-3.3).
 
 State: the vapour field :math:`u_t(p)` on the lattice cells. A cell with
 :math:`u \ge 1` is *ice*; a cell that is not ice but has an ice neighbour is a
@@ -9,7 +9,7 @@ State: the vapour field :math:`u_t(p)` on the lattice cells. A cell with
 2. boundary ring: every ring point takes the mean of its region neighbours' values in
    this diffusion field (Sec. 3.3; receptive neighbours count 0);
 3. diffuse :math:`b` everywhere, :math:`b \leftarrow b + \frac{\alpha}{12}(-6b +
-   \sum_{q \in nn(p)} b(q))` (the seed's :math:`D_t`; receptive cells take part with
+   \sum_{q \in nn(p)} b(q))` (the paper's :math:`D_t`; receptive cells take part with
    :math:`b = 0`, so they receive inflow and lose nothing);
 4. add :math:`\gamma` to :math:`a` on the ice cells and on the frontier cells whose
    fresh :math:`r_t(p) \sim U[0, 1]` exceeds :math:`r_{th}` (Eq. (1));
@@ -39,7 +39,7 @@ import numpy as np
 from scipy import sparse
 
 from .._progress import Progress
-from .._random import rng
+from .._random import resolve_seed, rng
 from .._validation import check_array, check_int
 from ._lattice import HexLattice
 from ._params import FrostParams
@@ -66,7 +66,7 @@ class FrostResult:
     lattice : HexLattice
         The lattice the run used.
     freeze_frame : ndarray of int32, shape (n_cells,)
-        The frame at which each cell became ice (0 for the seeds), -1 if it never
+        The frame at which each cell became ice (0 for the starts), -1 if it never
         did within the run.
     end_frame : int or None
         :math:`T_{sim}`: the first frame with at least ``coverage`` of the region's
@@ -79,14 +79,15 @@ class FrostResult:
         How many cells received :math:`\\gamma` in the step from frame t to t + 1.
     vapour : ndarray, shape (n_frames + 1, n_cells), or None
         :math:`u_t(p)` at every frame (``record_vapour=True`` only).
-    seeds : ndarray of intp
-        The seed cells.
+    starts : ndarray of intp
+        The start cells.
     beta : float or ndarray
         The initial vapour (a scalar, or one value per cell).
     params : FrostParams
         The parameters of the run.
-    seed : int or None
-        The random seed given (``None`` if a Generator or fresh entropy was used).
+    seed : int
+        The random seed the run used (:func:`fluidnb.resolve_seed`): pass it to
+        :func:`grow` again to remake the run.
     message : str
         How the run ended, in words.
     seconds : float
@@ -100,10 +101,10 @@ class FrostResult:
     coverage: np.ndarray
     gamma_cells: np.ndarray
     vapour: np.ndarray | None
-    seeds: np.ndarray
+    starts: np.ndarray
     beta: object
     params: FrostParams
-    seed: int | None = None
+    seed: int = 0
     message: str = ""
     seconds: float = field(default=0.0, repr=False)
 
@@ -241,17 +242,17 @@ def _check_params(params):
     return params
 
 
-def _seed_cells(lattice, seeds):
-    """Seeds as cell indices: a 1-D integer array of cells, or (n, 2) pixel points."""
-    if seeds is None:
-        raise ValueError("seeds is empty: place at least one seed point in the region")
-    arr = np.asarray(seeds)
+def _start_cells(lattice, starts):
+    """Start points as cell indices: a 1-D integer array of cells, or (n, 2) pixel points."""
+    if starts is None:
+        raise ValueError("starts is empty: place at least one start point in the region")
+    arr = np.asarray(starts)
     if arr.size == 0:
-        raise ValueError("seeds is empty: place at least one seed point in the region")
+        raise ValueError("starts is empty: place at least one start point in the region")
     if arr.ndim == 1 and arr.dtype.kind in "iu":
         if arr.min() < 0 or arr.max() >= lattice.n_cells:
             raise ValueError(
-                f"seed cells must be indices in [0, {lattice.n_cells - 1}], "
+                f"start cells must be indices in [0, {lattice.n_cells - 1}], "
                 f"got {arr.min()}..{arr.max()}"
             )
         return np.unique(arr).astype(np.intp)
@@ -276,16 +277,16 @@ def _initial_beta(lattice, params, beta):
     return out
 
 
-def _initial_state(lattice, beta, seeds):
+def _initial_state(lattice, beta, starts):
     u = np.zeros(lattice.storage_size, _DTYPE)
     u[lattice.cells] = beta
-    u[lattice.cells[seeds]] = 1.0
+    u[lattice.cells[starts]] = 1.0
     return u
 
 
 def grow(
     lattice,
-    seeds,
+    starts,
     params=None,
     *,
     beta=None,
@@ -294,9 +295,9 @@ def grow(
     record_vapour=False,
     progress=None,
 ):
-    r"""Grow frost from seed cells with Reiter's automaton and a random threshold.
+    r"""Grow frost from start cells with Reiter's automaton and a random threshold.
 
-    :math:`u_0(p) = \beta` everywhere and 1 at the seeds; each step applies the
+    :math:`u_0(p) = \beta` everywhere and 1 at the starts; each step applies the
     boundary rule (Sec. 3.3) and Eq. (1) of [1]_ on the region's cells, vectorised
     over the lattice (see the module docstring for the step).
 
@@ -304,7 +305,7 @@ def grow(
     ----------
     lattice : HexLattice
         The region's lattice (:meth:`HexLattice.from_mask`).
-    seeds : array_like
+    starts : array_like
         Start points: an (n, 2) array of pixel (row, col) coordinates (snapped with
         :meth:`HexLattice.snap`) or a 1-D integer array of cell indices.
     params : FrostParams, optional
@@ -314,7 +315,7 @@ def grow(
         Overrides ``params.beta``; an array gives every cell its own initial vapour
         (e.g. from :func:`direction_beta`).
     seed : None, int or numpy.random.Generator
-        Seeds :math:`r_t(p)`. The stream is drawn for the whole lattice every step,
+        Random seed of :math:`r_t(p)`. The stream is drawn for the whole lattice every step,
         so runs with different :math:`\beta` and the same seed see the same
         :math:`r_t(p)` for every (step, cell): common random numbers. With
         :math:`r_{th} = 0` no numbers are drawn (every frontier cell gets
@@ -336,7 +337,7 @@ def grow(
     Raises
     ------
     ValueError
-        For seeds outside the region, an invalid ``beta`` or ``frames``.
+        For starts outside the region, an invalid ``beta`` or ``frames``.
 
     References
     ----------
@@ -357,17 +358,18 @@ def grow(
     """
     lattice = _check_lattice(lattice)
     params = _check_params(params)
-    seeds = _seed_cells(lattice, seeds)
+    starts = _start_cells(lattice, starts)
     beta0 = _initial_beta(lattice, params, beta)
     if frames is not None:
         frames = check_int("frames", frames, 0)
     limit = params.max_frames if frames is None else frames
     report = Progress(progress)
+    seed = resolve_seed(seed)  # recorded in the result, so the run can be remade
     gen = rng(seed)
     started = time.perf_counter()
 
     kernel = _Kernel(lattice, params.alpha, params.gamma, params.rth)
-    u = _initial_state(lattice, beta0, seeds)
+    u = _initial_state(lattice, beta0, starts)
     n = lattice.n_cells
     need = params.coverage * n
     # Frames at which each point was ice, summed on the storage (ice never melts, so a
@@ -425,10 +427,10 @@ def grow(
         coverage=coverage[: t + 1],
         gamma_cells=gamma_cells[:t],
         vapour=None if vapour is None else vapour[: t + 1],
-        seeds=seeds,
+        starts=starts,
         beta=beta0,
         params=params,
-        seed=seed if isinstance(seed, numbers.Integral) else None,
+        seed=seed,
         message=message,
         seconds=time.perf_counter() - started,
     )
@@ -465,7 +467,7 @@ def step(lattice, vapour, params=None, *, r=None):
     >>> u = np.full(lat.n_cells, 0.35)
     >>> u[lat.center_cell()] = 1.0
     >>> u1, got = step(lat, u)
-    >>> int(got.sum())  # the ice seed and its six frontier cells
+    >>> int(got.sum())  # the ice start cell and its six frontier cells
     7
     """
     lattice = _check_lattice(lattice)

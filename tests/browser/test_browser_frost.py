@@ -1,4 +1,4 @@
-"""The frost app in JupyterLab: paint a region, click a seed, move rth, run."""
+"""The frost app in JupyterLab: paint a region, click a start point, move rth, run."""
 
 import numpy as np
 import pytest
@@ -16,7 +16,7 @@ app.panel.set("beta", 0.6)  # quick growth, so the full run stays short
 def report_inputs(_=None):
     dump("inputs.json", {
         "region": int(app.canvas.get_mask("region").sum()),
-        "seeds": app.canvas.get_points("seeds").tolist(),
+        "starts": app.canvas.get_points("starts").tolist(),
         "tool": app.canvas.tool,
         "shape": list(app.image.shape[:2]),
     })
@@ -47,7 +47,7 @@ app
 """
 
 
-def test_paint_seed_rth_run_frost_grows_from_the_seed(notebook, page, shot):
+def test_paint_start_rth_run_frost_grows_from_the_start(notebook, page, shot):
     nb, app, _, box = open_app(notebook, page, [APP])
 
     # Paint the region (the brush is the first tool), twice for a wide band.
@@ -58,14 +58,14 @@ def test_paint_seed_rth_run_frost_grows_from_the_seed(notebook, page, shot):
         page.mouse.up()
     nb.state("inputs.json", lambda s: s["region"] > 500)
 
-    # Click a seed with the points tool.
+    # Click a start point with the points tool.
     page.locator(".fluidnb-app .fluidnb-tools button", has_text="points").click()
     nb.state("inputs.json", lambda s: s["tool"] == "points")
-    seed_xy = at(box, 0.5, 0.5)
-    page.mouse.click(*seed_xy)
-    inputs = nb.state("inputs.json", lambda s: len(s["seeds"]) == 1)
-    seed_rc = np.array(to_image(box, seed_xy, inputs["shape"]))
-    np.testing.assert_allclose(inputs["seeds"][0], seed_rc, atol=1.5)
+    start_xy = at(box, 0.5, 0.5)
+    page.mouse.click(*start_xy)
+    inputs = nb.state("inputs.json", lambda s: len(s["starts"]) == 1)
+    start_rc = np.array(to_image(box, start_xy, inputs["shape"]))
+    np.testing.assert_allclose(inputs["starts"][0], start_rc, atol=1.5)
 
     # Move rth to about 0.4.
     rth = drag_slider(page, page.locator(".fluidnb-param-rth"), 0.4, steps=6)
@@ -78,7 +78,7 @@ def test_paint_seed_rth_run_frost_grows_from_the_seed(notebook, page, shot):
     assert np.all(np.diff(area) >= 0), "frost shrank between frames"
     assert area[-1] > 400, "frost did not spread"
     assert result["outside"] == 0, "frost appeared outside the painted region"
-    # The first frost appears at the seed.
-    assert np.linalg.norm(np.array(result["first_centre"]) - seed_rc) < 6
+    # The first frost appears at the start point.
+    assert np.linalg.norm(np.array(result["first_centre"]) - start_rc) < 6
     page.locator(".fluidnb-app .fluidnb-status", has_text="done").wait_for(timeout=30_000)
     shot(app)

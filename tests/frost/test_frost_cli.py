@@ -18,16 +18,16 @@ def files(tmp_path):
     return tmp_path
 
 
-def test_frost_writes_a_clip_with_seed_points_as_x_y(files, capsys):
+def test_frost_writes_a_clip_with_start_points_as_x_y(files, capsys):
     out = files / "frost.npz"
     argv = [
         "frost",
         str(files / "window.png"),
         "--region",
         str(files / "mask.png"),
-        "--seed-point",
+        "--start",
         "48,36",
-        "--seed-point",
+        "--start",
         "30,20",
         "--beta",
         "0.6",
@@ -56,7 +56,7 @@ def test_frost_writes_a_clip_with_seed_points_as_x_y(files, capsys):
     assert "ends at frame" in printed
     saved = np.load(files / "freeze.npz")
     assert saved["end_frame"] == meta["end_frame"]
-    # X,Y = column,row: the seed at column 48, row 36 froze at frame 0.
+    # X,Y = column,row: the start point at column 48, row 36 froze at frame 0.
     points = saved["points_rc"]
     first = points[saved["freeze_frame"] == 0]
     assert np.hypot(*(first - [36, 48]).T).min() < 3
@@ -70,7 +70,7 @@ def test_frost_target_optimises_beta_and_prints_the_table(files, capsys):
         str(files / "window.png"),
         "--region",
         str(files / "mask.png"),
-        "--seed-point",
+        "--start",
         "48,36",
         "--spacing",
         "4",
@@ -92,16 +92,42 @@ def test_frost_target_optimises_beta_and_prints_the_table(files, capsys):
     assert abs(meta["end_frame"] - 120) <= 4
 
 
+def test_frost_says_how_long_the_papers_gamma_takes_and_fit_gamma_fixes_it(files, capsys):
+    base = ["frost", str(files / "window.png"), "--region", str(files / "mask.png")]
+    argv = [*base, "--start", "20,36", "--spacing", "2", "--every", "40", "--seed", "0"]
+    assert main([*argv, "--max-frames", "400", "-o", str(files / "slow.npz")]) == 0
+    printed = capsys.readouterr().out
+    assert "at gamma = 0.005 the frost ends near frame" in printed
+    assert "beyond --max-frames 400" in printed
+    assert Clip.load(files / "slow.npz").metadata["end_frame"] is None  # it never got there
+    out = files / "fast.npz"
+    assert main([*argv, "--target", "100", "--fit-gamma", "-o", str(out)]) == 0
+    assert "gamma = " in capsys.readouterr().out
+    meta = Clip.load(out).metadata
+    assert meta["params"]["gamma"] > 0.005
+    assert abs(meta["end_frame"] - 100) <= 4
+
+
 def test_frost_bad_input_is_a_clear_error(files, capsys):
     base = ["frost", str(files / "window.png"), "--region", str(files / "mask.png")]
     out = ["-o", str(files / "x.npz")]
-    assert main([*base, "--seed-point", "2,2", *out]) == 2
+    assert main([*base, "--start", "2,2", *out]) == 2
     err = capsys.readouterr().err
-    assert "--seed-point 2,2 (X,Y = column,row) is outside the region" in err
-    assert main([*base, "--seed-point", "48,36", "--rth", "1.5", *out]) == 2
+    assert "--start 2,2 (X,Y = column,row) is outside the region" in err
+    assert main([*base, "--start", "48,36", "--rth", "1.5", *out]) == 2
     assert "rth must be in [0, 1], got 1.5" in capsys.readouterr().err
-    assert main([*base, "--seed-point", "48,36", "--spacing", "90", *out]) == 2
+    assert main([*base, "--start", "48,36", "--spacing", "90", *out]) == 2
     assert "leaves no lattice point inside" in capsys.readouterr().err
+    # Too fine a lattice is refused before anything is allocated, naming what fits.
+    assert main([*base, "--start", "48,36", "--spacing", "0.001", *out]) == 2
+    err = capsys.readouterr().err
+    assert "spacing=0.001 px would lay" in err
+    assert "spacing must be >= 0.05 px" in err
+    assert main([*base, "--start", "48,36", "--fit-gamma", *out]) == 2
+    assert "--fit-gamma needs --target" in capsys.readouterr().err
+    # A target sooner than the ice can travel is refused with the reason.
+    assert main([*base, "--start", "48,36", "--target", "1", *out]) == 2
+    assert "ice spreads at most one cell a frame" in capsys.readouterr().err
     blank = files / "blank.png"
     Image.fromarray(np.zeros((72, 96), np.uint8)).save(blank)
     assert (
@@ -111,7 +137,7 @@ def test_frost_bad_input_is_a_clear_error(files, capsys):
                 str(files / "window.png"),
                 "--region",
                 str(blank),
-                "--seed-point",
+                "--start",
                 "48,36",
                 *out,
             ]
@@ -120,8 +146,8 @@ def test_frost_bad_input_is_a_clear_error(files, capsys):
     )
     assert "--region is empty" in capsys.readouterr().err
     with pytest.raises(SystemExit):
-        build_parser().parse_args(["frost", "img.png", "--seed-point", "3;4", "-o", "x.npz"])
-    assert "seed point must be X,Y" in capsys.readouterr().err
+        build_parser().parse_args(["frost", "img.png", "--start", "3;4", "-o", "x.npz"])
+    assert "start point must be X,Y" in capsys.readouterr().err
 
 
 def test_frost_help_lists_every_parameter():
@@ -139,7 +165,7 @@ def test_frost_help_lists_every_parameter():
         "--target",
         "--fps",
         "--solver",
-        "--seed-point",
+        "--start",
         "--eta",
     ):
         assert flag in text

@@ -1,4 +1,4 @@
-"""The hexagonal lattice: geometry, the boundary ring, seeds, and bad regions."""
+"""The hexagonal lattice: geometry, the boundary ring, starts, and bad regions."""
 
 import math
 
@@ -89,7 +89,7 @@ def test_snap_points_to_cells():
 def test_snap_refuses_points_outside_the_region():
     lat = HexLattice.from_mask(ellipse(), 3.0)
     with pytest.raises(
-        ValueError, match=r"seed point \(row, col\) = \(2, 2\) is outside the region"
+        ValueError, match=r"start point \(row, col\) = \(2, 2\) is outside the region"
     ):
         lat.snap([[2, 2]])
     with pytest.raises(ValueError, match="outside the region"):

@@ -23,7 +23,7 @@ def ellipse_lattice(spacing=2.0):
 
 
 @pytest.mark.parametrize(("radius", "beta"), [(15, 0.35), (12, 0.3), (18, 0.45)])
-def test_rth0_central_seed_is_sixfold_symmetric_cell_for_cell(radius, beta):
+def test_rth0_central_start_is_sixfold_symmetric_cell_for_cell(radius, beta):
     lat = HexLattice.hexagon(radius)
     c = lat.center_cell()
     res = grow(lat, [c], FrostParams(beta=beta), frames=300)
@@ -71,15 +71,15 @@ def test_ice_never_melts_and_the_ice_set_only_grows(rth):
 @pytest.mark.parametrize("rth", [0.0, 0.5])
 def test_vectorised_kernel_matches_the_rule_written_cell_by_cell(rth):
     lat = ellipse_lattice(spacing=3.0)
-    seeds = lat.snap([[20, 30], [15, 12]])
+    starts = lat.snap([[20, 30], [15, 12]])
     params = FrostParams(rth=rth, beta=0.4, alpha=1.3)
-    res = grow(lat, seeds, params, frames=50, seed=11, record_vapour=True)
-    freeze, vapour = grow_reference(lat, seeds, params, frames=50, seed=11)
+    res = grow(lat, starts, params, frames=50, seed=11, record_vapour=True)
+    freeze, vapour = grow_reference(lat, starts, params, frames=50, seed=11)
     assert np.array_equal(freeze, res.freeze_frame)
     np.testing.assert_allclose(res.vapour, vapour, rtol=0, atol=1e-12)
 
 
-def test_seeded_runs_are_deterministic_and_seeds_matter_for_rth_above_0():
+def test_seeded_runs_are_deterministic_and_the_seed_matters_for_rth_above_0():
     lat = ellipse_lattice()
     p = FrostParams(rth=0.6, beta=0.45)
     a = grow(lat, [[20, 30]], p, frames=80, seed=5)
@@ -91,6 +91,22 @@ def test_seeded_runs_are_deterministic_and_seeds_matter_for_rth_above_0():
     d = grow(lat, [[20, 30]], p.replace(rth=0.0), frames=80, seed=5)
     e = grow(lat, [[20, 30]], p.replace(rth=0.0), frames=80, seed=99)
     assert np.array_equal(d.freeze_frame, e.freeze_frame)
+
+
+def test_every_run_records_the_int_seed_it_used_so_it_can_be_remade():
+    # Seed policy (fluidnb.resolve_seed): None or a Generator becomes a recorded int.
+    lat = ellipse_lattice()
+    p = FrostParams(rth=0.6, beta=0.45)
+    fresh = grow(lat, [[20, 30]], p, frames=60)
+    assert isinstance(fresh.seed, int)
+    again = grow(lat, [[20, 30]], p, frames=60, seed=fresh.seed)
+    assert np.array_equal(fresh.freeze_frame, again.freeze_frame)
+    shared = grow(lat, [[20, 30]], p, frames=60, seed=np.random.default_rng(3))
+    assert isinstance(shared.seed, int)
+    remade = grow(lat, [[20, 30]], p, frames=60, seed=shared.seed)
+    assert np.array_equal(shared.freeze_frame, remade.freeze_frame)
+    with pytest.raises(ValueError, match="seed must be None, a non-negative integer"):
+        grow(lat, [[20, 30]], p, frames=5, seed=-1)
 
 
 def test_common_random_numbers_across_beta():
@@ -186,7 +202,7 @@ def test_end_frame_is_the_first_frame_with_coverage_and_never_is_plain():
     assert longer.end_frame == res.end_frame
 
 
-def test_beta_per_cell_and_seed_forms():
+def test_beta_per_cell_and_start_point_forms():
     lat = ellipse_lattice()
     p = FrostParams(beta=0.4)
     cells = lat.snap([[20, 30]])
@@ -219,9 +235,9 @@ def test_bad_inputs_are_refused_with_the_parameter_named():
         FrostParams(max_frames=100)
     with pytest.raises(ValueError, match="outside the region"):
         grow(lat, [[0, 0]])
-    with pytest.raises(ValueError, match="seeds is empty"):
+    with pytest.raises(ValueError, match="starts is empty"):
         grow(lat, np.zeros((0, 2)))
-    with pytest.raises(ValueError, match="seed cells must be indices"):
+    with pytest.raises(ValueError, match="start cells must be indices"):
         grow(lat, np.array([lat.n_cells]))
     with pytest.raises(ValueError, match=r"beta must be in \[0, 1\], got values"):
         grow(lat, [[20, 30]], beta=np.full(lat.n_cells, 1.5))
@@ -235,6 +251,6 @@ def test_bad_inputs_are_refused_with_the_parameter_named():
         grow(lat, [[20, 30]], {"beta": 0.3})
     with pytest.raises(ValueError, match="r is required when rth > 0"):
         step(lat, np.zeros(lat.n_cells), FrostParams(rth=0.5))
-    seeds = np.array([[20.0, 30.0]])
-    grow(lat, seeds, frames=3)
-    assert seeds.tolist() == [[20.0, 30.0]]  # inputs are never modified
+    starts = np.array([[20.0, 30.0]])
+    grow(lat, starts, frames=3)
+    assert starts.tolist() == [[20.0, 30.0]]  # inputs are never modified

@@ -8,7 +8,7 @@ from fluidnb.frost import FrostParams
 from fluidnb.widgets import FrostApp
 from tests.support.frontend import mouse_drag
 
-SEED_RC = (48.0, 45.0)
+START_RC = (48.0, 45.0)
 
 
 @pytest.fixture
@@ -20,14 +20,14 @@ def app():
     a.close()
 
 
-def paint_and_seed(app):
-    """Paint a band with the brush through the canvas's mouse handlers; click a seed."""
+def paint_and_start(app):
+    """Paint a band with the brush through the canvas's mouse handlers; click a start point."""
     c = app.canvas
     c.select("brush", "region")
     c.brush_radius = 22
     mouse_drag(c, [c.to_canvas(48, 25), c.to_canvas(48, 100)])
-    c.select("points", "seeds")
-    mouse_drag(c, [c.to_canvas(*SEED_RC)])
+    c.select("points", "starts")
+    mouse_drag(c, [c.to_canvas(*START_RC)])
     app.wait_preview()
     return c.get_mask("region")
 
@@ -42,15 +42,15 @@ def test_nothing_drawn_says_what_to_do(app):
     assert "region is empty" in app.status
     app.canvas.paint([[48, 60]], radius=20, layer="region")
     app.wait_preview()
-    assert "no seed point" in app.status
+    assert "no start point" in app.status
     assert "points tool" in app.status
     assert app.player.clip is None
 
 
-def test_paint_seed_preview_follows_rth_and_run_grows_frost_from_the_seed(app):
-    region = paint_and_seed(app)
+def test_paint_start_preview_follows_rth_and_run_grows_frost_from_the_start(app):
+    region = paint_and_start(app)
     assert region.sum() > 2000
-    assert app.canvas.get_points("seeds").shape == (1, 2)
+    assert app.canvas.get_points("starts").shape == (1, 2)
     first = app.player.clip
     assert first is not None
     assert first.metadata["preview"] is True
@@ -70,16 +70,16 @@ def test_paint_seed_preview_follows_rth_and_run_grows_frost_from_the_seed(app):
     assert area[0] < 0.02
     assert area[-1] > 0.5
     assert np.all(np.diff(area) >= -0.02)  # it grows
-    # The first visible frost is around the seed.
+    # The first visible frost is around the start point.
     k = next(i for i, a in enumerate(area) if a > 0.01)
     changed = np.abs(clip.frames[k] - app.image).sum(-1) > 0.05
     rows, cols = np.nonzero(changed & region)
-    assert np.hypot(rows.mean() - SEED_RC[0], cols.mean() - SEED_RC[1]) < 10
+    assert np.hypot(rows.mean() - START_RC[0], cols.mean() - START_RC[1]) < 10
     assert app.frost_result.end_frame == meta["end_frame"]
 
 
 def test_optimise_button_fills_the_table_live_and_sets_beta(app):
-    paint_and_seed(app)
+    paint_and_start(app)
     app.panel.set("target", 150)
     seen = []
     app.table.observe(lambda change: seen.append(change["new"]), "value")
@@ -102,7 +102,7 @@ def test_optimise_button_fills_the_table_live_and_sets_beta(app):
 
 
 def test_optimise_with_steepest_and_cancel(app):
-    paint_and_seed(app)
+    paint_and_start(app)
     app._solver.value = "steepest"
     app._eta.value = 3e-6
     app.panel.set("target", 150)
@@ -111,14 +111,14 @@ def test_optimise_with_steepest_and_cancel(app):
     app.wait(120)
     assert "cancel" in app.status or app.optimised is not None
     # The drawing is untouched either way.
-    assert app.canvas.get_points("seeds").tolist() == [list(SEED_RC)]
+    assert app.canvas.get_points("starts").tolist() == [list(START_RC)]
 
 
-def test_setters_preload_a_region_and_seeds():
+def test_setters_preload_a_region_and_starts():
     image = data.sample("leaf", size=128)
     region = np.zeros(image.shape[:2], bool)
     region[20:76, 30:100] = True
-    a = FrostApp(image, region=region, seeds=[[48, 60]], params=FrostParams(beta=0.6, spacing=3))
+    a = FrostApp(image, region=region, starts=[[48, 60]], params=FrostParams(beta=0.6, spacing=3))
     try:
         a.min_interval = 0.0
         a.wait_preview()
@@ -128,3 +128,27 @@ def test_setters_preload_a_region_and_seeds():
             a.set_region(region[:10])
     finally:
         a.close()
+
+
+def test_the_app_says_up_front_how_long_the_papers_gamma_takes_and_fits_gamma_to_the_target(app):
+    paint_and_start(app)
+    app.panel.set("gamma", 0.005)  # the paper's value: far too slow for a painted region
+    app.panel.set("target", 120)
+    app.wait_preview()
+    est = app.estimate
+    assert est is not None
+    assert est.likely > 600
+    text = app.length.value
+    assert f"{est.likely:,.0f}" in text
+    assert f"at most {est.frames:,.0f}" in text
+    assert "ends near the target 120" in text
+    assert "Use γ for 120 frames" in app._gamma_button.description
+    app._gamma_button.click()
+    app.wait(120)
+    fit = app.gamma_fit
+    assert fit is not None, app.status
+    assert fit.gamma > 0.02
+    assert app.panel.params.gamma == pytest.approx(fit.gamma)
+    assert "ends at frame" in app.status
+    clip = app.run(timeout=120)
+    assert abs(clip.metadata["end_frame"] - 120) <= 0.1 * 120
