@@ -3,7 +3,7 @@
     python benchmarks/bench_turbulence.py [--frames 200]
     FLUIDNB_PEERS_PYTHON=/tmp/peers/bin/python python benchmarks/bench_turbulence.py
 
-The seed's experiment (section 4, Table 1; Core i7-2600K): a 16 x 24 target and a
+Watanabe et al.'s experiment (sec. 4, Table 1; Core i7-2600K): a 16 x 24 target and a
 128 x 192 source, 200 frames, B = 16, b = 4; the local search's time per frame and
 its mean relative / absolute error against the exhaustive search. fluidnb runs the
 same set-up on its sample pair (``fluidnb.turbulence.sample_flows``) with every
