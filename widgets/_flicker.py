@@ -117,9 +117,9 @@ class FlickerApp(App):
             preview=self._preview,
             canvas=canvas,
             title="Flicker (yuragi) — Yamamoto & Sakamoto",
-            extra=[W.HBox([self._seed, self._new_noise, self._analyse]), hint],
+            controls=[W.HBox([self._seed, self._new_noise, self._analyse]), hint],
         )
-        self.children = (*self.children, self.analysis)
+        self.views = (self.player, self.analysis)
         self.observe(lambda _: self.request_preview(), "seed")
 
     # ------------------------------------------------------------------ inputs

@@ -142,7 +142,7 @@ class FrostApp(App):
             preview=self._preview,
             canvas=canvas,
             title="Frost — Amano, Sato & Itoh (Reiter's automaton)",
-            extra=[
+            controls=[
                 self._seed,
                 W.HBox([self._solver, self._optimise_button]),
                 self._eta,
