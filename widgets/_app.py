@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import html
+import os
 import threading
 import time
 import traceback
@@ -17,6 +18,24 @@ from ._canvas import DrawingCanvas
 from ._player import FramePlayer
 
 __all__ = ["App"]
+
+
+def _quick_mode():
+    """Whether ``FLUIDNB_QUICK`` is set (not "" or "0"): small sizes, blocking runs.
+
+    CI sets it to run every lesson top to bottom in a few minutes.
+    """
+    return os.environ.get("FLUIDNB_QUICK", "") not in ("", "0")
+
+
+def _in_kernel():
+    """Whether this runs in a Jupyter kernel (not a script, a test or a plain shell)."""
+    try:
+        from IPython import get_ipython
+    except ImportError:  # pragma: no cover - IPython comes with ipywidgets
+        return False
+    shell = get_ipython()
+    return shell is not None and getattr(shell, "kernel", None) is not None
 
 
 class App(W.VBox):
@@ -414,10 +433,34 @@ class App(W.VBox):
                 raise TimeoutError("the run did not finish in time")
         return self.result
 
-    def run(self, timeout=None):
-        """Press Run and wait for the result (headless driving)."""
+    def run(self, timeout=None, *, block=None):
+        """Press Run; wait for the clip unless that would freeze a live notebook.
+
+        In a notebook kernel a person works in, ``run`` returns at once: the run goes
+        on in the background with its progress in the app, and its clip appears in
+        the player and in :attr:`result` (:meth:`wait` blocks for it), while the
+        notebook stays usable -- a lesson's last cell must not hold a class for
+        minutes. It waits (at most ``timeout`` seconds) and returns the clip outside a
+        kernel (scripts, tests) and in quick mode (``FLUIDNB_QUICK=1``, how CI runs
+        the lessons top to bottom).
+
+        Parameters
+        ----------
+        timeout : float, optional
+            Longest wait in seconds when waiting (TimeoutError after it).
+        block : bool, optional
+            Wait (True) or not (False) whatever the context; by default, as above.
+
+        Returns
+        -------
+        fluidnb.Clip or None
+            The run's clip when waited for (the previous result if the run was
+            refused), else None.
+        """
         self.start()
-        return self.wait(timeout)
+        if block is None:
+            block = _quick_mode() or not _in_kernel()
+        return self.wait(timeout) if block else None
 
     def close(self):
         """Stop the preview worker and close the widgets."""

@@ -42,7 +42,7 @@ from fluidnb.videodb import (
     starter_path,
 )
 
-from ._app import App
+from ._app import App, _in_kernel, _quick_mode
 from ._canvas import DrawingCanvas
 from ._panel import ParamPanel
 
@@ -98,12 +98,7 @@ def _kernel_loop():
     plain process another library may leave a loop "running" in the main thread
     that never runs what is queued on it (Playwright's sync API does).
     """
-    try:
-        from IPython import get_ipython
-    except ImportError:  # pragma: no cover - IPython comes with ipywidgets
-        return None
-    shell = get_ipython()
-    if shell is None or getattr(shell, "kernel", None) is None:
+    if not _in_kernel():
         return None
     try:
         return asyncio.get_running_loop()
@@ -392,7 +387,7 @@ class VideoDBApp(App):
         display_size=480,
     ):
         if quick is None:
-            quick = os.environ.get("FLUIDNB_QUICK", "") not in ("", "0")
+            quick = _quick_mode()
         self.quick = bool(quick)
         self.size = int(size or (256 if self.quick else 480))
         self._display_size = int(display_size)

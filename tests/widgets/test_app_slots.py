@@ -1,12 +1,16 @@
-"""The App's layout slots and the method apps built from them."""
+"""The App's layout slots, the method apps built from them, and when run() waits."""
 
 import ast
+import threading
+import types
 from dataclasses import dataclass
 from pathlib import Path
 
 import ipywidgets as W
+import nbformat
 import numpy as np
 import pytest
+from nbclient import NotebookClient
 
 import fluidnb.widgets
 from fluidnb import Clip, Params, param
@@ -282,3 +286,113 @@ def private_reaches(path):
 )
 def test_no_app_reaches_into_another_widgets_children_or_private_attributes(module):
     assert private_reaches(WIDGETS / module) == []
+
+
+# ---------------------------------------------------------------------- run()
+def waiting_app():
+    release = threading.Event()
+
+    def run(params, progress):
+        release.wait(30)
+        return clip_of(params)
+
+    return App(panel=ParamPanel(Demo), run=run), release
+
+
+@pytest.fixture
+def live_kernel(monkeypatch):
+    """Pretend to be a notebook kernel a person works in (not quick mode)."""
+    import IPython
+
+    shell = types.SimpleNamespace(kernel=object())
+    monkeypatch.setattr(IPython, "get_ipython", lambda: shell)
+    monkeypatch.delenv("FLUIDNB_QUICK", raising=False)
+
+
+def test_run_returns_at_once_in_a_live_kernel_and_the_work_goes_on(live_kernel):
+    app, release = waiting_app()
+    try:
+        assert app.run(timeout=600) is None
+        assert app.running  # still working, the notebook is free
+        release.set()
+        clip = app.wait(timeout=10)
+        assert isinstance(clip, Clip)
+        assert app.player.clip is clip
+        assert "done" in app.status
+    finally:
+        app.close()
+
+
+def test_run_waits_in_quick_mode_even_in_a_kernel(live_kernel, monkeypatch):
+    monkeypatch.setenv("FLUIDNB_QUICK", "1")
+    app, release = waiting_app()
+    threading.Timer(0.2, release.set).start()
+    try:
+        clip = app.run(timeout=30)
+        assert isinstance(clip, Clip)
+        assert not app.running
+    finally:
+        release.set()
+        app.close()
+
+
+def test_run_waits_outside_a_kernel_and_block_overrides(monkeypatch):
+    monkeypatch.delenv("FLUIDNB_QUICK", raising=False)
+    app, release = waiting_app()
+    try:
+        with pytest.raises(TimeoutError):
+            app.run(timeout=0.2)  # a script waits (here: not long enough)
+        release.set()
+        assert isinstance(app.wait(timeout=10), Clip)
+        release.clear()
+        assert app.run(block=False) is None
+        assert app.running
+        release.set()
+        app.wait(timeout=10)
+    finally:
+        release.set()
+        app.close()
+
+
+KERNEL_CELLS = [
+    """\
+import os, threading
+from dataclasses import dataclass
+import numpy as np
+from fluidnb import Clip, Params, param
+from fluidnb.widgets import App, ParamPanel
+
+@dataclass(frozen=True)
+class Demo(Params):
+    level: float = param(0.5, lo=0, hi=1)
+
+release = threading.Event()
+def run(params, progress):
+    release.wait(60)
+    return Clip(np.zeros((2, 4, 4), np.float32), fps=4)
+
+app = App(panel=ParamPanel(Demo), run=run)
+""",
+    "got = app.run(timeout=600)\nprint('live', got is None, app.running)",
+    "release.set()\nprint('then', type(app.wait(30)).__name__)",
+    """\
+os.environ["FLUIDNB_QUICK"] = "1"
+release.clear()
+threading.Timer(0.5, release.set).start()
+print('quick', type(app.run(timeout=60)).__name__, app.running)
+app.close()
+""",
+]
+
+
+@pytest.mark.slow
+def test_in_a_real_kernel_run_waits_only_in_quick_mode(tmp_path, monkeypatch):
+    monkeypatch.delenv("FLUIDNB_QUICK", raising=False)
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in KERNEL_CELLS])
+    NotebookClient(
+        nb, timeout=120, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}
+    ).execute()
+    printed = "".join(
+        out.get("text", "") for cell in nb.cells for out in cell.outputs if out.name == "stdout"
+    )
+    assert printed.splitlines() == ["live True True", "then Clip", "quick Clip False"]
