@@ -19,6 +19,9 @@ from ._player import FramePlayer
 
 __all__ = ["App"]
 
+#: The slots an app fills with sequences of widgets (:attr:`App.canvas` holds one).
+SLOTS = ("inputs", "controls", "canvas_tools", "aside", "views")
+
 
 def _quick_mode():
     """Whether ``FLUIDNB_QUICK`` is set (not "" or "0"): small sizes, blocking runs.
@@ -101,6 +104,11 @@ class App(W.VBox):
     aside = TypedTuple(trait=Instance(W.Widget))
     #: Slot: the result views, side by side under the rest (the player first).
     views = TypedTuple(trait=Instance(W.Widget))
+    #: CSS widths of the canvas column and of the controls column ("": as wide as
+    #: their widgets). A fixed width makes long rows and messages wrap instead of
+    #: widening the column (which would push the controls under the canvas).
+    drawing_width = Unicode("")
+    controls_width = Unicode("")  #: see :attr:`drawing_width`
 
     def __init__(
         self,
@@ -164,7 +172,7 @@ class App(W.VBox):
         )
         self._drawing_column = W.VBox()
         self._controls_column = W.VBox()
-        self._aside_column = W.VBox(layout=W.Layout(margin="0 0 0 2em"))
+        self._aside_column = W.VBox()
         self._top = W.HBox(layout=W.Layout(flex_flow="row wrap"))
         self._views_row = W.HBox(
             layout=W.Layout(flex_flow="row wrap", align_items="flex-start", margin="0.4em 0 0 0")
@@ -192,7 +200,7 @@ class App(W.VBox):
             self._layout()
             self.request_preview()
 
-    @observe("canvas_tools", "inputs", "controls", "aside", "views")
+    @observe(*SLOTS, "drawing_width", "controls_width")
     def _slots_changed(self, change):
         if self._layout_ready():
             self._layout()
@@ -206,6 +214,7 @@ class App(W.VBox):
         drawing = [self.canvas] if self.canvas is not None else []
         drawing += self.canvas_tools
         self._drawing_column.children = drawing
+        self._drawing_column.layout.width = self.drawing_width or None
         self._controls_column.children = (
             *self.inputs,
             self.panel,
@@ -213,8 +222,11 @@ class App(W.VBox):
             self._status,
             *self.controls,
         )
-        # A gap between the canvas and the controls only when there is a canvas.
-        self._controls_column.layout.margin = "0 0 0 1em" if drawing else "0"
+        # Gaps between the columns (on the left of the one that follows a canvas, on
+        # the right of the one an aside follows: nothing indents a wrapped column).
+        left, right = ("1em" if drawing else "0"), ("2em" if self.aside else "0")
+        self._controls_column.layout.margin = f"0 {right} 0.5em {left}"
+        self._controls_column.layout.width = self.controls_width or None
         self._aside_column.children = self.aside
         self._top.children = [
             box

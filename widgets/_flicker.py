@@ -105,7 +105,8 @@ class FlickerApp(App):
         )
         self._analyse.add_class("fluidnb-analyse")
         self._analyse.on_click(lambda _: self.show_analysis())
-        self.analysis = W.Image(format="png", layout=W.Layout(max_width="100%"))
+        # Hidden until Analyse draws it (an empty image shows as a broken-image icon).
+        self.analysis = W.Image(format="png", layout=W.Layout(max_width="100%", display="none"))
         self.analysis.add_class("fluidnb-analysis")
         hint = W.HTML(
             "<span style='opacity:0.7'>Paint the region to animate (nothing painted: the "
@@ -172,4 +173,5 @@ class FlickerApp(App):
             self.say(str(exc), "error")
             return b""
         self.analysis.value = buf.getvalue()
+        self.analysis.layout.display = ""
         return self.analysis.value

@@ -533,8 +533,6 @@ class VideoDBApp(App):
         # (rows that wrap, so the panel stays beside the canvas), and the results
         # (clip | assignment map) side by side under both.
         wrap = {"flex_flow": "row wrap", "align_items": "center"}
-        narrow = "450px"  # the controls column's widest rows wrap at this width
-        self._n_label.layout.max_width = narrow
         super().__init__(
             panel=panel,
             run=self._run_task,
@@ -542,10 +540,7 @@ class VideoDBApp(App):
             title="Fluid animation from one image — Okabe, Anjyo & Onai (video database)",
             inputs=[
                 W.HBox([self._photo_pick, self._upload]),
-                W.HBox(
-                    [self._db_pick, self._db_path],
-                    layout=W.Layout(flex_flow="row wrap", max_width=narrow),
-                ),
+                W.HBox([self._db_pick, self._db_path], layout=W.Layout(flex_flow="row wrap")),
                 self._n_label,
             ],
             controls=[
@@ -564,6 +559,9 @@ class VideoDBApp(App):
                 ),
             ],
         )
+        # Fixed widths: long rows and messages wrap in place instead of widening a
+        # column (the panel would drop under the canvas after a run).
+        self.controls_width = "450px"
         self.views = (
             self.titled("clip", self.player),
             self.titled("assignment: the source clip of each fragment (click one)", self.map),
@@ -642,6 +640,8 @@ class VideoDBApp(App):
         return canvas
 
     def _wire_canvas(self, canvas):
+        # The canvas column as wide as the canvas, with room for the tools.
+        self.drawing_width = f"{max(canvas.canvas.width, 440)}px"
         canvas.observe(self._drawing_changed, "version")
         canvas.observe(lambda _: self._sync_brush(), ["tool", "layer"])
         self._field_key = self._field = None

@@ -143,6 +143,8 @@ def test_a_new_canvas_takes_the_old_ones_place_and_drives_the_preview():
         app.canvas = second
         assert first not in tree(app)
         assert box_holding(app, second).children == (second, tool)
+        app.drawing_width = "300px"  # the column keeps its width, its tool rows wrap
+        assert box_holding(app, second).layout.width == "300px"
         app.wait_preview()
         before = len(seen)
         first.paint([[4, 4]], radius=2)  # the old canvas no longer drives the preview
