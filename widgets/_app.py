@@ -61,7 +61,10 @@ class App(W.VBox):
         views: the player, then the app's other views, side by side
 
     The three columns wrap under each other on a narrow page; empty slots take no
-    room. An app never rebuilds this layout itself: it sets its slots.
+    room; :attr:`drawing_width` and :attr:`controls_width` fix a column's width. The
+    status line is written with :meth:`say` (its text is :attr:`status`). An app
+    never rebuilds this layout itself, nor reaches into these boxes: it sets its
+    slots.
 
     Parameters
     ----------

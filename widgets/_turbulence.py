@@ -68,7 +68,7 @@ class TurbulenceApp(App):
         by default the sample pair of :func:`fluidnb.turbulence.sample_flows`.
     size : {"quick", "paper"}
         The sample pair's size: ``"quick"`` halves both grids (12 x 8 and 96 x 64,
-        40 frames: a run takes seconds); ``"paper"`` is the seed's setting
+        40 frames: a run takes seconds); ``"paper"`` is the paper's setting
         (24 x 16 and 192 x 128, 200 frames). Ignored with your own flows.
     n_frames : int, optional
         Frames to synthesise (default: the size's; all of your flows').

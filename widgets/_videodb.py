@@ -453,7 +453,7 @@ class VideoDBApp(App):
             step=0.25,
             description="speed",
             readout_format=".2f",
-            tooltip="speed brush value in px/frame (seed Fig. 8-c); 0 = not painted",
+            tooltip="speed brush value in px/frame (Okabe et al. 2011, Fig. 8-c); 0 = not painted",
             layout=W.Layout(width="260px"),
         )
         self._speed_unit = W.HTML("<span style='opacity:0.7'>px/frame</span>")
