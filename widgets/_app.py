@@ -3,18 +3,42 @@
 from __future__ import annotations
 
 import html
+import os
 import threading
 import time
 import traceback
 
 import ipywidgets as W
-from traitlets import Unicode
+from ipywidgets.widgets.trait_types import TypedTuple
+from traitlets import Instance, Unicode, observe
 
 from fluidnb import Cancelled, CancelToken, Clip
 
+from ._canvas import DrawingCanvas
 from ._player import FramePlayer
 
 __all__ = ["App"]
+
+#: The slots an app fills with sequences of widgets (:attr:`App.canvas` holds one).
+SLOTS = ("inputs", "controls", "canvas_tools", "aside", "views")
+
+
+def _quick_mode():
+    """Whether ``FLUIDNB_QUICK`` is set (not "" or "0"): small sizes, blocking runs.
+
+    CI sets it to run every lesson top to bottom in a few minutes.
+    """
+    return os.environ.get("FLUIDNB_QUICK", "") not in ("", "0")
+
+
+def _in_kernel():
+    """Whether this runs in a Jupyter kernel (not a script, a test or a plain shell)."""
+    try:
+        from IPython import get_ipython
+    except ImportError:  # pragma: no cover - IPython comes with ipywidgets
+        return False
+    shell = get_ipython()
+    return shell is not None and getattr(shell, "kernel", None) is not None
 
 
 class App(W.VBox):
@@ -22,6 +46,25 @@ class App(W.VBox):
 
     The app holds no algorithm: it calls the method's library functions through the
     two callables it is given, with plain arrays and a parameter object.
+
+    A method's app is laid out in named *slots*, filled by keyword at construction
+    (or later, by setting the attribute of the same name: the layout follows)::
+
+        title
+        ┌──────────────┬───────────────────────────┬─────────┐
+        │ canvas       │ inputs                    │ aside   │
+        │ canvas_tools │ panel                     │         │
+        │              │ Run, Cancel, progress bar │         │
+        │              │ status line               │         │
+        │              │ controls                  │         │
+        └──────────────┴───────────────────────────┴─────────┘
+        views: the player, then the app's other views, side by side
+
+    The three columns wrap under each other on a narrow page; empty slots take no
+    room; :attr:`drawing_width` and :attr:`controls_width` fix a column's width. The
+    status line is written with :meth:`say` (its text is :attr:`status`). An app
+    never rebuilds this layout itself, nor reaches into these boxes: it sets its
+    slots.
 
     Parameters
     ----------
@@ -36,25 +79,61 @@ class App(W.VBox):
         ``preview(params) -> Clip``: a cheap version recomputed live (throttled, the
         latest state wins) whenever a parameter or the drawing changes.
     canvas : DrawingCanvas, optional
-        Where the user draws; its changes trigger the preview.
+        Where the user draws (slot :attr:`canvas`); its changes trigger the preview.
     title : str
         A heading shown above the app.
-    extra : sequence of widgets
-        More widgets placed under the panel (method-specific outputs).
+    inputs, controls, canvas_tools, aside : sequence of widgets
+        The slots of the same names (see :attr:`inputs` and the others).
+    views : sequence of widgets, optional
+        The result views (slot :attr:`views`); default: the player alone.
+    player : FramePlayer, optional
+        The player the Run button's clip goes to (:attr:`player`), for a player of
+        another size or export folder; default ``FramePlayer()``.
+    min_interval : float
+        Least seconds between two previews.
     """
 
-    #: The status line's text (errors appear here in plain words).
+    #: The status line's text (errors appear here in plain words; see :meth:`say`).
     status = Unicode("")
+    #: Slot: the drawing canvas (a DrawingCanvas or None); set another to swap it in.
+    canvas = Instance(DrawingCanvas, allow_none=True)
+    #: Slot: widgets under the canvas, in its column (the app's own drawing tools).
+    canvas_tools = TypedTuple(trait=Instance(W.Widget))
+    #: Slot: widgets above the parameter panel: what a run works on (photo, size...).
+    inputs = TypedTuple(trait=Instance(W.Widget))
+    #: Slot: widgets under the run bar and the status line (more actions, hints).
+    controls = TypedTuple(trait=Instance(W.Widget))
+    #: Slot: widgets in a column beside the controls (a table of results, say).
+    aside = TypedTuple(trait=Instance(W.Widget))
+    #: Slot: the result views, side by side under the rest (the player first).
+    views = TypedTuple(trait=Instance(W.Widget))
+    #: CSS widths of the canvas column and of the controls column ("": as wide as
+    #: their widgets). A fixed width makes long rows and messages wrap instead of
+    #: widening the column (which would push the controls under the canvas).
+    drawing_width = Unicode("")
+    controls_width = Unicode("")  #: see :attr:`drawing_width`
 
     def __init__(
-        self, *, panel, run, preview=None, canvas=None, title="", extra=(), min_interval=0.15
+        self,
+        *,
+        panel,
+        run,
+        preview=None,
+        canvas=None,
+        title="",
+        inputs=(),
+        controls=(),
+        canvas_tools=(),
+        aside=(),
+        views=None,
+        player=None,
+        min_interval=0.15,
     ):
         self.panel = panel
-        self.canvas = canvas
         self._run_fn = run
         self._preview_fn = preview
         self.min_interval = float(min_interval)
-        self.player = FramePlayer()
+        self.player = FramePlayer() if player is None else player
         self.result = None  #: The last full run's Clip.
         self._token = None
         self._thread = None
@@ -82,20 +161,96 @@ class App(W.VBox):
         self._cancel_button.on_click(lambda _: self.cancel())
         panel.observe(self._params_changed, "params")
         panel.observe(self._validity_changed, "valid")
-        if canvas is not None:
-            canvas.observe(lambda _: self.request_preview(), "version")
+        # The slots (before the boxes exist: nothing is laid out twice).
+        self.canvas = canvas
+        self.inputs = tuple(inputs)
+        self.controls = tuple(controls)
+        self.canvas_tools = tuple(canvas_tools)
+        self.aside = tuple(aside)
+        self.views = (self.player,) if views is None else tuple(views)
 
-        runbar = W.HBox([self._run_button, self._cancel_button, self.progress, self._progress_text])
-        side = W.VBox([panel, runbar, self._status, *extra], layout=W.Layout(margin="0 0 0 1em"))
-        top = [canvas, side] if canvas is not None else [side]
-        children = []
+        # The boxes the slots are shown in (see _layout).
+        self._runbar = W.HBox(
+            [self._run_button, self._cancel_button, self.progress, self._progress_text]
+        )
+        self._drawing_column = W.VBox()
+        self._controls_column = W.VBox()
+        self._aside_column = W.VBox()
+        self._top = W.HBox(layout=W.Layout(flex_flow="row wrap"))
+        self._views_row = W.HBox(
+            layout=W.Layout(flex_flow="row wrap", align_items="flex-start", margin="0.4em 0 0 0")
+        )
+        self._top.add_class("fluidnb-app-top")
+        self._views_row.add_class("fluidnb-app-views")
+        heading = []
         if title:
-            children.append(W.HTML(f"<h3 style='margin:0.2em 0'>{html.escape(title)}</h3>"))
-        children += [W.HBox(top, layout=W.Layout(flex_flow="row wrap")), self.player]
-        super().__init__(children)
+            heading.append(W.HTML(f"<h3 style='margin:0.2em 0'>{html.escape(title)}</h3>"))
+        super().__init__([*heading, self._top, self._views_row])
         self.add_class("fluidnb-app")
+        self._layout()
         if preview is not None:
             self.request_preview()
+
+    # ------------------------------------------------------------------ layout
+    @observe("canvas")
+    def _canvas_changed(self, change):
+        old, new = change["old"], change["new"]
+        if old is not None:
+            old.unobserve(self._drawing_changed, "version")
+        if new is not None:
+            new.observe(self._drawing_changed, "version")
+        if self._layout_ready():
+            self._layout()
+            self.request_preview()
+
+    @observe(*SLOTS, "drawing_width", "controls_width")
+    def _slots_changed(self, change):
+        if self._layout_ready():
+            self._layout()
+
+    def _layout_ready(self):
+        # Slots set before App.__init__ built the boxes are laid out by __init__.
+        return "_views_row" in self.__dict__
+
+    def _layout(self):
+        """Put every slot's widgets in their boxes (empty slots take no room)."""
+        drawing = [self.canvas] if self.canvas is not None else []
+        drawing += self.canvas_tools
+        self._drawing_column.children = drawing
+        self._drawing_column.layout.width = self.drawing_width or None
+        self._controls_column.children = (
+            *self.inputs,
+            self.panel,
+            self._runbar,
+            self._status,
+            *self.controls,
+        )
+        # Gaps between the columns (on the left of the one that follows a canvas, on
+        # the right of the one an aside follows: nothing indents a wrapped column).
+        left, right = ("1em" if drawing else "0"), ("2em" if self.aside else "0")
+        self._controls_column.layout.margin = f"0 {right} 0.5em {left}"
+        self._controls_column.layout.width = self.controls_width or None
+        self._aside_column.children = self.aside
+        self._top.children = [
+            box
+            for box, used in (
+                (self._drawing_column, drawing),
+                (self._controls_column, True),
+                (self._aside_column, self.aside),
+            )
+            if used
+        ]
+        self._views_row.children = self.views
+
+    @staticmethod
+    def titled(heading, *widgets, margin="0 1.5em 0.6em 0"):
+        """A column of ``widgets`` under a bold ``heading``: a view for :attr:`views`."""
+        return W.VBox(
+            [W.HTML(f"<b>{html.escape(heading)}</b>"), *widgets], layout=W.Layout(margin=margin)
+        )
+
+    def _drawing_changed(self, change):
+        self.request_preview()
 
     # ------------------------------------------------------------------ status
     def say(self, text, kind="info"):
@@ -293,10 +448,34 @@ class App(W.VBox):
                 raise TimeoutError("the run did not finish in time")
         return self.result
 
-    def run(self, timeout=None):
-        """Press Run and wait for the result (headless driving)."""
+    def run(self, timeout=None, *, block=None):
+        """Press Run; wait for the clip unless that would freeze a live notebook.
+
+        In a notebook kernel a person works in, ``run`` returns at once: the run goes
+        on in the background with its progress in the app, and its clip appears in
+        the player and in :attr:`result` (:meth:`wait` blocks for it), while the
+        notebook stays usable -- a lesson's last cell must not hold a class for
+        minutes. It waits (at most ``timeout`` seconds) and returns the clip outside a
+        kernel (scripts, tests) and in quick mode (``FLUIDNB_QUICK=1``, how CI runs
+        the lessons top to bottom).
+
+        Parameters
+        ----------
+        timeout : float, optional
+            Longest wait in seconds when waiting (TimeoutError after it).
+        block : bool, optional
+            Wait (True) or not (False) whatever the context; by default, as above.
+
+        Returns
+        -------
+        fluidnb.Clip or None
+            The run's clip when waited for (the previous result if the run was
+            refused), else None.
+        """
         self.start()
-        return self.wait(timeout)
+        if block is None:
+            block = _quick_mode() or not _in_kernel()
+        return self.wait(timeout) if block else None
 
     def close(self):
         """Stop the preview worker and close the widgets."""

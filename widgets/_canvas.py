@@ -65,6 +65,12 @@ class DrawingCanvas(W.VBox):
         it; the canvas also shrinks with the notebook's width).
     scale : float, optional
         Screen pixels per image pixel; overrides ``display_size``.
+    value_slider : bool
+        Offer the 0..1 slider of :attr:`brush_value`. An app that sets the value
+        itself (from a slider in its own units) leaves it out: a slider on screen
+        snaps the value to its 0.05 grid in the browser and sends it back.
+    button_width : str
+        CSS width of each tool button (narrower ones fit a narrow column).
 
     Examples
     --------
@@ -99,6 +105,8 @@ class DrawingCanvas(W.VBox):
         points=(),
         display_size=512,
         scale=None,
+        value_slider=True,
+        button_width="100px",
     ):
         self.image = as_image(image)
         h, w = self.image.shape[:2]
@@ -139,7 +147,7 @@ class DrawingCanvas(W.VBox):
 
         self._tool_buttons = W.ToggleButtons(
             options=[t for t in _TOOLS if any(_TOOLS[t] == y.kind for y in self.layers.values())],
-            style={"button_width": "100px"},
+            style={"button_width": button_width},
             layout=W.Layout(width="auto"),
         )
         self._tool_buttons.icons = [_ICONS[t] for t in self._tool_buttons.options]
@@ -183,7 +191,12 @@ class DrawingCanvas(W.VBox):
             [self._tool_buttons, self._layer_pick], layout=W.Layout(flex_flow="row wrap")
         )
         brushbar = W.HBox(
-            [self._value_slider, self._radius_slider, self._undo, self._clear],
+            [
+                *([self._value_slider] if value_slider else []),
+                self._radius_slider,
+                self._undo,
+                self._clear,
+            ],
             layout=W.Layout(flex_flow="row wrap"),
         )
         super().__init__([STYLE, toolbar, brushbar, self.canvas, self.status])
@@ -256,10 +269,19 @@ class DrawingCanvas(W.VBox):
             self._layer_pick.value = current
         finally:
             self._syncing = False
-        self._layer_pick.layout.display = "" if len(names) > 1 else "none"
+        # The layer choice shows when the tool has several layers. Where some tool has
+        # (a matte and a speed map, say), its room is kept for every tool: the canvas
+        # must not jump under the mouse when the tool changes.
+        if any(self._layer_count(k) > 1 for k in set(_TOOLS.values())):
+            self._layer_pick.layout.visibility = "visible" if len(names) > 1 else "hidden"
+        else:
+            self._layer_pick.layout.display = "none"
         painting = kind == "paint"
         self._value_slider.layout.display = "" if painting and self.tool != "eraser" else "none"
         self._radius_slider.layout.display = "" if painting and self.tool != "fill" else "none"
+
+    def _layer_count(self, kind):
+        return sum(lay.kind == kind for lay in self.layers.values())
 
     def select(self, tool, layer=None):
         """Choose the tool (and the layer it acts on), as the toolbar does."""

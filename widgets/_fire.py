@@ -20,48 +20,52 @@ from ._player import FramePlayer
 
 __all__ = ["FireApp", "FireAppParams"]
 
-# The spec's app controls: the flame (FluidParams) and the synthesis (FireParams).
-_FLUID_FIELDS = ("kappa_b", "epsilon", "C_r", "source_radius", "source_T")
-_FIRE_FIELDS = ("interval", "overlap", "weight")
+
+def _field_of(cls, name):
+    """A dataclass field with the default and the slider spec of ``cls``'s ``name``.
+
+    The app's parameters are fields of two classes; sharing their specs keeps one
+    source for each range, symbol and tooltip.
+    """
+    f = next(f for f in dataclasses.fields(cls) if f.name == name)
+    return dataclasses.field(default=f.default, metadata=f.metadata)
 
 
-def _combined():
-    """One panel over fields of two parameter classes, their specs and checks kept."""
-    fields = []
-    for cls, names in ((FluidParams, _FLUID_FIELDS), (FireParams, _FIRE_FIELDS)):
-        by_name = {f.name: f for f in dataclasses.fields(cls)}
-        for name in names:
-            f = by_name[name]
-            fields.append((name, f.type, dataclasses.field(default=f.default, metadata=f.metadata)))
+@dataclasses.dataclass(frozen=True)
+class FireAppParams(Params):
+    """The fire app's controls: the flame's (FluidParams) and the synthesis's (FireParams)."""
+
+    # The flame: a fluidnb.fluid.FluidParams on flame_preset()'s.
+    kappa_b: float = _field_of(FluidParams, "kappa_b")
+    epsilon: float = _field_of(FluidParams, "epsilon")
+    C_r: float = _field_of(FluidParams, "C_r")
+    source_radius: float = _field_of(FluidParams, "source_radius")
+    source_T: float = _field_of(FluidParams, "source_T")
+    # The synthesis: a fluidnb.fire.FireParams.
+    interval: int = _field_of(FireParams, "interval")
+    overlap: int = _field_of(FireParams, "overlap")
+    weight: float = _field_of(FireParams, "weight")
 
     def check(self):
+        # Each class checks its own combinations (overlap < interval, say).
         self.fluid()
         self.fire()
 
     def fluid(self, base=None):
+        """These flame fields on ``base`` (default :func:`flame_preset`'s FluidParams)."""
         base = flame_preset().params if base is None else base
-        return base.replace(**{n: getattr(self, n) for n in _FLUID_FIELDS})
+        return base.replace(
+            kappa_b=self.kappa_b,
+            epsilon=self.epsilon,
+            C_r=self.C_r,
+            source_radius=self.source_radius,
+            source_T=self.source_T,
+        )
 
     def fire(self, base=None):
+        """These synthesis fields on ``base`` (default ``FireParams()``)."""
         base = FireParams() if base is None else base
-        return base.replace(**{n: getattr(self, n) for n in _FIRE_FIELDS})
-
-    return dataclasses.make_dataclass(
-        "FireAppParams",
-        fields,
-        bases=(Params,),
-        frozen=True,
-        namespace={
-            "check": check,
-            "fluid": fluid,
-            "fire": fire,
-            "__doc__": "The fire app's controls: flame (FluidParams) + synthesis (FireParams).",
-            "__module__": __name__,
-        },
-    )
-
-
-FireAppParams = _combined()
+        return base.replace(interval=self.interval, overlap=self.overlap, weight=self.weight)
 
 
 class FireApp(App):
@@ -115,9 +119,6 @@ class FireApp(App):
         self.shape = (64, 64) if quick else (128, 128)
         self.fire_result = None  #: The last run's FireResult.
         self._display_size = int(display_size)
-        canvas = DrawingCanvas(self.photo, masks=["matte"], display_size=display_size)
-        canvas.select("brush", "matte")
-        canvas.brush_radius = max(2.0, max(self.photo.shape[:2]) / 20)
         panel = ParamPanel(FireAppParams)
 
         self._frames = W.BoundedIntText(
@@ -155,21 +156,22 @@ class FireApp(App):
         super().__init__(
             panel=panel,
             run=self._run,
-            canvas=canvas,
+            canvas=self._make_canvas(),
             title="Fire from a photograph — Kogawa, Dobashi & Yamamoto",
-            extra=[
-                W.HBox([self._sample, self._upload]),
-                W.HBox([self._frames, self._seed]),
-                hint,
-            ],
+            inputs=[W.HBox([self._sample, self._upload])],
+            controls=[W.HBox([self._frames, self._seed]), hint],
         )
-        self.children = (
-            *self.children,
-            W.HTML("<b>temperature | latest keyframe | fire</b>"),
-            self.compare,
-        )
+        comparison = self.titled("temperature | latest keyframe | fire", self.compare)
+        self.views = (self.player, comparison)
 
     # ------------------------------------------------------------------ inputs
+    def _make_canvas(self):
+        """A canvas over the photo, the brush on its matte."""
+        canvas = DrawingCanvas(self.photo, masks=["matte"], display_size=self._display_size)
+        canvas.select("brush", "matte")
+        canvas.brush_radius = max(2.0, max(self.photo.shape[:2]) / 20)
+        return canvas
+
     @staticmethod
     def _load(photo, matte):
         image, alpha = as_image(photo, mode="rgb", name="photo", return_alpha=True)
@@ -192,16 +194,10 @@ class FireApp(App):
         except ValueError as exc:
             self.say(str(exc), "error")
             return
-        # A canvas keeps its image's size: a photo of another size gets a new canvas,
-        # swapped into the same place in the layout.
+        # A canvas keeps its image's size: a photo of another size gets a new canvas
+        # (the canvas slot shows it in the old one's place).
         old = self.canvas
-        canvas = DrawingCanvas(self.photo, masks=["matte"], display_size=self._display_size)
-        canvas.select("brush", "matte")
-        canvas.brush_radius = max(2.0, max(self.photo.shape[:2]) / 20)
-        for box in self.children:
-            if isinstance(box, W.HBox) and old in box.children:
-                box.children = tuple(canvas if c is old else c for c in box.children)
-        self.canvas = canvas
+        self.canvas = self._make_canvas()
         old.close()
 
     def _uploaded(self, change):

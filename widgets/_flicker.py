@@ -119,7 +119,8 @@ class FlickerApp(App):
         )
         self._analyse.add_class("fluidnb-analyse")
         self._analyse.on_click(lambda _: self.show_analysis())
-        self.analysis = W.Image(format="png", layout=W.Layout(max_width="100%"))
+        # Hidden until Analyse draws it (an empty image shows as a broken-image icon).
+        self.analysis = W.Image(format="png", layout=W.Layout(max_width="100%", display="none"))
         self.analysis.add_class("fluidnb-analysis")
         hint = W.HTML(
             "<span style='opacity:0.7'>Paint the region to animate (nothing painted: the "
@@ -133,9 +134,9 @@ class FlickerApp(App):
             preview=self._preview,
             canvas=canvas,
             title="Flicker (yuragi) — Yamamoto & Sakamoto",
-            extra=[W.HBox([self._seed, self._new_noise, self._analyse]), hint],
+            controls=[W.HBox([self._seed, self._new_noise, self._analyse]), hint],
         )
-        self.children = (*self.children, self.analysis)
+        self.views = (self.player, self.analysis)
         self.observe(lambda _: self.request_preview(), "seed")
 
     # ------------------------------------------------------------------ inputs
@@ -216,4 +217,5 @@ class FlickerApp(App):
             self.say(str(exc), "error")
             return b""
         self.analysis.value = buf.getvalue()
+        self.analysis.layout.display = ""
         return self.analysis.value

@@ -168,7 +168,7 @@ class FrostApp(App):
             preview=self._preview,
             canvas=canvas,
             title="Frost — Amano, Sato & Itoh (Reiter's automaton)",
-            extra=[
+            controls=[
                 self._seed,
                 self.length,
                 self._gamma_button,

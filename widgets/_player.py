@@ -33,6 +33,10 @@ class FramePlayer(W.VBox):
         Width on screen in pixels (small simulation grids are enlarged, pixelated).
     export_dir : str or Path
         Where the export buttons write (default: the notebook's folder).
+    label : str
+        The export files' name when the clip's metadata names no method.
+    slider_width : str, optional
+        CSS width of the frame slider (shorter ones let players sit side by side).
 
     Examples
     --------
@@ -49,7 +53,9 @@ class FramePlayer(W.VBox):
     #: Index of the frame on screen.
     frame = Int(0)
 
-    def __init__(self, clip=None, *, display_width=384, export_dir=".", label="clip"):
+    def __init__(
+        self, clip=None, *, display_width=384, export_dir=".", label="clip", slider_width=None
+    ):
         self.display_width = int(display_width)
         self.export_dir = Path(export_dir)
         self.label = label
@@ -59,6 +65,9 @@ class FramePlayer(W.VBox):
         self._play = W.Play(interval=125, step=1, repeat=True, show_repeat=True)
         self._play.add_class("fluidnb-play")
         self._slider = W.IntSlider(description="frame", readout=True, continuous_update=True)
+        if slider_width is not None:
+            self._slider.layout.width = slider_width
+            self._slider.style.description_width = "40px"
         self._slider.add_class("fluidnb-frame-slider")
         # The slider follows Play in the browser (jslink): no kernel round trip per tick.
         W.jslink((self._play, "value"), (self._slider, "value"))

@@ -69,7 +69,7 @@ class TurbulenceApp(App):
         by default the sample pair of :func:`fluidnb.turbulence.sample_flows`.
     size : {"quick", "paper"}
         The sample pair's size: ``"quick"`` halves both grids (12 x 8 and 96 x 64,
-        40 frames: a run takes seconds); ``"paper"`` is the seed's setting
+        40 frames: a run takes seconds); ``"paper"`` is the paper's setting
         (24 x 16 and 192 x 128, 200 frames). Ignored with your own flows.
     n_frames : int, optional
         Frames to synthesise (default: the size's; all of your flows').
@@ -146,14 +146,27 @@ class TurbulenceApp(App):
             layout=W.Layout(width="210px"),
         )
         self.table = W.HTML()
-        self.vorticity = FramePlayer(
-            display_width=display_width, export_dir=export_dir, label="vorticity"
+        # Two players side by side (a shorter frame slider each, to fit a laptop's
+        # page), the vorticity following the dye's frame.
+        dye = FramePlayer(
+            display_width=display_width,
+            export_dir=export_dir,
+            label="turbulence",
+            slider_width="200px",
         )
+        self.vorticity = FramePlayer(
+            display_width=display_width,
+            export_dir=export_dir,
+            label="vorticity",
+            slider_width="200px",
+        )
+        W.link((dye, "frame"), (self.vorticity, "frame"))
         for wid, cls in [
             (self._size, "fluidnb-size"),
             (self._frames, "fluidnb-frames"),
             (self._compare_button, "fluidnb-compare"),
             (self.table, "fluidnb-table"),
+            (dye, "fluidnb-dye"),
             (self.vorticity, "fluidnb-vorticity"),
         ]:
             wid.add_class(cls)
@@ -165,44 +178,29 @@ class TurbulenceApp(App):
             "row to the table; errors are measured against the exhaustive search.</span>",
             layout=W.Layout(max_width="420px"),
         )
+        self._headers = [W.HTML(_header(None, display_width)) for _ in range(2)]
+        dye_view, vorticity_view = (
+            self.titled(text, header, player, margin="0 1em 0 0")
+            for text, header, player in zip(
+                ("Dye carried by each flow", "Vorticity — red clockwise, blue anticlockwise"),
+                self._headers,
+                (dye, self.vorticity),
+            )
+        )
+        # The size above the sliders, Table 1 beside them (below on a narrow page),
+        # the two players side by side underneath.
         super().__init__(
             panel=panel,
             run=self._run_task,
             title="Example-based turbulence with adaptive search — Watanabe et al.",
-            extra=[self._compare_button, hint],
-        )
-        self.player.display_width = int(display_width)
-        self.player.export_dir = self.vorticity.export_dir
-        self.player.label = "turbulence"
-        self.player.add_class("fluidnb-dye")
-        W.link((self.player, "frame"), (self.vorticity, "frame"))
-
-        # Layout: size above the sliders, the table beside them (below on a narrow
-        # page), the two players side by side underneath.
-        title, top, _player = self.children
-        side = top.children[0]
-        side.children = (W.HBox([self._size, self._frames]), *side.children)
-        side.layout.margin = "0 2em 0.5em 0"
-        table_box = W.VBox(
-            [W.HTML("<b>Table 1 — time per frame and error of each search</b>"), self.table]
-        )
-        top.children = (side, table_box)
-        self._headers = [W.HTML(_header(None, display_width)) for _ in range(2)]
-        titles = ("Dye carried by each flow", "Vorticity — red clockwise, blue anticlockwise")
-        views = []
-        for text, header, player in zip(titles, self._headers, (self.player, self.vorticity)):
-            # A shorter frame slider: two players fit side by side on a laptop's page.
-            player._slider.layout.width = "200px"
-            player._slider.style.description_width = "40px"
-            views.append(
-                W.VBox(
-                    [W.HTML(f"<b>{text}</b>"), header, player], layout=W.Layout(margin="0 1em 0 0")
-                )
-            )
-        self.children = (
-            title,
-            top,
-            W.HBox(views, layout=W.Layout(flex_flow="row wrap", margin="0.8em 0 0 0")),
+            inputs=[W.HBox([self._size, self._frames])],
+            controls=[self._compare_button, hint],
+            aside=[
+                W.HTML("<b>Table 1 — time per frame and error of each search</b>"),
+                self.table,
+            ],
+            views=[dye_view, vorticity_view],
+            player=dye,
         )
         self.add_class("fluidnb-turbulence")
         panel.observe(lambda _: self._check_settings(), "params")

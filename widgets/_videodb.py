@@ -42,7 +42,7 @@ from fluidnb.videodb import (
     starter_path,
 )
 
-from ._app import App
+from ._app import App, _in_kernel, _quick_mode
 from ._canvas import DrawingCanvas
 from ._panel import ParamPanel
 
@@ -98,44 +98,12 @@ def _kernel_loop():
     plain process another library may leave a loop "running" in the main thread
     that never runs what is queued on it (Playwright's sync API does).
     """
-    try:
-        from IPython import get_ipython
-    except ImportError:  # pragma: no cover - IPython comes with ipywidgets
-        return None
-    shell = get_ipython()
-    if shell is None or getattr(shell, "kernel", None) is None:
+    if not _in_kernel():
         return None
     try:
         return asyncio.get_running_loop()
     except RuntimeError:
         return None
-
-
-class _FlowCanvas(DrawingCanvas):
-    """The drawing canvas with the app's brush rules.
-
-    The speed brush's value comes from the app's px/frame slider and the matte brush
-    always paints "inside", so the canvas's own 0..1 value slider is not shown. It is
-    taken out of the layout, not merely hidden: a displayed slider snaps the value to
-    its 0.05 grid in the browser and sends it back (2 px/frame would become 2.1).
-    """
-
-    def __init__(self, *args, **kwargs):
-        super().__init__(*args, **kwargs)
-        for box in self.children:
-            if isinstance(box, W.HBox) and self._value_slider in box.children:
-                box.children = tuple(c for c in box.children if c is not self._value_slider)
-        # Narrower tool buttons: the toolbar fits the canvas column.
-        self._tool_buttons.style.button_width = "88px"
-
-    def _sync_layer_choices(self):
-        super()._sync_layer_choices()
-        # Hide the layer choice (strokes have one layer) without giving up its room:
-        # the canvas must not jump under the mouse when the tool changes.
-        layout = self._layer_pick.layout
-        hidden = layout.display == "none"
-        layout.display = ""
-        layout.visibility = "hidden" if hidden else "visible"
 
 
 class _AssignmentMap(W.VBox):
@@ -419,7 +387,7 @@ class VideoDBApp(App):
         display_size=480,
     ):
         if quick is None:
-            quick = os.environ.get("FLUIDNB_QUICK", "") not in ("", "0")
+            quick = _quick_mode()
         self.quick = bool(quick)
         self.size = int(size or (256 if self.quick else 480))
         self._display_size = int(display_size)
@@ -485,7 +453,7 @@ class VideoDBApp(App):
             step=0.25,
             description="speed",
             readout_format=".2f",
-            tooltip="speed brush value in px/frame (seed Fig. 8-c); 0 = not painted",
+            tooltip="speed brush value in px/frame (Okabe et al. 2011, Fig. 8-c); 0 = not painted",
             layout=W.Layout(width="260px"),
         )
         self._speed_unit = W.HTML("<span style='opacity:0.7'>px/frame</span>")
@@ -561,27 +529,28 @@ class VideoDBApp(App):
             "<i>speed</i>: paint px/frame (white) · Run, then move σ, λ, ρ to re-solve "
             "live and Render the clip.</div>"
         )
+        # The photo's inputs and N above the panel, the drawing tools under the canvas
+        # (rows that wrap, so the panel stays beside the canvas), and the results
+        # (clip | assignment map) side by side under both.
+        wrap = {"flex_flow": "row wrap", "align_items": "center"}
         super().__init__(
             panel=panel,
             run=self._run_task,
             canvas=canvas,
             title="Fluid animation from one image — Okabe, Anjyo & Onai (video database)",
-            extra=[
+            inputs=[
+                W.HBox([self._photo_pick, self._upload]),
+                W.HBox([self._db_pick, self._db_path], layout=W.Layout(flex_flow="row wrap")),
+                self._n_label,
+            ],
+            controls=[
                 W.HBox([self._render_button, self._use_speed_button]),
                 W.HTML("<b>energy (Eq. 4) per sweep</b>", layout=W.Layout(margin="0.6em 0 0 0")),
                 self.energy,
                 self.stats,
                 hint,
             ],
-        )
-
-        # The layout: the photo's inputs and N above the panel, the drawing tools
-        # under the canvas (a column as wide as the canvas, so the panel stays beside
-        # it), and the results (clip | assignment map) in a row under both.
-        wrap = {"flex_flow": "row wrap", "align_items": "center"}
-        self._left = W.VBox(
-            [
-                canvas,
+            canvas_tools=[
                 W.HBox([self._speed, self._speed_unit], layout=W.Layout(**wrap)),
                 W.HBox(list(self._clear_buttons.values()), layout=W.Layout(**wrap)),
                 W.HBox(
@@ -589,34 +558,14 @@ class VideoDBApp(App):
                     layout=W.Layout(**wrap),
                 ),
             ],
-            layout=W.Layout(width=self._left_width(canvas)),
         )
-        title, top, player = self.children
-        side = top.children[-1]
-        side.children = (
-            W.HBox([self._photo_pick, self._upload]),
-            W.HBox([self._db_pick, self._db_path], layout=W.Layout(flex_flow="row wrap")),
-            self._n_label,
-            *side.children,
+        # Fixed widths: long rows and messages wrap in place instead of widening a
+        # column (the panel would drop under the canvas after a run).
+        self.controls_width = "450px"
+        self.views = (
+            self.titled("clip", self.player),
+            self.titled("assignment: the source clip of each fragment (click one)", self.map),
         )
-        side.layout.width = "450px"
-        top.children = (self._left, side)
-
-        def column(heading, *widgets):
-            return W.VBox(
-                [W.HTML(f"<b>{html.escape(heading)}</b>"), *widgets],
-                layout=W.Layout(margin="0 1.5em 0.6em 0"),
-            )
-
-        self.results = W.HBox(
-            [
-                column("clip", player),
-                column("assignment: the source clip of each fragment (click one)", self.map),
-            ],
-            layout=W.Layout(flex_flow="row wrap", align_items="flex-start", margin="0.8em 0 0 0"),
-        )
-        self.results.add_class("fluidnb-vdb-results")
-        self.children = (title, top, self.results)
         self.add_class("fluidnb-vdb-app")
 
         # ---------------------------------------------------------------- wiring
@@ -671,12 +620,16 @@ class VideoDBApp(App):
         return np.ascontiguousarray(image, np.float32), alpha
 
     def _make_canvas(self):
-        canvas = _FlowCanvas(
+        # The speed brush's value comes from the app's px/frame slider and the matte
+        # brush always paints "inside": no 0..1 value slider.
+        canvas = DrawingCanvas(
             self.photo,
             strokes=["flow"],
             masks=["matte"],
             maps=["speed"],
             display_size=self._display_size,
+            value_slider=False,
+            button_width="88px",
         )
         speed = canvas.layers["speed"]
         speed.color, speed.opacity = (1.0, 1.0, 1.0), 0.95  # grey levels: white = fast
@@ -686,12 +639,9 @@ class VideoDBApp(App):
         canvas.select("brush", "matte")
         return canvas
 
-    @staticmethod
-    def _left_width(canvas):
-        """Width of the drawing column: the canvas's, and room for the tools."""
-        return f"{max(canvas.canvas.width, 440)}px"
-
     def _wire_canvas(self, canvas):
+        # The canvas column as wide as the canvas, with room for the tools.
+        self.drawing_width = f"{max(canvas.canvas.width, 440)}px"
         canvas.observe(self._drawing_changed, "version")
         canvas.observe(lambda _: self._sync_brush(), ["tool", "layer"])
         self._field_key = self._field = None
@@ -714,10 +664,7 @@ class VideoDBApp(App):
         name = photo if isinstance(photo, str) and photo in PHOTOS else "upload"
         self.photo, self.photo_alpha, self.photo_name = image, alpha, name
         old = self.canvas
-        canvas = self._make_canvas()
-        self._left.children = tuple(canvas if c is old else c for c in self._left.children)
-        self._left.layout.width = self._left_width(canvas)
-        self.canvas = canvas
+        self.canvas = canvas = self._make_canvas()  # shown in the old one's place
         old.close()
         self._wire_canvas(canvas)
         self._forget_result()
