@@ -167,7 +167,10 @@ class FireApp(App):
     # ------------------------------------------------------------------ inputs
     def _make_canvas(self):
         """A canvas over the photo, the brush on its matte."""
-        canvas = DrawingCanvas(self.photo, masks=["matte"], display_size=self._display_size)
+        # Shown as fire uses it: a cut-out's colour over black, so the junk colour its
+        # transparent pixels may hold never shows.
+        shown = self.photo if self.photo_matte is None else self.photo * self.photo_matte[..., None]
+        canvas = DrawingCanvas(shown, masks=["matte"], display_size=self._display_size)
         canvas.select("brush", "matte")
         canvas.brush_radius = max(2.0, max(self.photo.shape[:2]) / 20)
         return canvas

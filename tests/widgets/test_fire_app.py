@@ -142,6 +142,8 @@ def test_an_uploaded_rgba_cutout_is_matted_by_its_alpha(app):
     Image.fromarray(to_uint8(np.dstack([straight, alpha])), mode="RGBA").save(buf, format="png")
     app._upload.value = (upload("cut.png", buf.getvalue()),)
     np.testing.assert_allclose(app.photo_matte, alpha, atol=1 / 255)
+    # the canvas shows the cut-out over black, not its junk colour
+    assert app.canvas.image[alpha == 0].max() == 0
     clip = app.run(timeout=120)
     cold = app.fire_result.target == 0
     assert cold.mean() > 0.3
