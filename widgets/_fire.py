@@ -69,7 +69,7 @@ class FireAppParams(Params):
 
 
 class FireApp(App):
-    """Fire from a photograph on a fluid simulation (Kogawa, Dobashi & Yamamoto).
+    """Fire from a photograph on a fluid simulation (Furukawa, Dobashi & Yamamoto 2013).
 
     Choose a fire photo (a sample or an upload), optionally paint its matte (white =
     flame; nothing painted uses the photo's own matte, else its luminance), set the
@@ -157,7 +157,7 @@ class FireApp(App):
             panel=panel,
             run=self._run,
             canvas=self._make_canvas(),
-            title="Fire from a photograph — Kogawa, Dobashi & Yamamoto",
+            title="Fire from a photograph — Furukawa, Dobashi & Yamamoto",
             inputs=[W.HBox([self._sample, self._upload])],
             controls=[W.HBox([self._frames, self._seed]), hint],
         )

@@ -828,7 +828,7 @@ def _make_fire(recipe, size, seed, report):
         C_r=recipe.get("cooling", 0.05),
     )
     # Keyframes every 16 frames, each advected for 24 and cross-dissolved over 8
-    # (Kogawa et al.'s N and m): fewer syntheses, the slow part.
+    # (Furukawa et al.'s N and m): fewer syntheses, the slow part.
     fire_params = FireParams(
         interval=24,
         overlap=8,
