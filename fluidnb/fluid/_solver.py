@@ -184,8 +184,9 @@ def step(state, params, *, rng=None):
     2. add the forces f of Eq. (1): buoyancy, Eq. (4), upward (dy < 0), and
        vorticity confinement, Eq. (5) [3]_;
     3. project onto divergence-free fields, Eq. (2) and the pressure term of
-       Eq. (1): an exact sparse LU solve of the pressure Poisson equation,
-       factorised once per grid shape (see :func:`fluidnb.fluid.project`);
+       Eq. (1): an exact solve of the pressure Poisson equation, a cosine
+       transform along x and one tridiagonal solve per x-mode along y (see
+       :func:`fluidnb.fluid.project`);
     4. advect temperature and density with the new velocity (Eq. (3), first term);
     5. radiative cooling, the second term of Eq. (3), with :math:`T_{max}` the
        field's maximum measured this step (see :func:`fluidnb.fluid.cool`);
@@ -215,7 +216,7 @@ def step(state, params, *, rng=None):
     Notes
     -----
     The per-cell work runs in numba-compiled kernels (fused passes, no whole-grid
-    temporaries); only the LU solve is scipy's. The very first call on a machine
+    temporaries); the cosine transforms are scipy's. The very first call on a machine
     compiles them (several seconds) and caches them on disk; later processes load
     them in a fraction of a second.
 
