@@ -11,6 +11,7 @@ import numpy as np
 
 from .._clip import Clip
 from .._progress import Progress
+from .._random import resolve_seed
 from .._random import rng as _as_rng
 from .._validation import check_choice, check_int, check_range
 from ._colour import temperature_to_rgb
@@ -41,7 +42,8 @@ class Simulation:
     params : FluidParams
         The parameters of the run.
     seed : int or None
-        The seed it was run with (None: fresh entropy, not reproducible).
+        The seed the run actually used (:func:`fluidnb.resolve_seed`): the same
+        parameters and seed remake it exactly. None only for hand-made instances.
     substeps : int
         Solver steps per frame (each of ``params.dt / substeps``).
     timings : dict
@@ -198,7 +200,9 @@ def simulate(
     shape : tuple of int
         (H, W) of the grid; the paper uses 128 x 128.
     seed : None, int or numpy.random.Generator
-        Randomness of the source flicker; same seed, same frames.
+        Randomness of the source flicker; same seed, same frames. The int actually
+        used (drawn when None or a Generator is given) is recorded as
+        :attr:`Simulation.seed`.
     progress : callable, optional
         ``progress(fraction, message)``, called once per frame; raise
         :class:`fluidnb.Cancelled` from it to stop.
@@ -238,6 +242,7 @@ def simulate(
     else:
         raise ValueError(f"initial must be a FluidState or None, got {type(initial).__name__}")
     report = Progress(progress)
+    seed = resolve_seed(seed)
     gen = _as_rng(seed)
     sub = params if substeps == 1 else params.replace(dt=params.dt / substeps)
     h, w = state.shape
@@ -262,7 +267,7 @@ def simulate(
         temp,
         dens,
         params,
-        seed=seed if isinstance(seed, (int, np.integer)) or seed is None else None,
+        seed=seed,
         substeps=substeps,
         timings={"simulate": elapsed, "steps_per_second": total * substeps / max(elapsed, 1e-9)},
     )

@@ -7,7 +7,6 @@ from functools import lru_cache
 
 import numpy as np
 
-from .._random import rng as _as_rng
 from .._validation import (
     check_array,
     check_int,
@@ -199,9 +198,12 @@ def step(state, params, *, rng=None):
         The current state (not modified).
     params : FluidParams
         The parameters.
-    rng : None, int or numpy.random.Generator
-        Randomness of the source flicker (only used when ``source_flicker > 0``);
-        pass the same generator on every step for a reproducible run.
+    rng : numpy.random.Generator, optional
+        Randomness of the source flicker (only drawn from when
+        ``source_flicker > 0``); pass the same generator to every step, e.g.
+        ``numpy.random.default_rng(seed)`` made once, for a reproducible run. None:
+        fresh entropy, not reproducible. :func:`simulate` takes ``seed=`` and does
+        this for you.
 
     Returns
     -------
@@ -211,7 +213,7 @@ def step(state, params, *, rng=None):
     Raises
     ------
     ValueError
-        If ``state`` or ``params`` is of the wrong type.
+        If ``state``, ``params`` or ``rng`` is of the wrong type.
 
     Notes
     -----
@@ -241,6 +243,19 @@ def step(state, params, *, rng=None):
     if not isinstance(state, FluidState):
         raise ValueError(f"state must be a FluidState, got {type(state).__name__}")
     params = _check_params(params)
+    if rng is not None and not isinstance(rng, np.random.Generator):
+        raise ValueError(
+            "rng must be a numpy Generator (or None), got "
+            f"{type(rng).__name__}: make one with numpy.random.default_rng(seed) and "
+            "pass the same generator to every step (an int would replay the same "
+            "noise on every step)"
+        )
+    with _kernels.threads_for(state.shape):
+        return _step(state, params, rng)
+
+
+def _step(state, params, rng):
+    """The body of :func:`step`, on checked arguments."""
     dt = params.dt
     v = _f64(state.velocity)
     t = _f64(state.temperature)
@@ -274,7 +289,10 @@ def step(state, params, *, rng=None):
         m = _mask(shape, params.source_x, params.source_y, params.source_radius)
     else:
         m = _frozen(np.zeros((1, 1)))  # unused; read-only like _mask's, one compilation
-    noise = _as_rng(rng).uniform(-1.0, 1.0, size=shape) if noisy else np.zeros((1, 1))
+    if noisy:
+        noise = (np.random.default_rng() if rng is None else rng).uniform(-1.0, 1.0, size=shape)
+    else:
+        noise = np.zeros((1, 1))
     _kernels.cool_and_heat(
         t, d, cooling, float(t_amb), float(span), roots, m, heat, float(params.source_T),
         noisy, float(hot), float(params.source_flicker), noise,

@@ -43,6 +43,18 @@ def test_same_seed_same_frames_other_seed_other_frames():
     assert not np.array_equal(a.temperature, c.temperature)
 
 
+@pytest.mark.parametrize("seed", [None, "generator"])
+def test_the_recorded_seed_remakes_the_run(seed):
+    params = FluidParams(source_flicker=0.8)
+    if seed == "generator":
+        seed = np.random.default_rng(4)
+    a = simulate(params, 4, shape=(16, 16), seed=seed)
+    assert isinstance(a.seed, int)
+    assert a.to_clip().metadata["seed"] == a.seed
+    b = simulate(params, 4, shape=(16, 16), seed=a.seed)
+    np.testing.assert_array_equal(a.temperature, b.temperature)
+
+
 def test_substeps_split_the_frame():
     params = FluidParams(source_flicker=0)
     sim = simulate(params, 3, shape=(16, 16), substeps=4)
