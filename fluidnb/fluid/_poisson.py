@@ -47,6 +47,10 @@ __all__ = ["METHODS", "poisson_solver"]
 #: The Poisson solvers :func:`fluidnb.fluid.project` offers.
 METHODS = ("fast", "lu")
 
+#: The largest grid the sparse LU is built for: its fill-in grows faster than the
+#: grid (a 4096 x 4096 factorisation ended in an empty MemoryError).
+LU_MAX_CELLS = 512 * 512
+
 
 def _row_diagonals(n, open_start):
     """Diagonal of a 1-D ``[-1, 2, -1]`` operator of length n with wall rows.
@@ -135,6 +139,12 @@ class _SparsePoisson:
     def __init__(self, shape, boundary):
         h, w = shape
         n = h * w
+        if n > LU_MAX_CELLS:
+            raise ValueError(
+                f"method='lu' factorises the whole Poisson matrix and is meant for grids "
+                f"of at most {LU_MAX_CELLS} cells (512 x 512), got {h}x{w}: use "
+                f"method='fast', exact on any size"
+            )
         cells = np.arange(n).reshape(h, w)
         rows, cols, vals = [], [], []
         # Divergence operator D: cells x faces. Each active face leaves the cell

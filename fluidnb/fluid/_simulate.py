@@ -25,6 +25,51 @@ __all__ = ["Preset", "Simulation", "flame_preset", "simulate", "smoke_preset"]
 _FORMAT = "fluidnb.fluid.Simulation/1"
 
 
+#: Bytes a run keeps per cell and frame: velocity (2), temperature, density, float32.
+_BYTES_PER_CELL_FRAME = 16
+#: Bytes a step works with per cell (float64 state, scratch grids, transforms).
+_BYTES_PER_CELL_STEP = 320
+
+
+def _available_bytes():
+    """Memory the system can still give this process (Linux: MemAvailable), or None."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def _check_memory(n_frames, shape):
+    """Refuse a run whose frames cannot fit in memory, and say what would fit."""
+    avail = _available_bytes()
+    if avail is None:
+        return
+    h, w = shape
+    cells = h * w
+    need = cells * (n_frames * _BYTES_PER_CELL_FRAME + _BYTES_PER_CELL_STEP)
+    if need <= 0.8 * avail:
+        return
+    budget = 0.8 * avail
+    gib = 2.0**30
+    frames_fit = int((budget / cells - _BYTES_PER_CELL_STEP) // _BYTES_PER_CELL_FRAME)
+    scale = (budget / need) ** 0.5
+    fit_shape = (max(int(h * scale), 2), max(int(w * scale), 2))
+    raise ValueError(
+        f"shape {h}x{w} with n_frames={n_frames} needs about {need / gib:.1f} GiB "
+        f"({_BYTES_PER_CELL_FRAME} bytes a cell a frame are kept) but "
+        f"{avail / gib:.1f} GiB is available: at this shape at most "
+        f"{max(frames_fit, 0)} frames fit; for {n_frames} frames, a grid of about "
+        f"{fit_shape[0]}x{fit_shape[1]}"
+    )
+
+
 @dataclass(frozen=True, eq=False)
 class Simulation:
     """Every frame of a run of :func:`simulate`.
@@ -223,7 +268,9 @@ def simulate(
     Raises
     ------
     ValueError
-        For a bad ``params``, ``n_frames``, ``shape``, ``substeps`` or ``initial``.
+        For a bad ``params``, ``n_frames``, ``shape``, ``substeps`` or ``initial``,
+        or when the frames would not fit in the memory available (the message says
+        how many frames, or what grid, would).
 
     Examples
     --------
@@ -235,12 +282,11 @@ def simulate(
     n_frames = check_int("n_frames", n_frames, 1)
     substeps = check_int("substeps", substeps, 1, 1000)
     warmup = check_int("warmup", warmup, 0)
-    if initial is None:
-        state = FluidState.zeros(_check_shape(shape), params)
-    elif isinstance(initial, FluidState):
-        state = initial
-    else:
+    if initial is not None and not isinstance(initial, FluidState):
         raise ValueError(f"initial must be a FluidState or None, got {type(initial).__name__}")
+    shape = _check_shape(shape) if initial is None else initial.shape
+    _check_memory(n_frames, shape)  # before anything large is allocated
+    state = FluidState.zeros(shape, params) if initial is None else initial
     report = Progress(progress)
     seed = resolve_seed(seed)
     gen = _as_rng(seed)
