@@ -3,7 +3,7 @@
     python benchmarks/bench_fluid.py
     FLUIDNB_PEERS_PYTHON=/tmp/peers/bin/python python benchmarks/bench_fluid.py
 
-The seed paper gives no timing. The spec's goal: steps per second at 128 x 128 (the
+The paper (Furukawa et al. 2013) gives no timing. The spec's goal: steps per second at 128 x 128 (the
 paper's grid), side by side with a peer solver installed from PyPI, faster than the
 peer. fluidnb runs its flame preset (open top, 128 x 128) and its smoke preset (closed
 box, 128 x 192); every step has semi-Lagrangian advection of the velocity and of two

@@ -1,4 +1,4 @@
-"""Parameters of the 2-D Stable Fluids flame/smoke solver (seed paper section 3.1)."""
+"""Parameters of the 2-D Stable Fluids flame/smoke solver (Furukawa et al. 2013, sec. 3.1)."""
 
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ MAX_EPSILON_DT = 2.0
 class FluidParams(Params):
     r"""Parameters of :func:`fluidnb.fluid.step` and :func:`fluidnb.fluid.simulate`.
 
-    The seed paper [1]_ gives the equations but no values. The defaults here were
+    The paper [1]_ gives the equations but no values. The defaults here were
     chosen by eye to give a convincing 2-D flame at 128 x 128 (the paper's grid) in a
     few dozen frames; they are not the paper's. Temperatures are dimensionless:
     ambient ``T_amb = 0``, source ``source_T = 1``.
@@ -74,7 +74,7 @@ class FluidParams(Params):
 
     References
     ----------
-    .. [1] 古川 歩, 土橋 宜典, 山本 強 (A. Kogawa, Y. Dobashi, T. Yamamoto),
+    .. [1] 古川 歩, 土橋 宜典, 山本 強 (A. Furukawa, Y. Dobashi, T. Yamamoto, 2013),
        "実写画像に類似した流体アニメーションの生成" ("Generating fluid animations
        that resemble real photographs"), section 3.1, Eq. (1)-(5).
     .. [2] J. Stam, "Stable Fluids", Proceedings of SIGGRAPH 99, pp. 121-128, 1999.

@@ -1,4 +1,4 @@
-"""One Stable Fluids step: state in, state out (seed section 3.1, Stam 1999)."""
+"""One Stable Fluids step: state in, state out (Furukawa et al. 2013, sec. 3.1; Stam 1999)."""
 
 from __future__ import annotations
 
@@ -175,7 +175,7 @@ def _mask(shape, source_x, source_y, source_radius):
 def step(state, params, *, rng=None):
     r"""Advance the flow by one time step ``params.dt``.
 
-    In order (Stam 1999 [2]_, the seed paper's section 3.1 [1]_):
+    In order (Stam 1999 [2]_, Furukawa et al. (2013), sec. 3.1 [1]_):
 
     1. advect the velocity through itself, semi-Lagrangian (the first term of
        Eq. (1)), each staggered component backtraced from its own face and
@@ -224,7 +224,7 @@ def step(state, params, *, rng=None):
 
     References
     ----------
-    .. [1] 古川 歩, 土橋 宜典, 山本 強 (A. Kogawa, Y. Dobashi, T. Yamamoto),
+    .. [1] 古川 歩, 土橋 宜典, 山本 強 (A. Furukawa, Y. Dobashi, T. Yamamoto, 2013),
        "実写画像に類似した流体アニメーションの生成" ("Generating fluid animations
        that resemble real photographs"), section 3.1.
     .. [2] J. Stam, "Stable Fluids", Proceedings of SIGGRAPH 99, pp. 121-128, 1999.
