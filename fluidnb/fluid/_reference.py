@@ -296,10 +296,12 @@ def step(state, params, rng=None):
     density = advect_scalar(density, u, dt)
     T = cool(T, p.C_r, p.T_amb, dt, T.max())  # 5. the cooling of Eq. (3)
     if p.source_radius > 0:  # 6. the source
+        mask = source_mask(T.shape, p)
         noise = None
         if p.source_flicker > 0 and p.source_T > p.T_amb:
-            noise = (np.random.default_rng() if rng is None else rng).uniform(
-                -1.0, 1.0, size=T.shape
-            )
-        T, density = heat_source(T, density, source_mask(T.shape, p), p, noise)
+            # One uniform number per cell of the source, in row-major order.
+            gen = np.random.default_rng() if rng is None else rng
+            noise = np.zeros(T.shape)
+            noise[mask > 0] = gen.uniform(-1.0, 1.0, size=np.count_nonzero(mask))
+        T, density = heat_source(T, density, mask, p, noise)
     return FluidState(u, T, density, frame=state.frame + 1)
