@@ -358,48 +358,51 @@ def subtract_gradient(v, p, open_top):
 # ------------------------------------------------------------------ cooling, source
 
 
-@njit(cache=True, nogil=True, parallel=True, error_model="numpy")
-def cooling_base(t, t_amb, span, k, out):
-    """``1 + k x^3`` with ``x = (T - T_amb) / span`` for cells above ambient, else 1.
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def _cbrt(y):
+    """The cube root of ``y >= 1`` (the cooling's divisor), to 3 units in the last place.
 
-    Its cube root is the divisor of the exact cooling step (see
-    :func:`fluidnb.fluid.cool`); the caller takes it with ``np.cbrt`` on the whole
-    array, which numpy vectorises: the C library's scalar ``cbrt`` called cell by cell
-    here would cost more than the whole rest of the cooling.
+    The C library's ``cbrt`` (and numpy's, which calls it) costs about 25 ns a value:
+    over a 128 x 128 grid more than the advection. The cooling only ever needs it on
+    [1, 2] when ``3 C_r dt / span <= 1`` (x <= 1): there, start from the Taylor series
+    ``1 + d/3 - d^2/9`` (d = y - 1, error < 0.04) and take three Halley steps
+    ``r <- r (r^3 + 2y) / (2r^3 + y)``, each cubing the error: a handful of flops.
     """
-    h, w = t.shape
-    for r in prange(h):
-        i = np.int64(r)  # signed: prange's index is unsigned, and i - 1 must not wrap
-        for j in range(w):
-            x = t[i, j]
-            if x > t_amb:
-                x = (x - t_amb) / span
-                out[i, j] = 1.0 + k * (x * x * x)
-            else:
-                out[i, j] = 1.0
+    if y > 2.0:
+        return np.cbrt(y)
+    d = y - 1.0
+    r = 1.0 + d * (1.0 / 3.0 - d * (1.0 / 9.0))
+    for _ in range(3):
+        r3 = r * r * r
+        r = r * (r3 + 2.0 * y) / (2.0 * r3 + y)
+    return r
 
 
 @njit(cache=True, nogil=True, inline="always", error_model="numpy")
-def _cooled(x, t_amb, span, root):
-    """One cell of the exact cooling step, given the cube root from cooling_base."""
+def _cooled(x, t_amb, span, k):
+    """One cell of the exact cooling step: ``x / (1 + k x^3)^(1/3)`` in relative units.
+
+    ``k = 3 C_r dt / span``; see :func:`fluidnb.fluid.cool`.
+    """
     if x > t_amb:
-        return t_amb + span * ((x - t_amb) / span / root)
+        e = (x - t_amb) / span
+        return t_amb + span * (e / _cbrt(1.0 + k * (e * e * e)))
     return x
 
 
 @njit(cache=True, nogil=True, parallel=True, error_model="numpy")
-def cool(t, t_amb, span, roots, out):
-    """Radiative cooling of every cell above ambient (``roots`` from cooling_base)."""
+def cool(t, t_amb, span, k, out):
+    """Radiative cooling of every cell above ambient (``k = 3 C_r dt / span``)."""
     h, w = t.shape
     for r in prange(h):
         i = np.int64(r)  # signed: prange's index is unsigned, and i - 1 must not wrap
         for j in range(w):
-            out[i, j] = _cooled(t[i, j], t_amb, span, roots[i, j])
+            out[i, j] = _cooled(t[i, j], t_amb, span, k)
 
 
 @njit(cache=True, nogil=True, parallel=True, error_model="numpy")
 def cool_and_heat(
-    t, d, cooling, t_amb, span, roots, mask, heat, source_t, noisy, hot, flicker, noise, smoke
+    t, d, cooling, t_amb, span, k, mask, heat, source_t, noisy, hot, flicker, noise, smoke
 ):
     """Cooling (when ``cooling``), then the source, in place on ``t`` and ``d``.
 
@@ -415,7 +418,7 @@ def cool_and_heat(
         for j in range(w):
             x = t[i, j]
             if cooling:
-                x = _cooled(x, t_amb, span, roots[i, j])
+                x = _cooled(x, t_amb, span, k)
             if heat:
                 m = mask[i, j]
                 target = t_amb + hot * (1.0 + flicker * noise[i, j]) if noisy else source_t

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 from functools import lru_cache
 
+import numba
 import numpy as np
 import scipy.fft
 import scipy.sparse as sp
@@ -97,8 +98,10 @@ class _FastPoisson:
         self.inv = inv
         self.up = up
 
-    def solve(self, div, workers=None):
+    def solve(self, div):
         """Pressure p with ``A p = -div``; ``p[0, 0] = 0`` for a closed box."""
+        # The transforms use as many threads as the kernels (one for a small grid).
+        workers = numba.get_num_threads()
         r = scipy.fft.dct(div, type=2, axis=1, norm="ortho", workers=workers)
         np.negative(r, out=r)
         if self.pin:

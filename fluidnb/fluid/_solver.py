@@ -15,7 +15,7 @@ from .._validation import (
     check_vector_field,
 )
 from . import _kernels
-from ._forces import _add_forces, _check_params, _cooling_roots, source_mask
+from ._forces import _add_forces, _check_params, source_mask
 from ._grid import _centres, _f64, _project
 from ._params import FluidParams
 
@@ -283,7 +283,7 @@ def _step(state, params, rng):
     c_r, t_amb = params.C_r, params.T_amb
     span = t_max - t_amb
     cooling = c_r != 0 and dt != 0 and span > 0
-    roots = _cooling_roots(t, c_r, t_amb, dt, span) if cooling else np.ones((1, 1))
+    k = 3.0 * c_r * dt / span if cooling else 0.0
     heat = params.source_radius > 0
     hot = params.source_T - t_amb
     noisy = heat and params.source_flicker > 0 and hot > 0
@@ -300,7 +300,7 @@ def _step(state, params, rng):
     else:
         noise = np.zeros((1, 1))
     _kernels.cool_and_heat(
-        t, d, cooling, float(t_amb), float(span), roots, m, heat, float(params.source_T),
+        t, d, cooling, float(t_amb), float(span), float(k), m, heat, float(params.source_T),
         noisy, float(hot), float(params.source_flicker), noise,
         float(params.density_rate * dt) if params.density_rate > 0 else 0.0,
     )  # fmt: skip
