@@ -3,8 +3,9 @@
 The references below are the solver's earlier pure-numpy implementation, kept here
 verbatim (in substance) as the specification of each kernel: same arithmetic, same
 order, so the results must agree to the last bit -- except the confinement (sqrt
-instead of hypot) and the cooling (x*x*x instead of numpy's x**3), which may differ by
-round-off.
+instead of hypot) and the cooling (x*x*x instead of numpy's x**3, and a Halley cube
+root), which may differ by round-off. The readable version a student reads is
+fluidnb.fluid._reference, checked against the kernels in test_fluid_reference.py.
 """
 
 import numpy as np
