@@ -103,7 +103,6 @@ class _FastPoisson:
         # The transforms use as many threads as the kernels (one for a small grid).
         workers = numba.get_num_threads()
         r = scipy.fft.dct(div, type=2, axis=1, norm="ortho", workers=workers)
-        np.negative(r, out=r)
         if self.pin:
             r[0, 0] = 0.0
         _thomas(r, self.inv, self.up)
@@ -115,7 +114,9 @@ class _FastPoisson:
 
 @njit(cache=True, nogil=True, parallel=True, error_model="numpy")
 def _thomas(r, inv, up):
-    """Solve every column's tridiagonal system in place (factors from _FastPoisson).
+    """Solve every column's system for the right-hand side ``-r``, in place.
+
+    Factors from _FastPoisson.
 
     The columns (x-modes) are independent: split among the threads in blocks, each
     thread runs the sweeps down and up its own columns, so the result does not depend
@@ -126,11 +127,12 @@ def _thomas(r, inv, up):
     for b in prange((w + block - 1) // block):
         lo = b * block
         hi = min(lo + block, w)
+        # The right-hand side is -r (A p = -div): the sign is folded into the sweep.
         for k in range(lo, hi):
-            r[0, k] *= inv[0, k]
+            r[0, k] = -r[0, k] * inv[0, k]
         for i in range(1, h):
             for k in range(lo, hi):
-                r[i, k] = (r[i, k] + r[i - 1, k]) * inv[i, k]
+                r[i, k] = (r[i - 1, k] - r[i, k]) * inv[i, k]
         for i in range(h - 2, -1, -1):
             for k in range(lo, hi):
                 r[i, k] -= up[i, k] * r[i + 1, k]
