@@ -23,7 +23,7 @@ def register(sub):
 
     p = sub.add_parser(
         "simulate",
-        help="2-D flame or smoke simulation (Stable Fluids; Kogawa, Dobashi & Yamamoto 3.1)",
+        help="2-D flame or smoke simulation (Stable Fluids; Furukawa et al. 2013, sec. 3.1)",
         description=(
             "Simulate a 2-D flame or smoke plume with Stam's Stable Fluids: semi-"
             "Lagrangian advection, buoyancy (Eq. 4), vorticity confinement (Eq. 5), an "

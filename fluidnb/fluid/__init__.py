@@ -1,4 +1,4 @@
-"""A 2-D Stable Fluids solver for flames and smoke (Stam 1999; Kogawa et al. section 3.1).
+"""A 2-D Stable Fluids solver for flames and smoke (Stam 1999; Furukawa et al. 2013, sec. 3.1).
 
 The shared fluid building block of fluidnb: incompressible Navier-Stokes (Eq. (1),
 (2)) with semi-Lagrangian advection, buoyancy (Eq. (4)), vorticity confinement

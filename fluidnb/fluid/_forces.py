@@ -160,15 +160,8 @@ def _cool(t, c_r, t_amb, dt, t_max=None):
         return t.copy()
     t = _f64(t)
     out = np.empty(t.shape)
-    _kernels.cool(t, float(t_amb), float(span), _cooling_roots(t, c_r, t_amb, dt, span), out)
+    _kernels.cool(t, float(t_amb), float(span), float(3.0 * c_r * dt / span), out)
     return out
-
-
-def _cooling_roots(t, c_r, t_amb, dt, span):
-    """Per cell ``(1 + 3 c dt x^3)^(1/3)``, ``c = C_r / span``: the cooling's divisor."""
-    roots = np.empty(t.shape)
-    _kernels.cooling_base(t, float(t_amb), float(span), float(3.0 * c_r * dt / span), roots)
-    return np.cbrt(roots, out=roots)
 
 
 def source_mask(shape, params):

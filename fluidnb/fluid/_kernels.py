@@ -6,16 +6,22 @@ of these passes allocates whole-grid temporaries, and at 128 x 128 that bookkeep
 cost several times the arithmetic. These kernels do the same arithmetic cell by cell
 in a few fused passes, with no temporaries beyond small scratch grids.
 
-They are the only implementation: the public teaching functions
-(:func:`fluidnb.fluid.advect_velocity`, :func:`~fluidnb.fluid.buoyancy`,
-:func:`~fluidnb.fluid.vorticity_confinement`, :func:`~fluidnb.fluid.cool`,
-:func:`~fluidnb.fluid.divergence`, :func:`~fluidnb.fluid.curl`,
-:func:`~fluidnb.fluid.project`) call them too. Each kernel follows the numpy
-formulas it replaced operation for operation (same operands, same order), so
-results agree with them to the last bit, with two exceptions at round-off level (a
-few 1e-16): the confinement's :math:`|\nabla|\omega||` is ``sqrt(a*a + b*b)``, not
-``hypot``, and the cooling's cube is ``x*x*x``, not numpy's ``x**3`` (tested against
-the numpy formulas on random input, tests/fluid/test_fluid_kernels.py).
+The public teaching functions (:func:`fluidnb.fluid.advect_velocity`,
+:func:`~fluidnb.fluid.buoyancy`, :func:`~fluidnb.fluid.vorticity_confinement`,
+:func:`~fluidnb.fluid.cool`, :func:`~fluidnb.fluid.divergence`,
+:func:`~fluidnb.fluid.curl`, :func:`~fluidnb.fluid.project`) call them too. The
+readable version of each, in plain numpy and the paper's notation, is
+:mod:`fluidnb.fluid._reference`: each kernel does its arithmetic operation for
+operation (same operands, same order), so results agree to the last bit, with two
+exceptions at round-off level (a few 1e-16): the confinement's
+:math:`|\nabla|\omega||` is ``sqrt(a*a + b*b)``, not ``hypot``, and the cooling's cube
+is ``x*x*x``, not numpy's ``x**3`` (tests/fluid/test_fluid_kernels.py).
+
+Both cores: the kernels split the grid by rows among numba's threads (``prange``);
+each row is computed by one thread and written only by it, and the one reduction
+(the temperature maximum) is taken per row and then over rows, so the result is the
+same bit for bit whatever the number of threads (``numba.set_num_threads``). On a
+machine whose cores are busy with other work, one thread can be faster.
 
 Every array is float64 and C-contiguous; the callers guarantee it. Compiled on first
 use and cached on disk (``cache=True``), like the fire synthesis kernel.
@@ -24,18 +30,49 @@ use and cached on disk (``cache=True``), like the fire synthesis kernel.
 from __future__ import annotations
 
 import math
+import os
+from contextlib import contextmanager
 
+import numba
 import numpy as np
-from numba import njit
+from numba import njit, prange
+
+# numba's OpenMP threads spin while they wait for work by default. On a machine whose
+# cores are busy with other programs (a classroom server, a notebook beside a
+# browser, CI) a spinning thread that loses its core stalls every parallel loop: a
+# step measured 5-10x slower with two threads than with one. Passive waiting costs a
+# few microseconds a loop instead. Set before numba loads its OpenMP runtime, and only
+# when the user has not chosen.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+#: Grids smaller than this many cells run the kernels on one thread: below it,
+#: waking the second thread costs more than the half of the work it takes over.
+PARALLEL_MIN_CELLS = 64 * 64
+
+
+@contextmanager
+def threads_for(shape):
+    """Run the kernels inside on numba's threads, or on one for a small grid."""
+    n = numba.get_num_threads()
+    if n == 1 or shape[0] * shape[1] >= PARALLEL_MIN_CELLS:
+        yield
+        return
+    numba.set_num_threads(1)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(n)
+
 
 # ------------------------------------------------------------------ small helpers
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, parallel=True, error_model="numpy")
 def centres(v, out):
     """Average the staggered faces to cell centres (bottom and right walls are zero)."""
     h, w = v.shape[0], v.shape[1]
-    for i in range(h):
+    for r in prange(h):
+        i = np.int64(r)  # signed: prange's index is unsigned, and i - 1 must not wrap
         for j in range(w):
             if i + 1 < h:
                 out[i, j, 0] = (v[i, j, 0] + v[i + 1, j, 0]) * 0.5
@@ -81,7 +118,7 @@ def _bilinear(q, k, ox, oy, fx, fy):
 # indices.
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, parallel=True, error_model="numpy")
 def advect_velocity(v, dt, c, out):
     """Semi-Lagrangian self-advection of a staggered velocity; ``c`` is (H, W, 2) scratch.
 
@@ -96,12 +133,14 @@ def advect_velocity(v, dt, c, out):
     centres(v, c)
     qy = np.zeros((h + 1) * w)  # dy on rows 0..h of faces, row h the bottom wall
     qx = np.zeros(h * (w + 1))  # dx on columns 0..w of faces, column w the right wall
-    for i in range(h):
+    for r in prange(h):
+        i = np.int64(r)  # signed: prange's index is unsigned, and i - 1 must not wrap
         for j in range(w):
             qy[i * w + j] = v[i, j, 0]
             qx[i * (w + 1) + j] = v[i, j, 1]
     s = -dt
-    for i in range(h):
+    for r in prange(h):
+        i = np.int64(r)  # signed: prange's index is unsigned, and i - 1 must not wrap
         for j in range(w):
             # dy on the top face of (i, j); row 0 takes the top cell's dx, as
             # (x + x) * 0.5 == x exactly.
@@ -120,7 +159,7 @@ def advect_velocity(v, dt, c, out):
             out[i, j, 1] = _bilinear(qx, y0 * (w + 1) + x0, ox, oy, fx, fy)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, parallel=True, error_model="numpy")
 def advect_scalars(t, d, v, dt, c, t_out, d_out):
     """Carry two centred scalars along a staggered velocity; return ``max(t_out)``.
 
@@ -133,8 +172,10 @@ def advect_scalars(t, d, v, dt, c, t_out, d_out):
     tf, df, cf = t.ravel(), d.ravel(), c.ravel()
     t_of, d_of = t_out.ravel(), d_out.ravel()
     s = -dt
-    t_max = -np.inf
-    for i in range(h):
+    row_max = np.empty(h)  # per row, so the threads share nothing (max is exact anyway)
+    for r in prange(h):
+        i = np.int64(r)  # signed: prange's index is unsigned, and i - 1 must not wrap
+        m = -np.inf
         for j in range(w):
             k = i * w + j
             y0, fy = _split(cf[2 * k] * s + i, h - 1.0)
@@ -144,9 +185,10 @@ def advect_scalars(t, d, v, dt, c, t_out, d_out):
             k0 = y0 * w + x0
             x = _bilinear(tf, k0, ox, oy, fx, fy)
             t_of[k] = x
-            t_max = max(t_max, x)
+            m = max(m, x)
             d_of[k] = _bilinear(df, k0, ox, oy, fx, fy)
-    return t_max
+        row_max[i] = m
+    return row_max.max() if h > 0 else -np.inf
 
 
 # ------------------------------------------------------------------------- forces
@@ -162,7 +204,7 @@ def _rows(i, h):
     return i + 1, i - 1, 2.0
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, parallel=True, error_model="numpy")
 def curl(cy, cx, out):
     """Vorticity at the centres from the centred velocity (dy, dx), as ``np.gradient``.
 
@@ -171,7 +213,8 @@ def curl(cy, cx, out):
     branch (and vectorises).
     """
     h, w = out.shape
-    for i in range(h):
+    for r in prange(h):
+        i = np.int64(r)  # signed: prange's index is unsigned, and i - 1 must not wrap
         ip, im, dv = _rows(i, h)
         out[i, 0] = (cy[i, 1] - cy[i, 0]) - (cx[ip, 0] - cx[im, 0]) / dv
         for j in range(1, w - 1):
@@ -180,11 +223,12 @@ def curl(cy, cx, out):
         out[i, j] = (cy[i, j] - cy[i, j - 1]) - (cx[ip, j] - cx[im, j]) / dv
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, parallel=True, error_model="numpy")
 def _planar_centres(v, cy, cx):
     """The centred velocity as two planes, what the stencils below read fastest."""
     h, w = cy.shape
-    for i in range(h):
+    for r in prange(h):
+        i = np.int64(r)  # signed: prange's index is unsigned, and i - 1 must not wrap
         for j in range(w):
             if i + 1 < h:
                 cy[i, j] = (v[i, j, 0] + v[i + 1, j, 0]) * 0.5
@@ -210,7 +254,7 @@ def _push(ny, nx, om, epsilon):
     return -nx * scale, ny * scale
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, parallel=True, error_model="numpy")
 def _confinement_at_centres(v, epsilon, fy, fx):
     """The push epsilon (N x omega) at the centres into the planes ``fy``, ``fx``."""
     h, w = fy.shape
@@ -221,7 +265,8 @@ def _confinement_at_centres(v, epsilon, fy, fx):
     a = np.abs(om)
     # N = grad|omega| / |grad|omega||, central differences, one-sided at the border
     # (np.gradient of |omega|).
-    for i in range(h):
+    for r in prange(h):
+        i = np.int64(r)  # signed: prange's index is unsigned, and i - 1 must not wrap
         ip, im, dv = _rows(i, h)
         fy[i, 0], fx[i, 0] = _push((a[ip, 0] - a[im, 0]) / dv, a[i, 1] - a[i, 0], om[i, 0], epsilon)
         for j in range(1, w - 1):
@@ -233,7 +278,7 @@ def _confinement_at_centres(v, epsilon, fy, fx):
         fy[i, j], fx[i, j] = _push(ny, a[i, j] - a[i, j - 1], om[i, j], epsilon)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, parallel=True, error_model="numpy")
 def forces(v, t, kappa_b, t_amb, wind, epsilon, dt, buoyant, out, accumulate):
     """Buoyancy (Eq. 4) and vorticity confinement (Eq. 5) on the faces.
 
@@ -254,7 +299,8 @@ def forces(v, t, kappa_b, t_amb, wind, epsilon, dt, buoyant, out, accumulate):
     # Row and column 0 take their cell's value where the others average two cells:
     # (x + x) * 0.5 == x exactly, so one formula serves both without a branch.
     nk = -kappa_b
-    for i in range(h):
+    for r in prange(h):
+        i = np.int64(r)  # signed: prange's index is unsigned, and i - 1 must not wrap
         im = max(i - 1, 0)
         for j in range(w):
             jm = max(j - 1, 0)
@@ -279,11 +325,12 @@ def forces(v, t, kappa_b, t_amb, wind, epsilon, dt, buoyant, out, accumulate):
 # ---------------------------------------------------------------------- projection
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, parallel=True, error_model="numpy")
 def divergence(v, out):
     """Net outflow of each cell: (dy below - dy above) + (dx right - dx left)."""
     h, w = out.shape
-    for i in range(h):
+    for r in prange(h):
+        i = np.int64(r)  # signed: prange's index is unsigned, and i - 1 must not wrap
         for j in range(w):
             s = -v[i, j, 0] - v[i, j, 1]
             if i + 1 < h:
@@ -293,11 +340,12 @@ def divergence(v, out):
             out[i, j] = s
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, parallel=True, error_model="numpy")
 def subtract_gradient(v, p, open_top):
     """``v -= grad p`` on every active face; above an open top the pressure is 0."""
     h, w = p.shape
-    for i in range(h):
+    for r in prange(h):
+        i = np.int64(r)  # signed: prange's index is unsigned, and i - 1 must not wrap
         for j in range(w):
             if i > 0:
                 v[i, j, 0] -= p[i, j] - p[i - 1, j]
@@ -310,46 +358,51 @@ def subtract_gradient(v, p, open_top):
 # ------------------------------------------------------------------ cooling, source
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def cooling_base(t, t_amb, span, k, out):
-    """``1 + k x^3`` with ``x = (T - T_amb) / span`` for cells above ambient, else 1.
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def _cbrt(y):
+    """The cube root of ``y >= 1`` (the cooling's divisor), to 3 units in the last place.
 
-    Its cube root is the divisor of the exact cooling step (see
-    :func:`fluidnb.fluid.cool`); the caller takes it with ``np.cbrt`` on the whole
-    array, which numpy vectorises: the C library's scalar ``cbrt`` called cell by cell
-    here would cost more than the whole rest of the cooling.
+    The C library's ``cbrt`` (and numpy's, which calls it) costs about 25 ns a value:
+    over a 128 x 128 grid more than the advection. The cooling only ever needs it on
+    [1, 2] when ``3 C_r dt / span <= 1`` (x <= 1): there, start from the Taylor series
+    ``1 + d/3 - d^2/9`` (d = y - 1, error < 0.04) and take three Halley steps
+    ``r <- r (r^3 + 2y) / (2r^3 + y)``, each cubing the error: a handful of flops.
     """
-    h, w = t.shape
-    for i in range(h):
-        for j in range(w):
-            x = t[i, j]
-            if x > t_amb:
-                x = (x - t_amb) / span
-                out[i, j] = 1.0 + k * (x * x * x)
-            else:
-                out[i, j] = 1.0
+    if y > 2.0:
+        return np.cbrt(y)
+    d = y - 1.0
+    r = 1.0 + d * (1.0 / 3.0 - d * (1.0 / 9.0))
+    for _ in range(3):
+        r3 = r * r * r
+        r = r * (r3 + 2.0 * y) / (2.0 * r3 + y)
+    return r
 
 
 @njit(cache=True, nogil=True, inline="always", error_model="numpy")
-def _cooled(x, t_amb, span, root):
-    """One cell of the exact cooling step, given the cube root from cooling_base."""
+def _cooled(x, t_amb, span, k):
+    """One cell of the exact cooling step: ``x / (1 + k x^3)^(1/3)`` in relative units.
+
+    ``k = 3 C_r dt / span``; see :func:`fluidnb.fluid.cool`.
+    """
     if x > t_amb:
-        return t_amb + span * ((x - t_amb) / span / root)
+        e = (x - t_amb) / span
+        return t_amb + span * (e / _cbrt(1.0 + k * (e * e * e)))
     return x
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def cool(t, t_amb, span, roots, out):
-    """Radiative cooling of every cell above ambient (``roots`` from cooling_base)."""
+@njit(cache=True, nogil=True, parallel=True, error_model="numpy")
+def cool(t, t_amb, span, k, out):
+    """Radiative cooling of every cell above ambient (``k = 3 C_r dt / span``)."""
     h, w = t.shape
-    for i in range(h):
+    for r in prange(h):
+        i = np.int64(r)  # signed: prange's index is unsigned, and i - 1 must not wrap
         for j in range(w):
-            out[i, j] = _cooled(t[i, j], t_amb, span, roots[i, j])
+            out[i, j] = _cooled(t[i, j], t_amb, span, k)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, parallel=True, error_model="numpy")
 def cool_and_heat(
-    t, d, cooling, t_amb, span, roots, mask, heat, source_t, noisy, hot, flicker, noise, smoke
+    t, d, cooling, t_amb, span, k, mask, heat, source_t, noisy, hot, flicker, noise, smoke
 ):
     """Cooling (when ``cooling``), then the source, in place on ``t`` and ``d``.
 
@@ -360,11 +413,12 @@ def cool_and_heat(
     source when not ``heat``.
     """
     h, w = t.shape
-    for i in range(h):
+    for r in prange(h):
+        i = np.int64(r)  # signed: prange's index is unsigned, and i - 1 must not wrap
         for j in range(w):
             x = t[i, j]
             if cooling:
-                x = _cooled(x, t_amb, span, roots[i, j])
+                x = _cooled(x, t_amb, span, k)
             if heat:
                 m = mask[i, j]
                 target = t_amb + hot * (1.0 + flicker * noise[i, j]) if noisy else source_t

@@ -11,6 +11,7 @@ import numpy as np
 
 from .._clip import Clip
 from .._progress import Progress
+from .._random import resolve_seed
 from .._random import rng as _as_rng
 from .._validation import check_choice, check_int, check_range
 from ._colour import temperature_to_rgb
@@ -22,6 +23,51 @@ from ._solver import FluidState, _check_shape, step
 __all__ = ["Preset", "Simulation", "flame_preset", "simulate", "smoke_preset"]
 
 _FORMAT = "fluidnb.fluid.Simulation/1"
+
+
+#: Bytes a run keeps per cell and frame: velocity (2), temperature, density, float32.
+_BYTES_PER_CELL_FRAME = 16
+#: Bytes a step works with per cell (float64 state, scratch grids, transforms).
+_BYTES_PER_CELL_STEP = 320
+
+
+def _available_bytes():
+    """Memory the system can still give this process (Linux: MemAvailable), or None."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def _check_memory(n_frames, shape):
+    """Refuse a run whose frames cannot fit in memory, and say what would fit."""
+    avail = _available_bytes()
+    if avail is None:
+        return
+    h, w = shape
+    cells = h * w
+    need = cells * (n_frames * _BYTES_PER_CELL_FRAME + _BYTES_PER_CELL_STEP)
+    if need <= 0.8 * avail:
+        return
+    budget = 0.8 * avail
+    gib = 2.0**30
+    frames_fit = int((budget / cells - _BYTES_PER_CELL_STEP) // _BYTES_PER_CELL_FRAME)
+    scale = (budget / need) ** 0.5
+    fit_shape = (max(int(h * scale), 2), max(int(w * scale), 2))
+    raise ValueError(
+        f"shape {h}x{w} with n_frames={n_frames} needs about {need / gib:.1f} GiB "
+        f"({_BYTES_PER_CELL_FRAME} bytes a cell a frame are kept) but "
+        f"{avail / gib:.1f} GiB is available: at this shape at most "
+        f"{max(frames_fit, 0)} frames fit; for {n_frames} frames, a grid of about "
+        f"{fit_shape[0]}x{fit_shape[1]}"
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -41,7 +87,8 @@ class Simulation:
     params : FluidParams
         The parameters of the run.
     seed : int or None
-        The seed it was run with (None: fresh entropy, not reproducible).
+        The seed the run actually used (:func:`fluidnb.resolve_seed`): the same
+        parameters and seed remake it exactly. None only for hand-made instances.
     substeps : int
         Solver steps per frame (each of ``params.dt / substeps``).
     timings : dict
@@ -198,7 +245,9 @@ def simulate(
     shape : tuple of int
         (H, W) of the grid; the paper uses 128 x 128.
     seed : None, int or numpy.random.Generator
-        Randomness of the source flicker; same seed, same frames.
+        Randomness of the source flicker; same seed, same frames. The int actually
+        used (drawn when None or a Generator is given) is recorded as
+        :attr:`Simulation.seed`.
     progress : callable, optional
         ``progress(fraction, message)``, called once per frame; raise
         :class:`fluidnb.Cancelled` from it to stop.
@@ -219,7 +268,9 @@ def simulate(
     Raises
     ------
     ValueError
-        For a bad ``params``, ``n_frames``, ``shape``, ``substeps`` or ``initial``.
+        For a bad ``params``, ``n_frames``, ``shape``, ``substeps`` or ``initial``,
+        or when the frames would not fit in the memory available (the message says
+        how many frames, or what grid, would).
 
     Examples
     --------
@@ -231,13 +282,13 @@ def simulate(
     n_frames = check_int("n_frames", n_frames, 1)
     substeps = check_int("substeps", substeps, 1, 1000)
     warmup = check_int("warmup", warmup, 0)
-    if initial is None:
-        state = FluidState.zeros(_check_shape(shape), params)
-    elif isinstance(initial, FluidState):
-        state = initial
-    else:
+    if initial is not None and not isinstance(initial, FluidState):
         raise ValueError(f"initial must be a FluidState or None, got {type(initial).__name__}")
+    shape = _check_shape(shape) if initial is None else initial.shape
+    _check_memory(n_frames, shape)  # before anything large is allocated
+    state = FluidState.zeros(shape, params) if initial is None else initial
     report = Progress(progress)
+    seed = resolve_seed(seed)
     gen = _as_rng(seed)
     sub = params if substeps == 1 else params.replace(dt=params.dt / substeps)
     h, w = state.shape
@@ -262,7 +313,7 @@ def simulate(
         temp,
         dens,
         params,
-        seed=seed if isinstance(seed, (int, np.integer)) or seed is None else None,
+        seed=seed,
         substeps=substeps,
         timings={"simulate": elapsed, "steps_per_second": total * substeps / max(elapsed, 1e-9)},
     )

@@ -1,4 +1,4 @@
-"""One Stable Fluids step: state in, state out (seed section 3.1, Stam 1999)."""
+"""One Stable Fluids step: state in, state out (Furukawa et al. 2013, sec. 3.1; Stam 1999)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,6 @@ from functools import lru_cache
 
 import numpy as np
 
-from .._random import rng as _as_rng
 from .._validation import (
     check_array,
     check_int,
@@ -16,7 +15,7 @@ from .._validation import (
     check_vector_field,
 )
 from . import _kernels
-from ._forces import _add_forces, _check_params, _cooling_roots, source_mask
+from ._forces import _add_forces, _check_params, source_mask
 from ._grid import _centres, _f64, _project
 from ._params import FluidParams
 
@@ -169,14 +168,16 @@ def _advect_velocity(v, dt):
 
 @lru_cache(maxsize=16)
 def _mask(shape, source_x, source_y, source_radius):
+    """The source's footprint and the flat indices of its cells (where noise is drawn)."""
     params = FluidParams(source_x=source_x, source_y=source_y, source_radius=source_radius)
-    return _frozen(source_mask(shape, params))
+    m = _frozen(source_mask(shape, params))
+    return m, _frozen(np.flatnonzero(m))
 
 
 def step(state, params, *, rng=None):
     r"""Advance the flow by one time step ``params.dt``.
 
-    In order (Stam 1999 [2]_, the seed paper's section 3.1 [1]_):
+    In order (Stam 1999 [2]_, Furukawa et al. (2013), sec. 3.1 [1]_):
 
     1. advect the velocity through itself, semi-Lagrangian (the first term of
        Eq. (1)), each staggered component backtraced from its own face and
@@ -184,8 +185,9 @@ def step(state, params, *, rng=None):
     2. add the forces f of Eq. (1): buoyancy, Eq. (4), upward (dy < 0), and
        vorticity confinement, Eq. (5) [3]_;
     3. project onto divergence-free fields, Eq. (2) and the pressure term of
-       Eq. (1): an exact sparse LU solve of the pressure Poisson equation,
-       factorised once per grid shape (see :func:`fluidnb.fluid.project`);
+       Eq. (1): an exact solve of the pressure Poisson equation, a cosine
+       transform along x and one tridiagonal solve per x-mode along y (see
+       :func:`fluidnb.fluid.project`);
     4. advect temperature and density with the new velocity (Eq. (3), first term);
     5. radiative cooling, the second term of Eq. (3), with :math:`T_{max}` the
        field's maximum measured this step (see :func:`fluidnb.fluid.cool`);
@@ -198,9 +200,12 @@ def step(state, params, *, rng=None):
         The current state (not modified).
     params : FluidParams
         The parameters.
-    rng : None, int or numpy.random.Generator
-        Randomness of the source flicker (only used when ``source_flicker > 0``);
-        pass the same generator on every step for a reproducible run.
+    rng : numpy.random.Generator, optional
+        Randomness of the source flicker (only drawn from when
+        ``source_flicker > 0``); pass the same generator to every step, e.g.
+        ``numpy.random.default_rng(seed)`` made once, for a reproducible run. None:
+        fresh entropy, not reproducible. :func:`simulate` takes ``seed=`` and does
+        this for you.
 
     Returns
     -------
@@ -210,18 +215,18 @@ def step(state, params, *, rng=None):
     Raises
     ------
     ValueError
-        If ``state`` or ``params`` is of the wrong type.
+        If ``state``, ``params`` or ``rng`` is of the wrong type.
 
     Notes
     -----
     The per-cell work runs in numba-compiled kernels (fused passes, no whole-grid
-    temporaries); only the LU solve is scipy's. The very first call on a machine
+    temporaries); the cosine transforms are scipy's. The very first call on a machine
     compiles them (several seconds) and caches them on disk; later processes load
     them in a fraction of a second.
 
     References
     ----------
-    .. [1] 古川 歩, 土橋 宜典, 山本 強 (A. Kogawa, Y. Dobashi, T. Yamamoto),
+    .. [1] 古川 歩, 土橋 宜典, 山本 強 (A. Furukawa, Y. Dobashi, T. Yamamoto, 2013),
        "実写画像に類似した流体アニメーションの生成" ("Generating fluid animations
        that resemble real photographs"), section 3.1.
     .. [2] J. Stam, "Stable Fluids", Proceedings of SIGGRAPH 99, pp. 121-128, 1999.
@@ -240,6 +245,19 @@ def step(state, params, *, rng=None):
     if not isinstance(state, FluidState):
         raise ValueError(f"state must be a FluidState, got {type(state).__name__}")
     params = _check_params(params)
+    if rng is not None and not isinstance(rng, np.random.Generator):
+        raise ValueError(
+            "rng must be a numpy Generator (or None), got "
+            f"{type(rng).__name__}: make one with numpy.random.default_rng(seed) and "
+            "pass the same generator to every step (an int would replay the same "
+            "noise on every step)"
+        )
+    with _kernels.threads_for(state.shape):
+        return _step(state, params, rng)
+
+
+def _step(state, params, rng):
+    """The body of :func:`step`, on checked arguments."""
     dt = params.dt
     v = _f64(state.velocity)
     t = _f64(state.temperature)
@@ -265,17 +283,24 @@ def step(state, params, *, rng=None):
     c_r, t_amb = params.C_r, params.T_amb
     span = t_max - t_amb
     cooling = c_r != 0 and dt != 0 and span > 0
-    roots = _cooling_roots(t, c_r, t_amb, dt, span) if cooling else np.ones((1, 1))
+    k = 3.0 * c_r * dt / span if cooling else 0.0
     heat = params.source_radius > 0
     hot = params.source_T - t_amb
     noisy = heat and params.source_flicker > 0 and hot > 0
     if heat:
-        m = _mask(shape, params.source_x, params.source_y, params.source_radius)
+        m, cells = _mask(shape, params.source_x, params.source_y, params.source_radius)
     else:
         m = _frozen(np.zeros((1, 1)))  # unused; read-only like _mask's, one compilation
-    noise = _as_rng(rng).uniform(-1.0, 1.0, size=shape) if noisy else np.zeros((1, 1))
+    if noisy:
+        # Only the source's cells read the noise: draw it there alone (row-major order),
+        # not over the whole grid (which cost as much as a cosine transform).
+        noise = np.zeros(shape)
+        gen = np.random.default_rng() if rng is None else rng
+        noise.ravel()[cells] = gen.uniform(-1.0, 1.0, size=cells.size)
+    else:
+        noise = np.zeros((1, 1))
     _kernels.cool_and_heat(
-        t, d, cooling, float(t_amb), float(span), roots, m, heat, float(params.source_T),
+        t, d, cooling, float(t_amb), float(span), float(k), m, heat, float(params.source_T),
         noisy, float(hot), float(params.source_flicker), noise,
         float(params.density_rate * dt) if params.density_rate > 0 else 0.0,
     )  # fmt: skip

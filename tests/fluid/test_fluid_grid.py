@@ -13,7 +13,7 @@ from fluidnb.fluid import (
     project,
     step,
 )
-from fluidnb.fluid._grid import _poisson
+from fluidnb.fluid._poisson import poisson_solver
 
 
 def _random_velocity(shape, seed=0):
@@ -100,18 +100,48 @@ def test_centred_velocity_averages_faces():
     assert np.count_nonzero(c) == 4
 
 
-def test_factorisation_is_built_once_per_shape():
-    _poisson.cache_clear()
+def test_solver_set_up_is_built_once_per_shape_and_boundary():
+    poisson_solver.cache_clear()
     params = FluidParams(source_flicker=0)
     s = FluidState.zeros((20, 30), params)
     for _ in range(5):
         s = step(s, params)
-    info = _poisson.cache_info()
+    info = poisson_solver.cache_info()
     assert info.misses == 1
     assert info.hits == 4
-    assert _poisson((20, 30), "open_top") is _poisson((20, 30), "open_top")
+    fast = poisson_solver((20, 30), "open_top", "fast")
+    assert fast is poisson_solver((20, 30), "open_top", "fast")
+    assert poisson_solver.cache_info().misses == 1
     project(np.zeros((20, 30, 2)), "closed")
-    assert _poisson.cache_info().misses == 2
+    project(np.zeros((20, 30, 2)), "closed", method="lu")
+    assert poisson_solver.cache_info().misses == 3
+
+
+SHAPES_FAST = [(2, 2), (2, 9), (9, 2), (7, 5), (16, 16), (33, 20), (64, 96), (128, 128)]
+
+
+@pytest.mark.parametrize("boundary", BOUNDARIES)
+@pytest.mark.parametrize("shape", SHAPES_FAST)
+def test_fast_projection_equals_the_sparse_lu(boundary, shape):
+    u = _random_velocity(shape, seed=sum(shape))
+    v_fast, p_fast = project(u, boundary)
+    v_lu, p_lu = project(u, boundary, method="lu")
+    assert np.abs(v_fast - v_lu).max() <= 1e-10 * np.abs(v_lu).max()
+    # The same pressure too (a closed box's constant fixed the same way: p[0, 0] = 0).
+    assert np.abs(p_fast - p_lu).max() <= 1e-10 * np.abs(p_lu).max()
+    assert np.abs(divergence(v_fast)).max() < 1e-11
+    if boundary == "closed":
+        assert p_fast[0, 0] == 0.0
+
+
+def test_fast_projection_of_a_single_row_or_column():
+    for shape in [(1, 6), (6, 1)]:
+        for boundary in BOUNDARIES:
+            u = _random_velocity(shape, seed=3)
+            v_fast, _ = project(u, boundary)
+            v_lu, _ = project(u, boundary, method="lu")
+            np.testing.assert_allclose(v_fast, v_lu, rtol=0, atol=1e-12)
+            assert np.abs(divergence(v_fast)).max() < 1e-12
 
 
 def test_bad_inputs_name_the_parameter():
@@ -121,6 +151,8 @@ def test_bad_inputs_name_the_parameter():
         project(np.full((4, 4, 2), np.nan))
     with pytest.raises(ValueError, match="boundary"):
         project(np.zeros((4, 4, 2)), "periodic")
+    with pytest.raises(ValueError, match="method"):
+        project(np.zeros((4, 4, 2)), method="cg")
     with pytest.raises(ValueError, match="velocity"):
         curl(np.zeros((4, 4, 3)))
 

@@ -10,6 +10,7 @@ from fluidnb.fluid import (
     Simulation,
     divergence,
     flame_preset,
+    project,
     simulate,
     smoke_preset,
     step,
@@ -41,6 +42,18 @@ def test_same_seed_same_frames_other_seed_other_frames():
     for name in ("velocity", "temperature", "density"):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
     assert not np.array_equal(a.temperature, c.temperature)
+
+
+@pytest.mark.parametrize("seed", [None, "generator"])
+def test_the_recorded_seed_remakes_the_run(seed):
+    params = FluidParams(source_flicker=0.8)
+    if seed == "generator":
+        seed = np.random.default_rng(4)
+    a = simulate(params, 4, shape=(16, 16), seed=seed)
+    assert isinstance(a.seed, int)
+    assert a.to_clip().metadata["seed"] == a.seed
+    b = simulate(params, 4, shape=(16, 16), seed=a.seed)
+    np.testing.assert_array_equal(a.temperature, b.temperature)
 
 
 def test_substeps_split_the_frame():
@@ -164,3 +177,40 @@ def test_bad_inputs_name_the_parameter():
         smoke_preset((16, 24), source_x=1.5)
     with pytest.raises(ValueError, match="progress"):
         simulate(FluidParams(), 3, shape=(8, 8), progress="bar")
+
+
+@pytest.mark.parametrize(
+    ("changes", "name"),
+    [
+        ({"kappa_b": 1e12}, "kappa_b"),
+        ({"source_T": 1e30}, "source_T"),
+        ({"wind": -1e6}, "wind"),
+        ({"epsilon": 5.0}, "epsilon"),
+        ({"epsilon": 1.5, "dt": 2.0}, "epsilon"),
+    ],
+)
+def test_forces_that_outrun_the_grid_are_refused(changes, name):
+    # kappa_b = 1e12 or source_T = 1e30 ran to 1e11 px/frame (or infinity).
+    with pytest.raises(ValueError, match=name):
+        FluidParams(**changes)
+
+
+def test_the_strongest_allowed_forces_keep_the_flow_bounded():
+    from fluidnb.fluid._params import MAX_EPSILON_DT, MAX_PUSH_PX
+
+    params = FluidParams(
+        kappa_b=MAX_PUSH_PX / 1.5, source_flicker=0.5, epsilon=MAX_EPSILON_DT, dt=1.0
+    )
+    sim = simulate(params, 120, shape=(48, 48), seed=0)
+    assert np.all(np.isfinite(sim.velocity))
+    assert np.abs(sim.velocity).max() < 200  # px/frame: a few grid heights at most
+
+
+def test_a_run_too_large_for_memory_is_refused_and_told_what_fits(monkeypatch):
+    from fluidnb.fluid import _simulate
+
+    monkeypatch.setattr(_simulate, "_available_bytes", lambda: 8 * 2**30)
+    with pytest.raises(ValueError, match=r"n_frames=120 .* at most \d+ frames fit.* about \d+x\d+"):
+        simulate(FluidParams(), 120, shape=(4096, 4096), seed=0)
+    with pytest.raises(ValueError, match="method='fast'"):
+        project(np.zeros((1024, 1024, 2)), method="lu")
