@@ -45,6 +45,8 @@ class FireAppParams(Params):
     interval: int = _field_of(FireParams, "interval")
     overlap: int = _field_of(FireParams, "overlap")
     weight: float = _field_of(FireParams, "weight")
+    coherence: float = _field_of(FireParams, "coherence")
+    cutoff: float = _field_of(FireParams, "cutoff")
 
     def check(self):
         # Each class checks its own combinations (overlap < interval, say).
@@ -65,7 +67,13 @@ class FireAppParams(Params):
     def fire(self, base=None):
         """These synthesis fields on ``base`` (default ``FireParams()``)."""
         base = FireParams() if base is None else base
-        return base.replace(interval=self.interval, overlap=self.overlap, weight=self.weight)
+        return base.replace(
+            interval=self.interval,
+            overlap=self.overlap,
+            weight=self.weight,
+            coherence=self.coherence,
+            cutoff=self.cutoff,
+        )
 
 
 class FireApp(App):

@@ -32,6 +32,9 @@ def test_the_panel_offers_the_specs_controls():
             "interval",
             "overlap",
             "weight",
+            # beyond the spec's list: the two parameters issue 16 added to the synthesis
+            "coherence",
+            "cutoff",
         }
         params = app.panel.params
         assert isinstance(params, FireAppParams)
@@ -44,6 +47,8 @@ def test_run_makes_fire_with_the_panels_parameters(app):
     app.panel.set("weight", 0.8)
     app.panel.set("interval", 6)
     app.panel.set("epsilon", 0.2)
+    app.panel.set("coherence", 0.5)
+    app.panel.set("cutoff", 0.3)
     clip = app.run(timeout=120)
     assert clip.n_frames == 16
     assert clip.shape == (64, 64)
@@ -51,6 +56,8 @@ def test_run_makes_fire_with_the_panels_parameters(app):
     assert meta["method"] == "fire"
     assert meta["params"]["weight"] == 0.8
     assert meta["params"]["interval"] == 6
+    assert meta["params"]["coherence"] == 0.5
+    assert meta["params"]["cutoff"] == 0.3
     assert app.fire_result.simulation.params.epsilon == 0.2
     assert app.player.clip is clip
     # Side by side: temperature | keyframe | fire.
