@@ -19,21 +19,12 @@ from fluidnb.turbulence._reference import (
     global_search_reference,
     local_search_reference,
 )
+from tests.support.search_problems import problem as search_problem
 
 
-def problem(seed, shape=(30, 28), B=5, n=9, P=6, channels=4, smooth=False):
-    g = np.random.default_rng(seed)
-    S = g.normal(size=(*shape, channels))
-    if smooth:  # flow-like: low frequencies dominate
-        S = np.cumsum(np.cumsum(S, 0), 1) / 30 + 0.1 * S
-    starts = np.stack(
-        [g.integers(0, shape[0] - B - n + 2, P), g.integers(0, shape[1] - B - n + 2, P)], -1
-    )
-    X = np.empty((P, B, B, channels))
-    for p in range(P):
-        y, x = starts[p] + g.integers(0, n, 2)
-        X[p] = S[y : y + B, x : x + B] + 0.3 * g.normal(size=(B, B, channels))
-    return S, X, starts, n
+def problem(seed, **kw):
+    """A smaller problem than the search tests' (the numpy searches are slow)."""
+    return search_problem(seed, **{"shape": (30, 28), "B": 5, "n": 9, "P": 6, "channels": 4, **kw})
 
 
 CASES = [

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from fluidnb.turbulence import STRATEGIES, local_search, window_positions
+from tests.support.search_problems import problem
 
 EXACT = ("exhaustive", "exact-fft", "exact-bounds")
 
@@ -18,22 +19,6 @@ def brute_force(S, X, starts, n):
                 y, x = starts[p] + (a, b)
                 E[p, a, b] = ((X[p] - S[y : y + B, x : x + B]) ** 2).sum()
     return E
-
-
-def problem(seed, shape=(40, 36), B=6, n=9, P=7, channels=5, smooth=False):
-    g = np.random.default_rng(seed)
-    S = g.normal(size=(*shape, channels))
-    if smooth:  # flow-like: low frequencies dominate, as in the sample flows
-        S = np.cumsum(np.cumsum(S, 0), 1) / 30 + 0.1 * S
-    starts = np.stack(
-        [g.integers(0, shape[0] - B - n + 2, P), g.integers(0, shape[1] - B - n + 2, P)], -1
-    )
-    # Targets near some source patch, plus noise: a clear but not exact minimum.
-    X = np.empty((P, B, B, channels))
-    for p in range(P):
-        y, x = starts[p] + g.integers(0, n, 2)
-        X[p] = S[y : y + B, x : x + B] + 0.3 * g.normal(size=(B, B, channels))
-    return S, X, starts, n
 
 
 @pytest.mark.parametrize("seed", range(4))
