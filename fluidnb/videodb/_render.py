@@ -38,15 +38,7 @@ from numba import njit
 from scipy import ndimage as ndi
 
 from .._validation import check_array, check_int, check_range, check_vector_field
-from ..fields._advect import advect, backward_warp
-from ..fields._pyramid import (
-    _collapse32,
-    _gaussian32,
-    _laplacian32,
-    collapse,
-    gaussian_pyramid,
-    laplacian_pyramid,
-)
+from ..fields import advect, backward_warp, collapse, gaussian_pyramid, laplacian_pyramid
 from ._geometry import FRAGMENT, STRIDE
 
 __all__ = [
@@ -399,8 +391,8 @@ def blend_differences(diffs, positions, canvas_shape, *, margin, levels=None, fe
             (rs, cs), (wr, wc) = _window(r, c, m, tile, shape)
             layer[rs, cs] = d[k][:, wr, wc].transpose(1, 2, 0)
             weight[r : r + FRAGMENT, c : c + FRAGMENT, 0] = raw
-        bands = _laplacian32(layer, levels)
-        gw = _gaussian32(weight, levels)
+        bands = laplacian_pyramid(layer, levels, precision="float32")
+        gw = gaussian_pyramid(weight, levels, precision="float32")
         if acc is None:
             acc = [g * b for g, b in zip(gw, bands)]
             wsum = gw
@@ -412,7 +404,7 @@ def blend_differences(diffs, positions, canvas_shape, *, margin, levels=None, fe
     for a, s in zip(acc, wsum):
         np.divide(a, s, out=a, where=s > _TINY)
         a[np.broadcast_to(s <= _TINY, a.shape)] = 0.0
-    out = _collapse32(acc)
+    out = collapse(acc, precision="float32")
     covered = _weight_sum(pos, shape, np.ones((FRAGMENT, FRAGMENT))) > 0
     out *= covered[..., None]
     return np.ascontiguousarray(out.transpose(2, 0, 1))
