@@ -11,8 +11,9 @@ alpha-expansion (Eq. 4-6, with :math:`\sigma`, :math:`\lambda`, :math:`\rho`);
 rendering from the assigned fragments' difference frames with pyramid blending,
 pseudo motion blur, histogram matching and a dynamic matte.
 
-Every compiled or optimised step has a plain numpy version beside it (the
-``reference_*`` functions) that the tests compare it with.
+Every compiled or optimised step has a plain numpy version, in the paper's notation,
+in one module (:mod:`fluidnb.videodb._reference`, the ``reference_*`` functions),
+that the tests compare it with.
 """
 
 from ._animate import (
@@ -26,9 +27,8 @@ from ._animate import (
     fragment_motion,
     render,
 )
+from ._appearance import match_histograms_cells, motion_blur
 from ._augment import (
-    reference_sample_version,
-    reference_transform_vectors,
     sample_version,
     transform_flow,
     transform_vectors,
@@ -36,7 +36,9 @@ from ._augment import (
     version_coordinates,
     version_shape,
 )
+from ._blend import blend_differences, fragment_weights
 from ._build import add_clips, build_database, clip_fragments
+from ._composite import composite, dynamic_matte, inpaint_background, loop_crossfade
 from ._features import motion_spectra, textureness, window_features
 from ._figures import (
     assignment_figure,
@@ -62,29 +64,26 @@ from ._mrf import (
     grid_edges,
     icm,
     pair_tables,
-    reference_pair_tables,
     solve,
 )
 from ._params import AUGMENTATIONS, FLOW_BACKENDS, AnimateParams, DatabaseParams
-from ._render import (
-    blend_differences,
-    composite,
-    dynamic_matte,
-    fragment_weights,
-    inpaint_background,
-    loop_crossfade,
-    match_histograms_cells,
-    motion_blur,
+from ._reference import (
     reference_blend_differences,
+    reference_dense_sift,
     reference_match_histograms_cells,
+    reference_pair_tables,
+    reference_quantise,
+    reference_sample_version,
+    reference_top_k,
+    reference_transform_vectors,
 )
-from ._retrieval import HistogramIndex, reference_top_k
-from ._sift import dense_sift, reference_dense_sift
+from ._retrieval import HistogramIndex
+from ._sift import dense_sift
 from ._starter import starter_database, starter_params, starter_path
 from ._starter_clips import STARTER_KINDS, flow_map_texture, starter_clips
 from ._store import VideoDatabase, open_database
 from ._video import Video, read_video
-from ._words import fit_codebook, intersection, pyramid_histograms, quantise, reference_quantise
+from ._words import fit_codebook, intersection, pyramid_histograms, quantise
 
 __all__ = [
     "ANGLES",

@@ -380,14 +380,9 @@ TEXTURE_SCALE = 1e-5
 
 def _blend_vectors(target, vectors):
     """Per-fragment values (P, ..., C) spread over the canvas by the blend's weights."""
-    from ._render import fragment_weights
+    from ._blend import blend_values
 
-    hc, wc = target.canvas.shape[:2]
-    weights = fragment_weights(target.positions, (hc, wc))
-    out = np.zeros((hc, wc) + vectors.shape[1:], np.float64)
-    for (r, c), wgt, v in zip(target.positions, weights, vectors):
-        out[r : r + FRAGMENT, c : c + FRAGMENT] += wgt.reshape(wgt.shape + (1,) * v.ndim) * v
-    return out.astype(np.float32)
+    return blend_values(vectors, target.positions, target.canvas.shape[:2])
 
 
 def assign(
@@ -557,15 +552,9 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     -------
     Animation
     """
-    from ._render import (
-        blend_differences,
-        composite,
-        dynamic_matte,
-        inpaint_background,
-        loop_crossfade,
-        match_histograms_cells,
-        motion_blur,
-    )
+    from ._appearance import match_histograms_cells, motion_blur
+    from ._blend import blend_differences
+    from ._composite import composite, dynamic_matte, inpaint_background, loop_crossfade
 
     if not isinstance(assignment, Assignment):
         raise ValueError(f"assignment must be an Assignment, got {type(assignment).__name__}")

@@ -667,7 +667,7 @@ def mean_image_mosaic(assignment):
     ndarray, shape (H, W, 3), float32
         The mosaic inside the taking-part fragments, the target photo elsewhere.
     """
-    from ._render import fragment_weights
+    from ._blend import fragment_weights
 
     a = _check_assignment(assignment)
     target = a.target

@@ -38,7 +38,7 @@ The module has three parts:
   minus a matrix product, batched over edges; entries where that formula cancels
   badly (near-duplicate candidates, where float32 gave 300 % errors) are recomputed
   directly, so every entry is exact to 1e-9 relative (a worst-case bound).
-  :func:`reference_pair_tables` is the literal pair-by-pair definition;
+  :func:`fluidnb.videodb.reference_pair_tables` is the literal pair-by-pair definition;
 - the energy (:func:`energy`) and its solvers: alpha-expansion over label indices on
   PyMaxflow (:func:`alpha_expansion`), iterated conditional modes (:func:`icm`), the
   spec's recipe combining them (:func:`solve`), and exhaustive search for tiny
@@ -93,7 +93,6 @@ __all__ = [
     "grid_edges",
     "icm",
     "pair_tables",
-    "reference_pair_tables",
     "solve",
 ]
 
@@ -382,7 +381,7 @@ def pair_tables(candidates, edges, horizontal, spectra, texture, *, progress=Non
     one vertical edge, so every node's candidates are gathered once per side), in
     float64; entries where that formula cancels (near-duplicate candidates) are
     recomputed directly, so every entry is within 1e-9 relative of
-    :func:`reference_pair_tables`. Batches run on up to 4 threads (one per core),
+    :func:`fluidnb.videodb.reference_pair_tables`. Batches run on up to 4 threads (one per core),
     each with a single-threaded BLAS.
 
     Parameters
@@ -449,45 +448,6 @@ def pair_tables(candidates, edges, horizontal, spectra, texture, *, progress=Non
     return PairTables(
         edges=edges.copy(), horizontal=hor.copy(), recomputed=builder.recomputed, **tables
     )
-
-
-def reference_pair_tables(candidates, edges, horizontal, spectra, texture):
-    r"""The smoothness tables written out pair by pair (Eq. 2, 3 and 6), slowly.
-
-    The literal definition that :func:`pair_tables` is tested against: for every edge,
-    every label of ``p`` and every label of ``q``, the squared differences over the
-    overlap :math:`\Omega` summed in float64, frequency bin by frequency bin.
-    Arguments and result as :func:`pair_tables`.
-    """
-    cand, edges, hor, spectra, texture = _check_tables_input(
-        candidates, edges, horizontal, spectra, texture
-    )
-    n_edges, k = len(edges), cand.shape[1]
-    n_bins = spectra.shape[1]
-    dc = np.zeros((n_edges, k, k))
-    rest = np.zeros((n_edges, k, k))
-    tex = np.zeros((n_edges, k, k))
-    hs, ht = SPECTRA_SIDE // 2, TEXTURE_SIDE // 2
-    for e in range(n_edges):
-        p, q = edges[e]
-        for i in range(k):
-            m_i = spectra[cand[p, i]].astype(np.float64)  # M^ of label i: (NB, 2, 12, 12)
-            t_i = texture[cand[p, i]].astype(np.float64)  # T of label i: (L, 24, 24)
-            for j in range(k):
-                m_j = spectra[cand[q, j]].astype(np.float64)
-                t_j = texture[cand[q, j]].astype(np.float64)
-                if hor[e]:  # Omega: right half of p, left half of q
-                    mp, mq = m_i[:, :, :, hs:], m_j[:, :, :, :hs]
-                    tp, tq = t_i[:, :, ht:], t_j[:, :, :ht]
-                else:  # Omega: bottom half of p, top half of q
-                    mp, mq = m_i[:, :, hs:, :], m_j[:, :, :hs, :]
-                    tp, tq = t_i[:, ht:, :], t_j[:, :ht, :]
-                # Eq. (3), with the block areas 4 x 4 (spectra) and 2 x 2 (texture).
-                dc[e, i, j] = SPECTRA_BLOCK**2 * np.sum((mp[0] - mq[0]) ** 2)
-                for f in range(1, n_bins):
-                    rest[e, i, j] += SPECTRA_BLOCK**2 * np.sum((mp[f] - mq[f]) ** 2)
-                tex[e, i, j] = TEXTURE_BLOCK**2 * np.sum((tp - tq) ** 2)
-    return PairTables(dc=dc, rest=rest, tex=tex, edges=edges.copy(), horizontal=hor.copy())
 
 
 # ----------------------------------------------------------------------- energy

@@ -12,9 +12,9 @@ from fluidnb.videodb._mrf import (
     grid_edges,
     icm,
     pair_tables,
-    reference_pair_tables,
     solve,
 )
+from fluidnb.videodb._reference import reference_pair_tables
 
 # ------------------------------------------------------------------------ helpers
 
