@@ -16,18 +16,9 @@ in one module (:mod:`fluidnb.videodb._reference`, the ``reference_*`` functions)
 that the tests compare it with.
 """
 
-from ._animate import (
-    TEXTURE_SCALE,
-    Animation,
-    Assignment,
-    Target,
-    animate,
-    assign,
-    cut_target,
-    fragment_motion,
-    render,
-)
+from ._animate import animate
 from ._appearance import match_histograms_cells, motion_blur
+from ._assign import Assignment, assign
 from ._augment import (
     sample_version,
     transform_flow,
@@ -55,17 +46,7 @@ from ._figures import (
 )
 from ._flow import optical_flow
 from ._geometry import ANGLES, FRAGMENT, SCALES, STRIDE, VERSIONS
-from ._mrf import (
-    MRFSolution,
-    PairTables,
-    alpha_expansion,
-    brute_force,
-    energy,
-    grid_edges,
-    icm,
-    pair_tables,
-    solve,
-)
+from ._mrf import MRFSolution, alpha_expansion, brute_force, energy, grid_edges, icm, solve
 from ._params import AUGMENTATIONS, FLOW_BACKENDS, AnimateParams, DatabaseParams
 from ._reference import (
     reference_blend_differences,
@@ -77,11 +58,14 @@ from ._reference import (
     reference_top_k,
     reference_transform_vectors,
 )
+from ._render import Animation, render
 from ._retrieval import HistogramIndex
 from ._sift import dense_sift
+from ._smoothness import TEXTURE_SCALE, PairTables, pair_tables
 from ._starter import starter_database, starter_params, starter_path
 from ._starter_clips import STARTER_KINDS, flow_map_texture, starter_clips
 from ._store import VideoDatabase, open_database
+from ._target import Target, cut_target, fragment_motion
 from ._video import Video, read_video
 from ._words import fit_codebook, intersection, pyramid_histograms, quantise
 

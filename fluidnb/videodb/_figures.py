@@ -65,7 +65,7 @@ def _check_fragment(db, fragment, name="fragment"):
 
 
 def _check_assignment(assignment, name="assignment"):
-    from ._animate import Assignment
+    from ._assign import Assignment
 
     if not isinstance(assignment, Assignment):
         raise ValueError(f"{name} must be an Assignment, got {type(assignment).__name__}")
@@ -1002,7 +1002,7 @@ def rendering_figure(animation, *, frame=None, figsize=(13, 7.6)):
         the final frame (matched cell by cell, composited through the matte); the
         matte :math:`B_i` used for it (static, or dynamic for ``tau > 0``).
     """
-    from ._animate import Animation
+    from ._render import Animation
 
     if not isinstance(animation, Animation):
         raise ValueError(f"animation must be an Animation, got {type(animation).__name__}")

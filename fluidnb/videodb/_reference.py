@@ -53,9 +53,9 @@ from ._geometry import (
     TEXTURE_SIDE,
     VERSIONS,
 )
-from ._mrf import PairTables, _check_tables_input
 from ._retrieval import _SLACK, MIN_MOTION, TopK, _check_filter
 from ._sift import _EPS, BINS, ORIENTATIONS, _check_images
+from ._smoothness import PairTables, _check_tables_input
 from ._words import _check_pair, _squared_distances, pyramid_histograms
 
 __all__ = [
