@@ -31,10 +31,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._progress import Progress
-from ._blend import blend_values
-from ._geometry import STRIDE
+from .._validation import check_int
+from ._blend import blend_values, fragment_weights
+from ._geometry import FRAGMENT, STRIDE, VERSIONS
 from ._mrf import grid_edges, solve
 from ._params import AnimateParams
+from ._retrieval import MIN_MOTION
 from ._smoothness import pair_tables
 from ._starter import starter_database
 from ._starter_clips import STARTER_KINDS
@@ -181,6 +183,104 @@ class Assignment:
         for (r, c), k in zip(self.target.positions, clips):
             out[r + quarter : r + quarter + STRIDE, c + quarter : c + quarter + STRIDE] = k
         return out[:h, :w]
+
+    def fragment_at(self, row, col):
+        """The target fragment under image pixel (row, col): its index, or None.
+
+        Of the taking-part fragments whose 48 x 48 core holds the pixel, the one whose
+        centre is nearest (largest coordinate difference; ties to the lower index), so
+        each fragment answers for the 24 x 24 cell at its centre, where its weight in
+        the blend peaks, and border fragments also for the rest of their core. None
+        where no taking-part fragment covers the pixel.
+        """
+        centre = self.target.positions + FRAGMENT / 2 - 0.5
+        d = np.abs(centre - np.array([row, col], float)).max(axis=1)
+        i = int(np.argmin(d))
+        return i if d[i] <= FRAGMENT / 2 else None
+
+    def fragment_info(self, i):
+        """What target fragment ``i`` was given, as a dict of plain values.
+
+        Keys: ``index``, ``position`` (its top-left (row, col) on the target),
+        ``fragment`` (the database fragment's id), ``clip`` and ``clip_name`` (its source
+        clip), ``version`` (``flip``, ``scale``, ``angle``: the augmentation it was cut
+        from), ``frames`` (first and last frame of its window), ``source_position``
+        (its top-left (row, col) in that version), ``mean_motion`` ((dy, dx) px/frame),
+        ``rank`` (its label: the candidate's rank by Eq. 1, 0 for the best-looking) and
+        ``score`` (:math:`I(H_e, H_t)` of Eq. 1, normalised to [0, 1]).
+        """
+        i = check_int("i", i, 0, len(self.target) - 1)
+        fid = int(self.fragments[i])
+        db = self.db
+        clip, version, first, row, col = (int(v) for v in db.source[fid])
+        flip, scale, angle = VERSIONS[version]
+        label = int(self.labels[i])
+        dy, dx = (float(v) for v in db.mean_motion[fid])
+        return {
+            "index": i,
+            "position": [int(v) for v in self.target.positions[i]],
+            "fragment": fid,
+            "clip": clip,
+            "clip_name": str(db.clips[clip]["name"]),
+            "version": {"flip": bool(flip), "scale": float(scale), "angle": float(angle)},
+            "frames": [first, first + db.params.N - 1],
+            "source_position": [row, col],
+            "mean_motion": [dy, dx],
+            "rank": label,
+            "score": float(self.scores[i, label]) / HISTOGRAM_TOTAL,
+        }
+
+    def mean_image_mosaic(self):
+        r"""The assigned fragments' mean images, blended where they overlap.
+
+        What the assignment looks like in the database's own pixels: each target
+        fragment's chosen database fragment's mean image :math:`A`, pasted at the
+        fragment's place and blended with the render's partition-of-unity weights
+        (:func:`~fluidnb.videodb.fragment_weights`). Comparing it with the photo shows
+        how well Eq. (1) matched appearance.
+
+        Returns
+        -------
+        ndarray, shape (H, W, 3), float32
+            The mosaic inside the taking-part fragments, the target photo elsewhere.
+        """
+        target = self.target
+        h, w = target.shape
+        hc, wc = target.canvas.shape[:2]
+        weights = fragment_weights(target.positions, (hc, wc))
+        means = self.db.mean_images(self.fragments)
+        out = np.zeros((hc, wc, 3), np.float64)
+        cover = np.zeros((hc, wc), np.float64)
+        for (r, c), wgt, m in zip(target.positions, weights, means):
+            out[r : r + FRAGMENT, c : c + FRAGMENT] += wgt[..., None] * m
+            cover[r : r + FRAGMENT, c : c + FRAGMENT] += wgt
+        inside = cover > 0.5
+        out[~inside] = target.canvas[~inside]
+        return out[:h, :w].astype(np.float32)
+
+    def motion_coherence(self):
+        r"""How much neighbouring fragments agree on where the fluid goes, in [-1, 1].
+
+        The mean, over the MRF's edges (neighbouring target fragments), of the cosine
+        of the angle between their assigned fragments' mean motions: 1 when all flow
+        the same way, about 0 when directions are random (Okabe et al., sec. 7: a large
+        :math:`\sigma` ignores the mean motion and the motion turns random). Edges with
+        a still fragment (below :data:`~fluidnb.videodb._retrieval.MIN_MOTION`) count as
+        0; a target of one fragment (no edge) gives 1.
+
+        Returns
+        -------
+        float
+        """
+        if len(self.edges) == 0:
+            return 1.0
+        m = self.db.mean_motion[self.fragments].astype(np.float64)
+        p, q = self.edges[:, 0], self.edges[:, 1]
+        norm = np.linalg.norm(m[p], axis=1) * np.linalg.norm(m[q], axis=1)
+        cos = np.where(
+            norm > MIN_MOTION**2, (m[p] * m[q]).sum(axis=1) / np.maximum(norm, 1e-300), 0.0
+        )
+        return float(cos.mean())
 
 
 def assign(
