@@ -46,6 +46,7 @@ from ._figures import (
     versions_figure,
 )
 from ._flow import optical_flow
+from ._flow_map import flow_map_texture
 from ._geometry import ANGLES, FRAGMENT, SCALES, STRIDE, VERSIONS
 from ._mrf import MRFSolution, alpha_expansion, brute_force, energy, grid_edges, icm, solve
 from ._params import AUGMENTATIONS, FLOW_BACKENDS, AnimateParams, DatabaseParams
@@ -64,7 +65,7 @@ from ._retrieval import HistogramIndex
 from ._sift import dense_sift
 from ._smoothness import TEXTURE_SCALE, PairTables, pair_tables
 from ._starter import starter_database, starter_params, starter_path
-from ._starter_clips import STARTER_KINDS, flow_map_texture, starter_clips
+from ._starter_clips import STARTER_KINDS, starter_clips
 from ._store import VideoDatabase, open_database
 from ._target import Target, cut_target, fragment_motion
 from ._video import Video, read_video
