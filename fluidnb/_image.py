@@ -14,9 +14,12 @@ import numpy as np
 
 from ._validation import check_choice
 
-__all__ = ["as_image", "as_mask", "to_float01", "to_uint8"]
+__all__ = ["LUMA", "as_image", "as_mask", "to_float01", "to_uint8"]
 
 _MODES = (None, "grey", "rgb")
+
+#: Rec. 709 luminance weights of R, G, B (as scikit-image's ``rgb2gray``): grey = RGB @ LUMA.
+LUMA = np.array([0.2125, 0.7154, 0.0721], dtype=np.float32)
 
 
 def as_image(image, *, mode=None, name="image", return_alpha=False, background=None):
@@ -90,7 +93,7 @@ def as_image(image, *, mode=None, name="image", return_alpha=False, background=N
     if background is not None and alpha is not None:
         out = _composite(out, alpha, background, name)
     if mode == "grey" and out.ndim == 3:
-        out = out @ np.array([0.2125, 0.7154, 0.0721], dtype=np.float32)
+        out = out @ LUMA
     elif mode == "rgb" and out.ndim == 2:
         out = np.repeat(out[:, :, None], 3, axis=2)
     out = np.ascontiguousarray(np.clip(out, 0.0, 1.0), dtype=np.float32)

@@ -35,6 +35,7 @@ from ._geometry import FRAGMENT, STRIDE
 __all__ = [
     "BLEND_LEVELS",
     "FEATHER",
+    "MARGIN",
     "blend_differences",
     "blend_values",
     "fragment_weights",
@@ -57,11 +58,12 @@ FEATHER = 8
 #: fragments bring (their margin) and lean on the fill.
 BLEND_LEVELS = 4
 
-# Same-phase fragments of the stride-24 grid are PHASES * STRIDE = 72 pixels apart, so
-# each one, with HALO = 12 pixels of its own context around its 48 x 48 core, fills a
-# 72 x 72 tile of its phase layer without touching its phase-mates' tiles.
+# Same-phase fragments of the stride-24 grid are _PHASES * STRIDE = 72 pixels apart.
 _PHASES = 3
-_HALO = (_PHASES * STRIDE - FRAGMENT) // 2
+#: The context (pixels) around a fragment's 48 x 48 core that the blend uses: with it,
+#: each fragment fills a 72 x 72 tile of its phase layer without touching its
+#: phase-mates' tiles (12 px). What the render rebuilds of each assigned fragment.
+MARGIN = (_PHASES * STRIDE - FRAGMENT) // 2
 # Floor of the raw 1-D weight profile: keeps every fragment's weight positive on its
 # whole core, so the normalisation never divides by zero where neighbours are missing
 # (at the canvas border, or fragments that do not take part) and stays continuous.
@@ -370,7 +372,7 @@ def blend_differences(diffs, positions, canvas_shape, *, margin, levels=None, fe
     d = d.astype(np.float32, copy=False)
 
     fill = _fill(d, pos, m, shape)
-    tile = FRAGMENT + 2 * min(m, _HALO)
+    tile = FRAGMENT + 2 * min(m, MARGIN)
     acc = None
     wsum = None
     for members in _layers(pos):

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._image import LUMA
 from ..fields import downsample, expand, laplacian_pyramid
 from ._geometry import (
     FRAGMENT,
@@ -39,17 +40,14 @@ from ._geometry import (
     TEXTURE_SIDE,
 )
 
-__all__ = ["GREY", "block_mean", "grey", "motion_spectra", "textureness", "window_features"]
-
-#: Rec. 709 luminance weights, as ``fluidnb.as_image(mode="grey")``.
-GREY = np.array([0.2125, 0.7154, 0.0721], dtype=np.float32)
+__all__ = ["block_mean", "grey", "motion_spectra", "textureness", "window_features"]
 
 
 def grey(frames):
     """Luminance of RGB frames (uint8 or float in [0, 1]) as float32 in [0, 1]."""
     arr = np.asarray(frames)
     scale = np.float32(1 / 255) if arr.dtype == np.uint8 else np.float32(1)
-    return (arr.astype(np.float32) @ GREY) * scale
+    return (arr.astype(np.float32) @ LUMA) * scale
 
 
 def block_mean(field, block):

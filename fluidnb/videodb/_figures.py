@@ -30,12 +30,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._image import LUMA
 from .._validation import check_array, check_int
 from ..fields import resize
 from ..sketch import arrow_heads
 from ._assign import Assignment
 from ._augment import IDENTITY, sample_version, valid_positions, version_coordinates
-from ._features import GREY
 from ._geometry import FRAGMENT, GRID, SPECTRA_BLOCK, STRIDE, TEXTURE_LEVELS, VERSIONS
 from ._render import Animation
 from ._retrieval import MIN_MOTION
@@ -224,7 +224,7 @@ def motion_arrows(assignment, *, gain=None, thin=False):
 
 
 def _grey(rgb):
-    return np.asarray(rgb, np.float32) @ GREY
+    return np.asarray(rgb, np.float32) @ LUMA
 
 
 def _word_map(ax, words, k):

@@ -21,16 +21,11 @@ from .._progress import Progress
 from .._validation import check_shape_match
 from ._appearance import match_histograms_cells, motion_blur
 from ._assign import Assignment, _check_params
-from ._blend import blend_differences, blend_values
+from ._blend import MARGIN, blend_differences, blend_values
 from ._composite import composite, dynamic_matte, inpaint_background, loop_crossfade
 from ._geometry import FRAGMENT
 
 __all__ = ["Animation", "render"]
-
-
-#: Context around each fragment rebuilt for the blend (the render's phase tiles: 3 x 24
-#: pixels apart, 12 px of a fragment's own surroundings fill the gap).
-_MARGIN = 12
 
 
 @dataclass(frozen=True, eq=False)
@@ -115,17 +110,17 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     t = time.perf_counter()
     rebuild(0.0, f"rebuilding {len(target)} fragments from their source clips")
     ids = assignment.fragments
-    diffs = np.empty((len(ids), n, FRAGMENT + 2 * _MARGIN, FRAGMENT + 2 * _MARGIN), np.float32)
+    diffs = np.empty((len(ids), n, FRAGMENT + 2 * MARGIN, FRAGMENT + 2 * MARGIN), np.float32)
     step = 32
     for lo in range(0, len(ids), step):
-        frames = db.fragment_frames(ids[lo : lo + step], margin=_MARGIN, grey=True)
+        frames = db.fragment_frames(ids[lo : lo + step], margin=MARGIN, grey=True)
         diffs[lo : lo + step] = frames - frames.mean(axis=1, keepdims=True)  # D_i = F_i - A
         rebuild(min(1.0, (lo + step) / len(ids)), "rebuilding fragments")
     clock["rebuild"] = time.perf_counter() - t
 
     t = time.perf_counter()
     blend(0.0, "blending the difference frames (Laplacian pyramids)")
-    d = blend_differences(diffs, target.positions, (hc, wc), margin=_MARGIN)
+    d = blend_differences(diffs, target.positions, (hc, wc), margin=MARGIN)
     del diffs
     if params.loop:
         d = loop_crossfade(d, overlap=params.loop)
