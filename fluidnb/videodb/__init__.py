@@ -14,6 +14,25 @@ pseudo motion blur, histogram matching and a dynamic matte.
 Every compiled or optimised step has a plain numpy version, in the paper's notation,
 in one module (:mod:`fluidnb.videodb._reference`, the ``reference_*`` functions),
 that the tests compare it with.
+
+One idea per module, in the order of the method:
+
+- the database (sec. 4): ``_geometry`` (fragment sizes, the 18 versions), ``_params``,
+  ``_video`` (reading clips), ``_flow`` (optical flow), ``_augment`` (the versions'
+  pixels and motion), ``_features`` (mean image, motion spectra, textureness),
+  ``_sift`` (dense SIFT), ``_words`` (codebook, visual words, pyramid histograms,
+  Eq. 1), ``_build`` and ``_store`` (building and reading the zarr store),
+  ``_starter_clips``, ``_flow_map`` and ``_starter`` (the starter databases' clips and
+  their cache);
+- the assignment (sec. 5): ``_target`` (the target cut into fragments, the user's
+  motion), ``_retrieval`` (top-K by Eq. 1, the motion filter), ``_smoothness`` (Eq. 2,
+  3, 6 in bulk), ``_mrf`` (Eq. 4, 5 and the solvers), ``_assign`` (the
+  :class:`Assignment`);
+- the rendering (sec. 6): ``_blend`` (multi-band blending of the differences),
+  ``_appearance`` (motion blur, histogram matching), ``_composite`` (moving matte,
+  background, loop, composite), ``_render`` (the pipeline), ``_animate`` (the entry
+  point);
+- ``_reference`` (the plain versions) and ``_figures`` (the lesson's pictures).
 """
 
 from ._animate import animate

@@ -1,7 +1,8 @@
 r"""Teaching figures of the video-database method (Okabe et al., secs. 4-6).
 
-What the lesson (``notebooks/07_videodb.ipynb``) draws, as library functions so the
-notebook's cells stay short and the app can reuse them:
+What the lessons (``notebooks/07a_videodb_database.ipynb`` and
+``07b_videodb_animation.ipynb``) draw, as library functions so the notebooks' cells
+stay short and the app can reuse them:
 
 - :func:`clip_fragments_figure`: a clip, its fragment grid, and one fragment's mean
   image, difference frame, visual words, motion spectra and textureness (Okabe et al., Fig. 2,
