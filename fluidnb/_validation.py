@@ -15,6 +15,7 @@ __all__ = [
     "check_array",
     "check_choice",
     "check_finite",
+    "check_fps",
     "check_int",
     "check_mask",
     "check_range",
@@ -61,6 +62,32 @@ def check_range(name, value, lo=None, hi=None, *, lo_open=False, hi_open=False):
     above = hi is not None and (v >= hi if hi_open else v > hi)
     if below or above:
         raise ValueError(f"{name} must be {_interval(lo, hi, lo_open, hi_open)}, got {_fmt(v)}")
+    return v
+
+
+#: The frame rates a clip may have, frames per second. Below 0.01 a GIF cannot store
+#: the delay (it keeps hundredths of a second in 16 bits: at most 655 s a frame); above
+#: 1000 no player shows the frames and ffmpeg's rate arithmetic fails long before
+#: absurd values such as 1e30.
+FPS_RANGE = (0.01, 1000.0)
+
+
+def check_fps(value, name="fps"):
+    """Return a frame rate as a float if it lies in :data:`FPS_RANGE`, else raise ValueError.
+
+    Examples
+    --------
+    >>> check_fps(24)
+    24.0
+    >>> check_fps(1e30)
+    Traceback (most recent call last):
+    ...
+    ValueError: fps must be in [0.01, 1000] frames per second, got 1e+30
+    """
+    lo, hi = FPS_RANGE
+    v = check_range(name, value)  # a finite real number, or ValueError
+    if not lo <= v <= hi:
+        raise ValueError(f"{name} must be in [{lo:g}, {hi:g}] frames per second, got {_fmt(v)}")
     return v
 
 

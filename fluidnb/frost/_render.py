@@ -41,7 +41,7 @@ from scipy import ndimage
 from .._clip import Clip
 from .._image import as_image
 from .._progress import Progress
-from .._validation import check_int, check_range
+from .._validation import check_fps, check_int, check_range
 from ._lattice import ROW, HexLattice
 from ._reiter import FrostResult
 
@@ -581,7 +581,7 @@ def render(
     if result.freeze_frame.shape != (lattice.n_cells,):
         raise ValueError("result was grown on another lattice (its cell count differs)")
     every = check_int("every", every, 1)
-    fps = result.params.fps if fps is None else check_range("fps", fps, 0, lo_open=True)
+    fps = result.params.fps if fps is None else check_fps(fps)
     look = FrostLook() if look is None else _check_look(look)
     report = Progress(progress)
     started = time.perf_counter()
