@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from ._common import add_output_option, add_params_options, add_seed_option, params_from_args
+from ._paths import add_input, add_output
 
 
 def register(sub):
@@ -22,18 +23,21 @@ def register(sub):
             "flame preset is simulated."
         ),
     )
-    p.add_argument(
+    add_input(
+        p,
         "photo",
         metavar="PHOTO",
         help="a photo of fire on a dark background, or a cut-out (RGBA: its alpha is the matte)",
     )
-    p.add_argument(
+    add_input(
+        p,
         "--matte",
         default=None,
         metavar="MATTE",
         help="the photo's alpha matte, same size (default: its alpha channel, if any)",
     )
-    p.add_argument(
+    add_input(
+        p,
         "--sim",
         default=None,
         metavar="SIM.npz",
@@ -46,8 +50,10 @@ def register(sub):
         metavar="N",
         help="number of frames (default: all of --sim, or the preset's length)",
     )
-    p.add_argument(
+    add_output(
+        p,
         "--temperature-output",
+        kind="clip",
         default=None,
         metavar="OUT",
         help="also write the colour-mapped temperature clip here",
@@ -97,8 +103,17 @@ def _fire(args):
 
 def _load_simulation(path):
     """(temperature, velocity at the pixels) from a saved simulation or a plain npz."""
+    import os
+    import zipfile
+
     import numpy as np
 
+    if os.path.isdir(path):
+        raise ValueError(f"--sim {path!r} is a folder, not a simulation (.npz)")
+    if not os.path.isfile(path):
+        raise ValueError(f"--sim: no such file {path!r}")
+    if not zipfile.is_zipfile(path):
+        raise ValueError(f"--sim {path!r} is not an .npz archive")
     try:
         with np.load(path, allow_pickle=False) as z:
             keys = set(z.files)

@@ -3,7 +3,8 @@
 - A PNG sequence goes into a new or empty folder, or one fluidnb wrote (its clip.json
   says which frames are ours); a file fluidnb did not write is never replaced.
 - A write that fails leaves no ``.partial`` file and its error names the output.
-- The frame rate is bounded in the library (``Clip``, ``save``, files read back).
+- The frame rate is bounded in the library (``Clip``, ``save``, files read back) and on
+  the command line alike.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import numpy as np
 import pytest
 
 from fluidnb import Clip, _media
+from fluidnb.cli import main
 
 
 def clip(n=3, seed=0):
@@ -105,6 +107,18 @@ def test_a_file_where_the_folder_should_be_is_refused(tmp_path):
     assert (tmp_path / "frames").read_bytes() == b"a file without extension"
 
 
+def test_the_command_line_refuses_a_users_folder_before_any_work(tmp_path, capsys):
+    folder = tmp_path / "userdir"
+    folder.mkdir()
+    (folder / "frame_00000.png").write_bytes(b"mine")
+    clip().save(tmp_path / "c.npz")
+    assert main(["convert", str(tmp_path / "c.npz"), "-o", str(folder)]) == 2
+    err = capsys.readouterr().err
+    assert "--output" in err
+    assert "fluidnb did not write" in err
+    assert listing(folder) == {"frame_00000.png": b"mine"}
+
+
 # ---------------------------------------------------------------------- failed writes
 
 
@@ -164,3 +178,12 @@ def test_a_file_claiming_an_absurd_frame_rate_is_refused_on_reading(tmp_path):
     (folder / "clip.json").write_text(json.dumps({**info, "fps": 1e30}))
     with pytest.raises(ValueError, match=r"clip\.json.*fps must be in \[0\.01, 1000\]"):
         Clip.load(folder)
+
+
+def test_the_command_lines_fps_is_checked_like_the_librarys(tmp_path, capsys):
+    clip().save(tmp_path / "c.npz")
+    with pytest.raises(SystemExit) as exc:
+        main(["convert", str(tmp_path / "c.npz"), "--fps", "1e30", "-o", str(tmp_path / "x.mp4")])
+    assert exc.value.code == 2
+    assert "fps must be in [0.01, 1000] frames per second, got 1e+30" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.npz"]
