@@ -75,6 +75,13 @@ def _fire(args):
     # Without --matte, an RGBA photo's own alpha channel is its matte (fire composites
     # the colour onto black with it, so a cut-out's clear pixels never show).
     matte = alpha if args.matte is None else as_image(args.matte, mode="grey", name="--matte")
+    if matte is not None and not matte.any():
+        where = (
+            f"--matte {args.matte!r}"
+            if args.matte
+            else f"the alpha channel of PHOTO {args.photo!r}"
+        )
+        raise ValueError(f"{where} has no flame region: it is 0 everywhere (white marks the flame)")
     frames = None if args.frames is None else check_int("--frames", args.frames, 1)
     simulation = None
     if args.sim is not None:

@@ -116,11 +116,13 @@ def _frost(args):
         optimise_beta,
         render,
     )
+    from ..frost._render import check_image_size
 
     params = params_from_args(FrostParams, args)
     if args.freeze_times is not None and not args.freeze_times.endswith(".npz"):
         raise ValueError(f"--freeze-times must end in .npz, got {args.freeze_times!r}")
     image = as_image(args.image, name="IMAGE", mode="rgb")
+    check_image_size(image.shape, f"IMAGE {args.image!r}")
     if args.region is None:
         region = np.ones(image.shape[:2], bool)
     else:

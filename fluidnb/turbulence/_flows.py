@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import tempfile
+import zipfile
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,7 +48,13 @@ class Flow:
     dx: float
 
     def __post_init__(self):
-        v = check_array("velocity", self.velocity, ndim=4, dtype_kinds="iuf")
+        v = check_array("velocity", self.velocity, ndim=4, dtype_kinds="iuf", min_size=0)
+        if v.shape[0] == 0:
+            raise ValueError(
+                f"a flow needs at least one frame: velocity has 0 frames, shape {v.shape}"
+            )
+        if v.size == 0:
+            raise ValueError(f"velocity must not be empty, got shape {v.shape}")
         if v.shape[-1] != 2:
             raise ValueError(f"velocity must have shape (I, H, W, 2) as (dy, dx), got {v.shape}")
         d = check_array("density", self.density, ndim=3, dtype_kinds="biuf")
@@ -122,19 +129,41 @@ class Flow:
         :meth:`from_simulation`).
         """
         path = os.fspath(path)
+        _check_npz(path)
         try:
             with np.load(path, allow_pickle=False) as z:
                 meta = json.loads(str(z["metadata"]))
                 fmt = meta.get("format")
                 if fmt == _FORMAT:
-                    return cls(z["velocity"], z["density"], meta["dx"] if dx is None else dx)
+                    arrays = (np.array(z["velocity"]), np.array(z["density"]), meta["dx"])
         except (OSError, KeyError, ValueError, EOFError) as exc:
             raise ValueError(f"path {path!r} is not a saved Flow or Simulation: {exc}") from None
+        if fmt == _FORMAT:
+            velocity, density, stored_dx = arrays
+            try:
+                return cls(velocity, density, stored_dx if dx is None else dx)
+            except ValueError as exc:  # a Flow file, but what it holds is not usable
+                raise ValueError(f"path {path!r}: {exc}") from None
         if fmt == "fluidnb.fluid.Simulation/1":
             from ..fluid import Simulation
 
             return cls.from_simulation(Simulation.load(path), dx)
         raise ValueError(f"path {path!r} is not a saved Flow or Simulation (format {fmt!r})")
+
+
+def _check_npz(path):
+    """Refuse, in plain words, a path that is no .npz archive at all.
+
+    numpy's own message for a file that is not an archive is about pickled data,
+    which sends the user the wrong way.
+    """
+    what = f"path {path!r} is not a saved Flow or Simulation"
+    if os.path.isdir(path):
+        raise ValueError(f"{what}: it is a folder")
+    if not os.path.isfile(path):
+        raise ValueError(f"{what}: no such file")
+    if not zipfile.is_zipfile(path):
+        raise ValueError(f"{what}: it is not an .npz archive")
 
 
 def sample_flows(n_frames=200, *, scale=1, progress=None):
