@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
+import zipfile
 
 import numpy as np
 
@@ -18,6 +20,7 @@ __all__ = [
     "check_fps",
     "check_int",
     "check_mask",
+    "check_npz_file",
     "check_range",
     "check_shape_match",
     "check_vector_field",
@@ -255,3 +258,19 @@ def check_vector_field(name, field, shape=None):
     if shape is not None:
         check_shape_match(name, arr, tuple(shape)[:2], "the field")
     return arr.astype(np.result_type(arr.dtype, np.float32), copy=False)
+
+
+def check_npz_file(path, what):
+    """Raise ValueError unless ``path`` is an existing ``.npz`` archive.
+
+    numpy's own message for a file that is no archive speaks of pickled data, which
+    sends the user the wrong way; this says what is wrong, after ``what`` (e.g.
+    ``"--sim 'x.npz' is not a simulation"``).
+    """
+    if os.path.isdir(path):
+        raise ValueError(f"{what}: it is a folder")
+    if not os.path.isfile(path):
+        raise ValueError(f"{what}: no such file")
+    if not zipfile.is_zipfile(path):
+        raise ValueError(f"{what}: it is not an .npz archive")
+    return path

@@ -110,17 +110,11 @@ def _fire(args):
 
 def _load_simulation(path):
     """(temperature, velocity at the pixels) from a saved simulation or a plain npz."""
-    import os
-    import zipfile
-
     import numpy as np
 
-    if os.path.isdir(path):
-        raise ValueError(f"--sim {path!r} is a folder, not a simulation (.npz)")
-    if not os.path.isfile(path):
-        raise ValueError(f"--sim: no such file {path!r}")
-    if not zipfile.is_zipfile(path):
-        raise ValueError(f"--sim {path!r} is not an .npz archive")
+    from .._validation import check_npz_file
+
+    check_npz_file(path, f"--sim {path!r} is not a simulation (.npz)")
     try:
         with np.load(path, allow_pickle=False) as z:
             keys = set(z.files)

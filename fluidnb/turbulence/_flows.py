@@ -5,14 +5,13 @@ from __future__ import annotations
 import json
 import os
 import tempfile
-import zipfile
 from dataclasses import dataclass
 
 import numpy as np
 
 from .._cache import cache_dir
 from .._progress import Progress
-from .._validation import check_array, check_int, check_range
+from .._validation import check_array, check_int, check_npz_file, check_range
 
 __all__ = ["PAPER_SHAPES", "Flow", "cache_dir", "sample_flows"]
 
@@ -129,7 +128,7 @@ class Flow:
         :meth:`from_simulation`).
         """
         path = os.fspath(path)
-        _check_npz(path)
+        check_npz_file(path, f"path {path!r} is not a saved Flow or Simulation")
         try:
             with np.load(path, allow_pickle=False) as z:
                 meta = json.loads(str(z["metadata"]))
@@ -149,21 +148,6 @@ class Flow:
 
             return cls.from_simulation(Simulation.load(path), dx)
         raise ValueError(f"path {path!r} is not a saved Flow or Simulation (format {fmt!r})")
-
-
-def _check_npz(path):
-    """Refuse, in plain words, a path that is no .npz archive at all.
-
-    numpy's own message for a file that is not an archive is about pickled data,
-    which sends the user the wrong way.
-    """
-    what = f"path {path!r} is not a saved Flow or Simulation"
-    if os.path.isdir(path):
-        raise ValueError(f"{what}: it is a folder")
-    if not os.path.isfile(path):
-        raise ValueError(f"{what}: no such file")
-    if not zipfile.is_zipfile(path):
-        raise ValueError(f"{what}: it is not an .npz archive")
 
 
 def sample_flows(n_frames=200, *, scale=1, progress=None):
