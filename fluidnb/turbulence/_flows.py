@@ -110,14 +110,27 @@ class Flow:
         return cls(simulation.centred_velocity(), simulation.density, dx)
 
     def save(self, path):
-        """Write an ``.npz`` (arrays plus JSON metadata, no pickle). Returns the path."""
+        """Write an ``.npz`` (arrays plus JSON metadata, no pickle). Returns the path.
+
+        Written under a temporary name and renamed, as :meth:`fluidnb.Clip.save` does:
+        a failed save leaves the file that was there before, and an OSError names
+        ``path``.
+        """
+        from pathlib import Path
+
+        from .._media import write_atomically
+
         path = os.fspath(path)
         if not path.endswith(".npz"):
             raise ValueError(f"path must end in .npz, got {path!r}")
         meta = json.dumps({"format": _FORMAT, "dx": self.dx})
-        np.savez_compressed(
-            path, velocity=self.velocity, density=self.density, metadata=np.array(meta)
-        )
+        arrays = {"velocity": self.velocity, "density": self.density, "metadata": np.array(meta)}
+
+        def write(tmp):
+            with open(tmp, "wb") as f:
+                np.savez_compressed(f, **arrays)
+
+        write_atomically(Path(path), write)
         return path
 
     @classmethod

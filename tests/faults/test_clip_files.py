@@ -145,6 +145,25 @@ def test_a_failed_write_names_the_output_and_leaves_no_partial_file(tmp_path, mo
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_failed_flow_save_keeps_the_file_that_was_there(tmp_path, monkeypatch):
+    from fluidnb.turbulence import Flow
+
+    flow = Flow(np.zeros((1, 4, 4, 2)), np.zeros((1, 4, 4)), 1.0)
+    path = tmp_path / "flow.npz"
+    flow.save(path)
+    before = path.read_bytes()
+
+    def full_disk(f, **arrays):
+        f.write(b"half a file")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(np, "savez_compressed", full_disk)
+    with pytest.raises(OSError, match=r"cannot write '.*flow\.npz': No space left"):
+        flow.save(path)
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["flow.npz"]
+
+
 def test_a_file_where_a_parent_folder_should_be_is_a_clear_oserror(tmp_path):
     blocker = tmp_path / "photo.png"
     blocker.write_bytes(b"png")
