@@ -460,7 +460,8 @@ def _ingest(root, sources, state, resume, report, max_side, base, known=None):
     (root / _BUILD).mkdir(parents=True, exist_ok=True)
     group = zarr.open_group(str(root), mode="a", zarr_format=3)
     records, seen = [], dict(known or {})
-    done_before = {r["sha256"]: r for r in (old or {}).get("clips", [])}
+    # The clips the interrupted run had stored, in order; the ones after may be new.
+    done_before = (old or {}).get("clips", [])
     for k, src in enumerate(sources):
         report(k / len(sources), f"reading clip {k + 1}/{len(sources)}")
         index = base + k
@@ -485,8 +486,8 @@ def _ingest(root, sources, state, resume, report, max_side, base, known=None):
             "width": int(video.frames.shape[2]),
             "scaled": video.scaled,
         }
-        prev = done_before.get(video.sha256)
-        if old is not None and (prev is None or prev["index"] != index):
+        prev = done_before[k] if k < len(done_before) else None
+        if prev is not None and (prev["sha256"] != video.sha256 or prev["index"] != index):
             raise ValueError(
                 f"db: {str(root)!r}: sources[{k}] ({video.name!r}) is not the clip the "
                 "interrupted build had in that place; resume with the same sources in the "

@@ -46,7 +46,8 @@ def store_bytes(path):
 def chunk_files(path, array):
     """The chunk files of ``array`` (e.g. ``clips/00000/frames``) in a store, in order."""
     folder = Path(path) / array / "c"
-    return sorted((p for p in folder.rglob("*") if p.is_file()), key=lambda p: p.parts)
+    files = [p for p in folder.rglob("*") if p.is_file()]
+    return sorted(files, key=lambda p: tuple(int(i) for i in p.relative_to(folder).parts))
 
 
 class Paused:
