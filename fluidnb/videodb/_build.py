@@ -36,6 +36,7 @@ agree on what a folder holds, see :func:`~fluidnb.videodb._store.folder_state`):
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import os
 import shutil
@@ -318,14 +319,10 @@ def build_database(
         resuming = _prepare_folder(root, resume)
         report = Progress(progress)
         stage = report.split(0.15, 0.85, 0.95)
-        try:
+        undo = functools.partial(_roll_back_build, root, created)
+        with _failing_input(undo, kept="build" if resuming else None, root=root):
             records = _ingest(root, sources, state, resuming, stage[0], params.max_side, base=0)
-        except ValueError as exc:
-            if resuming:
-                raise ValueError(f"{exc} {_KEPT.format(what='build', root=str(root))}") from None
-            _roll_back_build(root, created)
-            raise
-        try:
+        with _failing_input(undo):
             counts = _run_clips(root, records, params, None, client, workers, stage[1])
             if sum(counts.values()) == 0:
                 raise ValueError(f"no fragment: {_why(records)}")
@@ -336,17 +333,27 @@ def build_database(
                 _quantise_clip(root, i, count, codebook)
             manifest = _manifest(root, kind, params, seed, codebook, records, counts)
             _finish(root, manifest)
-        except ValueError:
-            _roll_back_build(root, created)
-            raise
         stage[3](1.0, "database ready")
         return open_database(root)
 
 
-_KEPT = (
-    "(the unfinished {what} in {root!r} is kept: continue it with --resume (resume=True) "
-    "and the right clips)"
-)
+@contextlib.contextmanager
+def _failing_input(undo, *, kept=None, root=None):
+    """On a ValueError (the input's fault: retrying cannot help) call ``undo``.
+
+    With ``kept`` (a resume checking its sources against the state) the state stays
+    and the message says so: the right sources can still continue it.
+    """
+    try:
+        yield
+    except ValueError as exc:
+        if kept:
+            raise ValueError(
+                f"{exc} (the unfinished {kept} in {str(root)!r} is kept: continue it with "
+                "--resume (resume=True) and the right clips)"
+            ) from None
+        undo()
+        raise
 
 
 def add_clips(db, sources, *, client=None, workers=None, resume=False, progress=None):
@@ -408,14 +415,10 @@ def add_clips(db, sources, *, client=None, workers=None, resume=False, progress=
             "seed": manifest["seed"],
             "base": base,
         }
-        try:
+        undo = functools.partial(_roll_back_addition, root, base)
+        with _failing_input(undo, kept="addition" if pending else None, root=root):
             records = _ingest(root, sources, state, pending, stage[0], params.max_side, base, known)
-        except ValueError as exc:
-            if pending:
-                raise ValueError(f"{exc} {_KEPT.format(what='addition', root=str(root))}") from None
-            _roll_back_addition(root, base)
-            raise
-        try:
+        with _failing_input(undo):
             counts = _run_clips(root, records, params, codebook, client, workers, stage[1])
             if sum(counts.values()) == 0:
                 names = ", ".join(repr(r["name"]) for r in records)
@@ -433,9 +436,6 @@ def add_clips(db, sources, *, client=None, workers=None, resume=False, progress=
                 old_clips=manifest["clips"],
             )
             _finish(root, new)
-        except ValueError:
-            _roll_back_addition(root, base)
-            raise
         stage[2](1.0, "database ready")
         return open_database(root)
 

@@ -246,6 +246,7 @@ def test_an_addition_killed_after_its_manifest_is_done(built, grown, tmp_path, c
 
 def test_an_unreachable_scheduler_is_one_line_and_builds_nothing(tmp_path, capsys):
     path = tmp_path / "db"
+    Clip(UP[1], fps=12).save(tmp_path / "a.mp4")
     argv = ["videodb", "build", str(path), str(tmp_path / "a.mp4"), "--kind", "water"]
     assert main([*argv, "--scheduler", "tcp://127.0.0.1:1"]) == 2
     err = capsys.readouterr().err

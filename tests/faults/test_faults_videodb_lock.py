@@ -90,7 +90,7 @@ def paused(code, point, tmp_path, *args, env=None):
     return p
 
 
-def test_a_second_build_is_refused_at_once_naming_the_holder(built, tmp_path, capsys):
+def test_a_second_build_is_refused_at_once_naming_the_holder(built, clip_files, tmp_path, capsys):
     path = tmp_path / "db"
     holder = paused(BUILD, "ingested", tmp_path, path)
     try:
@@ -99,7 +99,7 @@ def test_a_second_build_is_refused_at_once_naming_the_holder(built, tmp_path, ca
         with pytest.raises(DatabaseBusy, match=rf"pid {holder.pid}"):
             build_database(sources(), path, kind="water", params=PARAMS, seed=3, resume=True)
         # The command line: one line, status 2.
-        argv = ["videodb", "build", str(path), "a.mp4", "--kind", "water"]
+        argv = ["videodb", "build", str(path), *map(str, clip_files), "--kind", "water"]
         assert main(argv) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1
