@@ -12,7 +12,6 @@ import shutil
 import subprocess
 import sys
 import threading
-from pathlib import Path
 
 import pytest
 
@@ -29,14 +28,13 @@ from fluidnb.videodb import (
 )
 from tests.support.videodb_store import (
     PARAMS,
+    REPO,
     SMALL_OPTIONS,
     Paused,
     moving_texture,
     sources,
     store_bytes,
 )
-
-REPO = Path(__file__).resolve().parents[2]
 
 BUILD = """
 import sys

@@ -11,6 +11,9 @@ from scipy import ndimage as ndi
 
 from fluidnb.videodb import DatabaseParams
 
+#: The repository: child processes run here, so that they import ``tests.support`` too.
+REPO = Path(__file__).resolve().parents[2]
+
 # Small and quick: N = 8 frames a fragment, the clip and its mirror image, 8 words.
 PARAMS = DatabaseParams(N=8, augment="flip", words=8, codebook_samples=2000)
 
@@ -67,6 +70,7 @@ class Paused:
         self.point = point
         self.proc = subprocess.Popen(
             [sys.executable, "-c", code],
+            cwd=REPO,
             env=full,
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
