@@ -210,7 +210,7 @@ def _info(args):
                 print(line)
             print(
                 f"fluidnb videodb: error: {path}: {len(problems)} damaged or missing parts "
-                "(listed above): rebuild the database from its source clips",
+                "(listed above)",
                 file=sys.stderr,
             )
             return 2

@@ -661,9 +661,23 @@ def _chunk_file(arr, root, i):
 def _chunk_error(arr, root, i, what):
     return (
         f"db: {str(root)!r} is damaged: chunk {i} of {arr.path} {what} (file "
-        f"{str(_chunk_file(arr, root, i))!r}); rebuild the database from its source clips "
-        "(`fluidnb videodb build`)"
+        f"{str(_chunk_file(arr, root, i))!r}); {_rebuild_advice(root)}"
     )
+
+
+def _rebuild_advice(root):
+    """What to do about a damaged database: a starter one is rebuilt by fluidnb itself."""
+    from .._cache import cache_dir
+
+    root = Path(root)
+    if root.parent == cache_dir() / "videodb":
+        kind = root.name.split("-v")[0]
+        quick = " --quick" if root.name.endswith("-quick") else ""
+        return (
+            f"rebuild this starter database: `fluidnb videodb build --starter {kind}{quick} "
+            f"--rebuild` (starter_database({kind!r}, rebuild=True))"
+        )
+    return "rebuild the database from its source clips (`fluidnb videodb build`)"
 
 
 def _first_bad_chunk(arr, chunks, exc):

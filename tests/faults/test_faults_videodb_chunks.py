@@ -17,6 +17,7 @@ from fluidnb.videodb import (
     animate,
     build_database,
     open_database,
+    starter_path,
     verify_database,
 )
 from fluidnb.videodb._store import CHUNK, RAM_ARRAYS
@@ -210,3 +211,12 @@ def test_a_version_1_store_still_opens_and_animates_identically(built, tmp_path,
     chunk_files(path, "clips/00000/words")[0].unlink()
     with pytest.raises(ValueError, match="checksum"):
         open_database(path)
+
+
+def test_a_damaged_starter_database_says_how_to_rebuild_it(built, tmp_path, monkeypatch):
+    monkeypatch.setenv("FLUIDNB_CACHE_DIR", str(tmp_path / "cache"))
+    path = starter_path("fire", quick=True)
+    shutil.copytree(built.path, path)
+    damage(chunk_files(path, "clips/00000/frames")[0], "delete")
+    with pytest.raises(ValueError, match="videodb build --starter fire --quick --rebuild`"):
+        open_database(path).clip_frames(0)
