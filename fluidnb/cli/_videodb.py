@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 
 from ._common import add_params_options
+from ._paths import add_input, add_output
 
 _STARTERS = ("water", "smoke", "fire")
 
@@ -40,8 +41,8 @@ def register(sub):
             "fluidnb videodb build mydb river1.mp4 river2.mp4 --kind water --workers 2"
         ),
     )
-    b.add_argument("out", nargs="?", metavar="OUT", help="the new database folder")
-    b.add_argument("sources", nargs="*", metavar="SOURCES", help="clips to put in")
+    add_output(b, "out", kind="folder", nargs="?", metavar="OUT", help="the new database folder")
+    add_input(b, "sources", nargs="*", metavar="SOURCES", help="clips to put in")
     b.add_argument("--kind", default=None, help="water, smoke, fire or your own label")
     b.add_argument(
         "--starter",
@@ -67,8 +68,8 @@ def register(sub):
         description="Add SOURCES to the database DB; it keeps its codebook and parameters.",
         epilog="Example: fluidnb videodb add mydb river3.mp4",
     )
-    a.add_argument("db", metavar="DB", help="the database folder")
-    a.add_argument("sources", nargs="+", metavar="SOURCES", help="clips to add")
+    add_output(a, "db", kind="folder", metavar="DB", help="the database folder (clips are added)")
+    add_input(a, "sources", nargs="+", metavar="SOURCES", help="clips to add")
     a.add_argument("--resume", action="store_true", help="continue an interrupted addition")
     _add_parallel_options(a)
     a.set_defaults(func=_add)
