@@ -67,6 +67,7 @@ from ._figures import (
 from ._flow import optical_flow
 from ._flow_map import flow_map_texture
 from ._geometry import ANGLES, FRAGMENT, SCALES, STRIDE, VERSIONS
+from ._lock import DatabaseBusy
 from ._mrf import MRFSolution, alpha_expansion, brute_force, energy, grid_edges, icm, solve
 from ._params import AUGMENTATIONS, FLOW_BACKENDS, AnimateParams, DatabaseParams
 from ._reference import (
@@ -85,7 +86,7 @@ from ._sift import dense_sift
 from ._smoothness import TEXTURE_SCALE, PairTables, pair_tables
 from ._starter import starter_database, starter_params, starter_path
 from ._starter_clips import STARTER_KINDS, starter_clips
-from ._store import VideoDatabase, open_database
+from ._store import VideoDatabase, open_database, verify_database
 from ._target import Target, cut_target, fragment_motion
 from ._video import Video, read_video
 from ._words import fit_codebook, intersection, pyramid_histograms, quantise
@@ -103,6 +104,7 @@ __all__ = [
     "AnimateParams",
     "Animation",
     "Assignment",
+    "DatabaseBusy",
     "DatabaseParams",
     "HistogramIndex",
     "MRFSolution",
@@ -170,6 +172,7 @@ __all__ = [
     "transform_flow",
     "transform_vectors",
     "valid_positions",
+    "verify_database",
     "version_coordinates",
     "version_label",
     "version_shape",
