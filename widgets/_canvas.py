@@ -17,6 +17,7 @@ from fluidnb import as_image, to_uint8
 from fluidnb.fields import resize
 from fluidnb.sketch import arrow_heads, flood_fill, paint_segment, scalar_to_rgba
 
+from ._common import Choice
 from ._layers import PaintLayer, PointLayer, StrokeLayer
 
 __all__ = ["DrawingCanvas"]
@@ -142,7 +143,6 @@ class DrawingCanvas(W.VBox):
         # they stay visible when a large canvas is shown scaled down in a narrow cell.
         self._pen = max(2.5, max(cw, ch) / 250)
         self._overlay_segments = None
-        self._syncing = False
         self._current = None  # the points of the drag in progress
 
         self._tool_buttons = W.ToggleButtons(
@@ -151,7 +151,7 @@ class DrawingCanvas(W.VBox):
             layout=W.Layout(width="auto"),
         )
         self._tool_buttons.icons = [_ICONS[t] for t in self._tool_buttons.options]
-        self._layer_pick = W.Dropdown(description="layer", layout=W.Layout(width="180px"))
+        self._layer_pick = Choice(description="layer", layout=W.Layout(width="180px"))
         self._value_slider = W.FloatSlider(
             value=1.0,
             min=0,
@@ -183,7 +183,7 @@ class DrawingCanvas(W.VBox):
         W.link((self._tool_buttons, "value"), (self, "tool"))
         W.link((self._value_slider, "value"), (self, "brush_value"))
         W.link((self._radius_slider, "value"), (self, "brush_radius"))
-        self._layer_pick.observe(self._layer_picked, "value")
+        self._layer_pick.on_pick(self._layer_picked)
         self._undo.on_click(lambda _: self.undo())
         self._clear.on_click(lambda _: self.clear())
 
@@ -249,9 +249,9 @@ class DrawingCanvas(W.VBox):
             raise ValueError(f"layer must be one of {', '.join(self.layers)}, got {name!r}")
         return name
 
-    def _layer_picked(self, change):
-        if not self._syncing and change["new"] is not None:
-            self.layer = change["new"]
+    def _layer_picked(self, name):
+        if name is not None:
+            self.layer = name
 
     @observe("layer")
     def _layer_changed(self, change):
@@ -263,12 +263,7 @@ class DrawingCanvas(W.VBox):
         names = [n for n, lay in self.layers.items() if lay.kind == kind]
         current = self.layer if self.layer in names else names[0]
         self.layer = current
-        self._syncing = True
-        try:
-            self._layer_pick.options = names
-            self._layer_pick.value = current
-        finally:
-            self._syncing = False
+        self._layer_pick.set_options(names, current)
         # The layer choice shows when the tool has several layers. Where some tool has
         # (a matte and a speed map, say), its room is kept for every tool: the canvas
         # must not jump under the mouse when the tool changes.

@@ -15,10 +15,14 @@ from fluidnb.fluid import FluidParams, flame_preset, simulate
 
 from ._app import App
 from ._canvas import DrawingCanvas
+from ._common import Choice
 from ._panel import ParamPanel
 from ._player import FramePlayer
 
 __all__ = ["FireApp", "FireAppParams"]
+
+#: The sample photos the photo menu offers ("upload" joins them after an upload).
+SAMPLES = ("fire", "flame")
 
 
 def _field_of(cls, name):
@@ -121,9 +125,11 @@ class FireApp(App):
         from fluidnb import data
 
         self.quick = bool(quick)
-        if photo is None:
-            photo, matte = data.sample("fire", size=128, return_alpha=True)
+        name = "fire" if photo is None else photo if _is_sample(photo) else "upload"
+        if name != "upload":
+            photo, matte = data.sample(name, size=128, return_alpha=True)
         self.photo, self.photo_matte = self._load(photo, matte)
+        self.photo_name = name  #: The photo shown: a sample's name or "upload".
         self.shape = (64, 64) if quick else (128, 128)
         self.fire_result = None  #: The last run's FireResult.
         self._display_size = int(display_size)
@@ -140,13 +146,13 @@ class FireApp(App):
             value=seed, min=0, max=2**31 - 1, description="seed", layout=W.Layout(width="180px")
         )
         W.link((self._seed, "value"), (self, "seed"))
-        self._sample = W.Dropdown(
-            options=["fire", "flame"],
-            value="fire",
+        self._sample = Choice(
+            options=_photo_options(name),
+            value=name,
             description="photo",
             layout=W.Layout(width="200px"),
         )
-        self._sample.observe(lambda c: self.set_photo(c["new"]), "value")
+        self._sample.on_pick(self._picked)
         self._upload = W.FileUpload(accept="image/*", multiple=False, description="Upload")
         self._upload.observe(self._uploaded, "value")
         for wid, cls in [
@@ -195,21 +201,38 @@ class FireApp(App):
         return image, alpha
 
     def set_photo(self, photo, matte=None):
-        """Use another photo: a sample name (``"fire"``, ``"flame"``) or an image."""
+        """Use another photo: a sample name (``"fire"``, ``"flame"``) or an image.
+
+        The photo menu follows: a sample's name, or "upload" for an image. Returns
+        False (and says why in the status line) if the photo is refused; the old one
+        stays.
+        """
         from fluidnb import data
 
-        if isinstance(photo, str) and photo in data.names():
+        name = photo if _is_sample(photo) else "upload"
+        if name != "upload":
             photo, matte = data.sample(photo, size=128, return_alpha=True)
         try:
             self.photo, self.photo_matte = self._load(photo, matte)
         except ValueError as exc:
             self.say(str(exc), "error")
-            return
+            return False
+        self.photo_name = name
         # A canvas keeps its image's size: a photo of another size gets a new canvas
         # (the canvas slot shows it in the old one's place).
         old = self.canvas
         self.canvas = self._make_canvas()
         old.close()
+        # "upload" is offered only while an uploaded photo is shown; options and value
+        # change together (a plain Dropdown would pick its first photo on the way).
+        self._sample.set_options(_photo_options(name), name)
+        h, w = self.photo.shape[:2]
+        self.say(f"photo {name}: {w} x {h} pixels")
+        return True
+
+    def _picked(self, name):
+        if name != self.photo_name and name in SAMPLES:
+            self.set_photo(name)
 
     def _uploaded(self, change):
         files = change["new"]
@@ -256,6 +279,15 @@ class FireApp(App):
         self.fire_result = result
         self.compare.clip = comparison_clip(result)
         return result.clip
+
+
+def _is_sample(photo):
+    return isinstance(photo, str) and photo in SAMPLES
+
+
+def _photo_options(name):
+    """The photo menu: the samples, and "upload" while an uploaded photo is shown."""
+    return [*SAMPLES, *(["upload"] if name == "upload" else [])]
 
 
 def comparison_clip(result):
