@@ -8,6 +8,8 @@ the notebook; every coordinate the user produces is mapped back to image pixels,
 
 from __future__ import annotations
 
+import html
+
 import ipywidgets as W
 import numpy as np
 from ipycanvas import MultiCanvas, hold_canvas
@@ -17,8 +19,8 @@ from fluidnb import as_image, to_uint8
 from fluidnb.fields import resize
 from fluidnb.sketch import arrow_heads, flood_fill, paint_segment, scalar_to_rgba
 
-from ._common import Choice
-from ._layers import PaintLayer, PointLayer, StrokeLayer
+from ._common import Choice, plural
+from ._layers import History, PaintLayer, PointLayer, StrokeLayer
 
 __all__ = ["DrawingCanvas"]
 
@@ -112,15 +114,19 @@ class DrawingCanvas(W.VBox):
         self.image = as_image(image)
         h, w = self.image.shape[:2]
         self.layers = {}
+        #: Every layer's undo steps in the order they happened (Undo takes back the
+        #: last action, whichever layer it was on).
+        self.history = History()
+        steps = {"history": self.history}
         for name in strokes:
-            self.layers[name] = StrokeLayer(name, (h, w))
+            self.layers[name] = StrokeLayer(name, (h, w), **steps)
         for name in masks:
-            self.layers[name] = PaintLayer(name, (h, w), mask=True)
+            self.layers[name] = PaintLayer(name, (h, w), mask=True, **steps)
         for i, name in enumerate(maps):
             color = [(0.2, 1.0, 0.4), (0.6, 0.4, 1.0), (1.0, 0.2, 0.6)][i % 3]
-            self.layers[name] = PaintLayer(name, (h, w), color=color, opacity=0.6)
+            self.layers[name] = PaintLayer(name, (h, w), color=color, opacity=0.6, **steps)
         for name in points:
-            self.layers[name] = PointLayer(name, (h, w))
+            self.layers[name] = PointLayer(name, (h, w), **steps)
         if not self.layers:
             raise ValueError(
                 "DrawingCanvas needs at least one layer (strokes, masks, maps, points)"
@@ -171,6 +177,7 @@ class DrawingCanvas(W.VBox):
         self._undo = W.Button(description="Undo", icon="undo", layout=W.Layout(width="90px"))
         self._clear = W.Button(description="Clear", icon="trash", layout=W.Layout(width="90px"))
         self.status = W.HTML(layout=W.Layout(min_height="1.5em"))
+        self.caption = ""
         for wid, cls in [
             (self._tool_buttons, "fluidnb-tools"),
             (self._layer_pick, "fluidnb-layer"),
@@ -326,7 +333,11 @@ class DrawingCanvas(W.VBox):
         active = self.layers[self.layer]
         if self.tool == "stroke":
             added = active.add(np.array(points))
-            self._changed("added a stroke" if added else "")
+            self._changed(
+                f"added a stroke to {active.name}"
+                if added
+                else "a click is not a stroke: drag along the flow"
+            )
         else:
             self._changed(f"painted {active.name}")
 
@@ -370,11 +381,16 @@ class DrawingCanvas(W.VBox):
             for tip, end in arrow_heads(pts, size=4 * self._pen):
                 layer.stroke_line(*tip, *end)
 
-    def _changed(self, message=""):
+    def _changed(self, message):
+        """Redraw, say what happened (every change says, so no old message lingers)."""
         self.redraw()
-        if message:
-            self.status.value = f"<span style='opacity:0.7'>{message}</span>"
+        self._say(message)
         self.version += 1
+
+    def _say(self, message):
+        #: What the caption under the canvas says (plain text; see :attr:`status`).
+        self.caption = message
+        self.status.value = f"<span style='opacity:0.7'>{html.escape(message)}</span>"
 
     # ------------------------------------------------------------------ drawing
     def redraw(self):
@@ -480,12 +496,18 @@ class DrawingCanvas(W.VBox):
 
     # ------------------------------------------------------------------ undo / clear
     def undo(self, layer=None):
-        """Undo the last action on ``layer`` (default: the active one)."""
-        target = self.layers[layer or self.layer]
-        if target.undo():
-            self._changed(f"undid the last change to {target.name}")
-        else:
-            self.status.value = f"nothing to undo on {target.name}"
+        """Take back the last action: on any layer (default, the Undo button), or on ``layer``.
+
+        Returns the name of the layer whose action was undone, or None.
+        """
+        if layer is not None and layer not in self.layers:
+            raise ValueError(f"layer must be one of {', '.join(self.layers)}, got {layer!r}")
+        target = self.history.undo(None if layer is None else self.layers[layer])
+        if target is None:
+            self._say(f"nothing to undo{'' if layer is None else ' on ' + layer}")
+            return None
+        self._changed(f"undid the last change to {target.name}")
+        return target.name
 
     def clear(self, layer=None):
         """Clear ``layer`` (default: the active one); undoable."""
@@ -525,20 +547,24 @@ class DrawingCanvas(W.VBox):
 
     def set_strokes(self, strokes, layer=None):
         """Replace the strokes of a layer (undoable)."""
-        self._layer(layer, "strokes").set(strokes)
-        self._changed()
+        target = self._layer(layer, "strokes")
+        target.set(strokes)
+        self._changed(f"{target.name}: {plural(len(target.strokes), 'stroke')}")
 
     def set_mask(self, mask, layer=None):
         """Replace a painted mask or map (undoable)."""
-        self._layer(layer, "paint").set(mask)
-        self._changed()
+        target = self._layer(layer, "paint")
+        target.set(mask)
+        share = float(np.mean(target.array > 0))
+        self._changed(f"{target.name}: {share:.0%} of the image painted")
 
     set_map = set_mask
 
     def set_points(self, points, layer=None):
         """Replace the points of a layer (undoable)."""
-        self._layer(layer, "points").set(points)
-        self._changed()
+        target = self._layer(layer, "points")
+        target.set(points)
+        self._changed(f"{target.name}: {plural(len(target.points), 'point')}")
 
     # ------------------------------------------------------------------ headless driving
     def drag(self, points, tool=None, layer=None):
