@@ -41,6 +41,15 @@ def _in_kernel():
     return shell is not None and getattr(shell, "kernel", None) is not None
 
 
+def _players(widgets):
+    """Every FramePlayer among ``widgets`` and inside them."""
+    for widget in widgets:
+        if isinstance(widget, FramePlayer):
+            yield widget
+        else:
+            yield from _players(getattr(widget, "children", ()))
+
+
 class App(W.VBox):
     """A drawing canvas, a parameter panel, a run button with progress and a player.
 
@@ -144,6 +153,7 @@ class App(W.VBox):
         self._preview_thread = None
         self._closed = False
         self._tasks_started = 0  # a preview begun before a task started is stale
+        self._watched = set()  # ids of the players whose exports the status line reports
 
         self._run_button = W.Button(description="Run", icon="play", button_style="primary")
         self._cancel_button = W.Button(description="Cancel", icon="stop", disabled=True)
@@ -241,6 +251,14 @@ class App(W.VBox):
             if used
         ]
         self._views_row.children = self.views
+        for player in _players(self.views):
+            if id(player) not in self._watched:
+                self._watched.add(id(player))
+                player.observe(self._exported, "exported")
+
+    def _exported(self, change):
+        if change["new"]:
+            self.say(f"saved {change['new']}", "ok")
 
     @staticmethod
     def titled(heading, *widgets, margin="0 1.5em 0.6em 0"):

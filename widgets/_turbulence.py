@@ -75,8 +75,9 @@ class TurbulenceApp(App):
         Frames to synthesise (default: the size's; all of your flows').
     display_width : int
         Width on screen of each player (three flows side by side).
-    export_dir : str or Path
-        Where the export buttons write.
+    export_dir : str or Path, optional
+        Where the export buttons write (default: the apps' output folder, see
+        :class:`FramePlayer`).
 
     Examples
     --------
@@ -96,7 +97,7 @@ class TurbulenceApp(App):
         size="quick",
         n_frames=None,
         display_width=432,
-        export_dir=".",
+        export_dir=None,
     ):
         if (target is None) != (source is None):
             raise ValueError("give both target and source flows, or neither (the sample pair)")
