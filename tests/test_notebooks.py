@@ -48,4 +48,14 @@ def test_notebook_runs_headless_in_quick_mode(path, tmp_path, monkeypatch):
         if out.output_type == "error"
     ]
     assert errors == []
+    # JupyterLab shows stderr as a pink box a class reads as an error: progress goes
+    # to a widget bar (fluidnb.progress_bar), warnings are fixed, not printed.
+    stderr = [
+        (i, out.text[:200])
+        for i, cell in enumerate(nb.cells)
+        if cell.cell_type == "code"
+        for out in cell.outputs
+        if out.output_type == "stream" and out.name == "stderr"
+    ]
+    assert stderr == [], f"{path.name} writes to stderr (cell, text): {stderr}"
     assert os.environ["FLUIDNB_QUICK"] == "1"
