@@ -2,12 +2,33 @@
 
 from __future__ import annotations
 
+import html
 import os
+import re
 from pathlib import Path
 
 import ipywidgets as W
 
-__all__ = ["Choice", "hint", "output_dir", "plural", "shown_path"]
+__all__ = [
+    "Choice",
+    "hint",
+    "math_html",
+    "math_text",
+    "output_dir",
+    "plural",
+    "row",
+    "shown_path",
+]
+
+# LaTeX names of the Greek letters the papers use, as Unicode.
+_GREEK = {
+    "alpha": "α", "beta": "β", "gamma": "γ", "delta": "δ", "epsilon": "ε", "varepsilon": "ε",
+    "zeta": "ζ", "eta": "η", "theta": "θ", "kappa": "κ", "lambda": "λ", "mu": "μ", "nu": "ν",
+    "xi": "ξ", "pi": "π", "rho": "ρ", "sigma": "σ", "tau": "τ", "phi": "φ", "chi": "χ",
+    "psi": "ψ", "omega": "ω", "Delta": "Δ", "Gamma": "Γ", "Lambda": "Λ", "Sigma": "Σ",
+    "Phi": "Φ", "Omega": "Ω",
+}  # fmt: skip
+_SCRIPT = re.compile(r"([_^])(\{([^{}]*)\}|\\[A-Za-z]+|.)")
 
 #: The folder exports go to, beside the notebook, unless ``$FLUIDNB_OUTPUT_DIR`` says.
 OUTPUT_DIR = "fluidnb-output"
@@ -108,6 +129,47 @@ def plural(n, noun, nouns=None):
     ('1 stroke', '0 strokes', '2 fragments', '5 are')
     """
     return f"{n} {noun if n == 1 else (nouns or noun + 's')}"
+
+
+def math_html(tex):
+    r"""A short LaTeX formula as plain HTML: Greek letters in Unicode, ``<sub>``, ``<sup>``.
+
+    For labels and widget text, which must read right without MathJax (Voila on a
+    laptop with no network shows ``$\sigma$`` raw); Markdown cells keep their LaTeX.
+
+    >>> math_html(r"\sigma"), math_html("r_{th}"), math_html(r"\kappa_b")
+    ('σ', 'r<sub>th</sub>', 'κ<sub>b</sub>')
+    >>> math_html("D_i = F_i - A")
+    'D<sub>i</sub> = F<sub>i</sub> - A'
+    >>> math_html("f^{-2}"), math_html(r"\mathrm{d}t")
+    ('f<sup>-2</sup>', 'dt')
+    """
+    text = re.sub(r"\\(?:mathrm|text|mathit|operatorname)\{([^{}]*)\}", r"\1", tex)
+    text = html.escape(text, quote=False)
+
+    def script(match):
+        tag = "sub" if match.group(1) == "_" else "sup"
+        body = match.group(3) if match.group(3) is not None else match.group(2)
+        return f"<{tag}>{body}</{tag}>"
+
+    text = _SCRIPT.sub(script, text)
+    return re.sub(r"\\([A-Za-z]+)", lambda m: _GREEK.get(m.group(1), m.group(1)), text)
+
+
+def math_text(tex):
+    r"""A short LaTeX formula as plain text (tooltips): ``\kappa_b`` -> ``κ_b``.
+
+    >>> math_text(r"\kappa_b"), math_text("r_{th}"), math_text(r"f^{-2}")
+    ('κ_b', 'r_th', 'f^-2')
+    """
+    text = re.sub(r"<sub>(.*?)</sub>", r"_\1", math_html(tex))
+    text = re.sub(r"<sup>(.*?)</sup>", r"^\1", text)
+    return html.unescape(text)
+
+
+def row(*widgets):
+    """Widgets side by side, wrapping onto a new line where the column is narrow."""
+    return W.HBox(list(widgets), layout=W.Layout(flex_flow="row wrap", align_items="center"))
 
 
 def hint(text, max_width="440px"):

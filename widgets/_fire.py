@@ -7,7 +7,6 @@ import io
 
 import ipywidgets as W
 import numpy as np
-from traitlets import Int
 
 from fluidnb import Clip, Params, as_image
 from fluidnb.fire import FireParams, colour_temperature, fire
@@ -15,12 +14,18 @@ from fluidnb.fluid import FluidParams, flame_preset, simulate
 
 from ._app import App
 from ._canvas import DrawingCanvas
-from ._common import Choice
+from ._common import Choice, hint, row
 from ._panel import ParamPanel
 from ._player import FramePlayer
 
 __all__ = ["FireApp", "FireAppParams"]
 
+#: The panel's groups: the flame and the synthesis's main settings open, the rest folded.
+GROUPS = (
+    ("flame and synthesis", ("kappa_b", "epsilon", "C_r", "interval", "weight")),
+    ("the flame's source", ("source_radius", "source_T")),
+    ("synthesis details", ("overlap", "coherence", "cutoff")),
+)
 #: The sample photos the photo menu offers ("upload" joins them after an upload).
 SAMPLES = ("fire", "flame")
 
@@ -116,9 +121,6 @@ class FireApp(App):
     >>> app.close()
     """
 
-    #: Seed of the simulation and the synthesis.
-    seed = Int(0)
-
     def __init__(
         self, photo=None, *, matte=None, quick=False, n_frames=None, seed=0, display_size=320
     ):
@@ -133,19 +135,16 @@ class FireApp(App):
         self.shape = (64, 64) if quick else (128, 128)
         self.fire_result = None  #: The last run's FireResult.
         self._display_size = int(display_size)
-        panel = ParamPanel(FireAppParams)
+        panel = ParamPanel(FireAppParams, groups=GROUPS)
 
         self._frames = W.BoundedIntText(
             value=n_frames or (16 if quick else 72),
             min=2,
             max=1000,
             description="frames",
-            layout=W.Layout(width="180px"),
+            style={"description_width": "50px"},
+            layout=W.Layout(width="150px"),
         )
-        self._seed = W.BoundedIntText(
-            value=seed, min=0, max=2**31 - 1, description="seed", layout=W.Layout(width="180px")
-        )
-        W.link((self._seed, "value"), (self, "seed"))
         self._sample = Choice(
             options=_photo_options(name),
             value=name,
@@ -157,23 +156,25 @@ class FireApp(App):
         self._upload.observe(self._uploaded, "value")
         for wid, cls in [
             (self._frames, "fluidnb-frames"),
-            (self._seed, "fluidnb-seed"),
             (self._sample, "fluidnb-photo"),
             (self._upload, "fluidnb-upload"),
         ]:
             wid.add_class(cls)
-        self.compare = FramePlayer(display_width=3 * 160, label="compare")
-        hint = W.HTML(
-            "<span style='opacity:0.7'>Paint the flame's matte on the photo (white = "
-            "flame) or leave it empty to use the photo's own matte / luminance.</span>"
-        )
+        self.compare = FramePlayer(display_width=3 * 128, label="compare")
         super().__init__(
             panel=panel,
             run=self._run,
             canvas=self._make_canvas(),
+            seed=seed,
             title="Fire from a photograph — Furukawa, Dobashi & Yamamoto",
-            inputs=[W.HBox([self._sample, self._upload])],
-            controls=[W.HBox([self._frames, self._seed]), hint],
+            inputs=[row(self._sample, self._upload)],
+        )
+        self.controls = (
+            row(self._frames, self.seed_box),
+            hint(
+                "Paint the flame's matte on the photo (white = flame) or leave it empty "
+                "to use the photo's own matte / luminance."
+            ),
         )
         comparison = self.titled("temperature | latest keyframe | fire", self.compare)
         self.views = (self.player, comparison)
