@@ -129,7 +129,7 @@ class App(W.VBox):
     #: the column (which would push the next column under the others).
     drawing_width = Unicode("")
     views_width = Unicode("")  #: see :attr:`drawing_width`
-    controls_width = Unicode("340px")  #: see :attr:`drawing_width`
+    controls_width = Unicode("330px")  #: see :attr:`drawing_width`
     #: The random seed of the preview and the run (apps made with ``seed=``).
     seed = Int(0)
 
@@ -268,8 +268,13 @@ class App(W.VBox):
         drawing += self.canvas_tools
         columns = []
         controls = (*self.inputs, self.panel, *self.controls)
+        # The canvas column as wide as the canvas: its tool rows wrap under it rather
+        # than widen the column (which would push the result under the canvas).
+        drawing_width = self.drawing_width
+        if not drawing_width and self.canvas is not None:
+            drawing_width = f"{max(self.canvas.canvas.width, 300)}px"
         for box, widgets, width in (
-            (self._drawing_column, drawing, self.drawing_width),
+            (self._drawing_column, drawing, drawing_width),
             (self._views_column, self.views, self.views_width),
             (self._controls_column, controls, self.controls_width),
         ):

@@ -106,10 +106,10 @@ class DrawingCanvas(W.VBox):
         masks=(),
         maps=(),
         points=(),
-        display_size=512,
+        display_size=420,
         scale=None,
         value_slider=True,
-        button_width="100px",
+        button_width="auto",
     ):
         self.image = as_image(image)
         h, w = self.image.shape[:2]
@@ -164,7 +164,8 @@ class DrawingCanvas(W.VBox):
             max=1,
             step=0.05,
             description="value",
-            layout=W.Layout(width="220px"),
+            style={"description_width": "40px"},
+            layout=W.Layout(width="190px"),
         )
         self._radius_slider = W.FloatSlider(
             value=6.0,
@@ -172,10 +173,21 @@ class DrawingCanvas(W.VBox):
             max=max(2.0, max(h, w) / 4),
             step=0.5,
             description="radius",
-            layout=W.Layout(width="220px"),
+            style={"description_width": "46px"},
+            layout=W.Layout(width="190px"),
         )
-        self._undo = W.Button(description="Undo", icon="undo", layout=W.Layout(width="90px"))
-        self._clear = W.Button(description="Clear", icon="trash", layout=W.Layout(width="90px"))
+        self._undo = W.Button(
+            description="Undo",
+            icon="undo",
+            tooltip="take back the last change, on any layer",
+            layout=W.Layout(width="82px"),
+        )
+        self._clear = W.Button(
+            description="Clear",
+            icon="trash",
+            tooltip="clear the chosen layer (undoable)",
+            layout=W.Layout(width="82px"),
+        )
         self.status = W.HTML(layout=W.Layout(min_height="1.5em"))
         self.caption = ""
         for wid, cls in [

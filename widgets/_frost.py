@@ -239,6 +239,7 @@ class FrostApp(App):
         )
 
     def _run(self, params, progress):
+        self._show_length(params)  # the estimate of this very run (no preview came after)
         lattice, cells = self._lattice(params.spacing)
         grow_report, draw_report = Progress(progress).split(0.6)
         result = grow(lattice, cells, params, seed=self.seed, progress=grow_report)

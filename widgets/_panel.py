@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import html
 import math
+import re
 
 import ipywidgets as W
 from traitlets import Any, Bool, Unicode
@@ -211,10 +212,20 @@ def _groups(groups, names):
 
 
 def label_html(spec):
-    """A control's label: the field's name and, if it differs, the paper's symbol."""
-    if not spec.symbol or spec.symbol == spec.name:
+    """A control's label: the paper's symbol, after the field's name where that differs.
+
+    A name that only spells the symbol out (``sigma``, ``rth``, ``kappa_b``, ``lam``)
+    shows the symbol alone (σ, r<sub>th</sub>, κ<sub>b</sub>, λ); the tooltip names
+    the field.
+    """
+    if not spec.symbol or math_html(spec.symbol) == html.escape(spec.name):
         return html.escape(spec.name)
-    return f"{html.escape(spec.name)} <b>{math_html(spec.symbol)}</b>"
+    symbol = f"<b>{math_html(spec.symbol)}</b>"
+    spelled = re.sub(r"[\\_{}\s]", "", spec.symbol)
+    name = spec.name.replace("_", "")
+    if name == spelled or (len(name) >= 3 and spelled.startswith(name)):
+        return symbol
+    return f"{html.escape(spec.name)} {symbol}"
 
 
 def tooltip(spec):
@@ -225,7 +236,7 @@ def tooltip(spec):
     return text
 
 
-def _control(spec, value, continuous_update, width="330px"):
+def _control(spec, value, continuous_update, width="310px"):
     kind = spec.kind
     common = {
         "description": label_html(spec),

@@ -70,14 +70,21 @@ class FramePlayer(W.VBox):
         self._play = W.Play(interval=125, step=1, repeat=True, show_repeat=True)
         self._play.add_class("fluidnb-play")
         self._slider = W.IntSlider(description="frame", readout=True, continuous_update=True)
-        if slider_width is not None:
-            self._slider.layout.width = slider_width
-            self._slider.style.description_width = "40px"
+        # As wide as the picture with the play buttons: the player stays a column of
+        # the picture's width (apps put it beside the canvas).
+        self._slider.layout.width = slider_width or f"{max(self.display_width - 175, 160)}px"
+        self._slider.style.description_width = "40px"
         self._slider.add_class("fluidnb-frame-slider")
         # The slider follows Play in the browser (jslink): no kernel round trip per tick.
         W.jslink((self._play, "value"), (self._slider, "value"))
         self._fps = W.BoundedFloatText(
-            value=8.0, min=0.5, max=60, step=0.5, description="fps", layout=W.Layout(width="150px")
+            value=8.0,
+            min=0.5,
+            max=60,
+            step=0.5,
+            description="fps",
+            style={"description_width": "30px"},
+            layout=W.Layout(width="110px"),
         )
         self._fps.add_class("fluidnb-fps")
         self._gif = W.Button(description="GIF", icon="download", layout=W.Layout(width="80px"))
@@ -91,9 +98,11 @@ class FramePlayer(W.VBox):
         self._fps.observe(self._fps_changed, "value")
         self._gif.on_click(lambda _: self.export("gif"))
         self._mp4.on_click(lambda _: self.export("mp4"))
-        controls = W.HBox([self._play, self._slider, self._fps])
-        exports = W.HBox([self._gif, self._mp4, self.link])
+        wrap = W.Layout(flex_flow="row wrap", align_items="center")
+        controls = W.HBox([self._play, self._slider], layout=wrap)
+        exports = W.HBox([self._gif, self._mp4, self._fps, self.link], layout=wrap)
         super().__init__([STYLE, self.image, controls, self.info, exports])
+        self.layout.max_width = f"{max(self.display_width, 300)}px"
         self.add_class("fluidnb-player")
         self.clip = clip
         if clip is None:  # no change event for the default: set the empty state now

@@ -38,8 +38,9 @@ def test_one_control_per_field_with_paper_defaults_and_tooltips():
     assert "Eq. (6)" in panel.controls["sigma"].tooltip
     # The paper's symbols as HTML and Unicode, never LaTeX: Voila with no network has
     # no MathJax to typeset "$\sigma$" (issue 22, point 9).
-    assert panel.controls["sigma"].description == "sigma <b>σ</b>"
-    assert panel.controls["rth"].description == "rth <b>r<sub>th</sub></b>"
+    assert panel.controls["sigma"].description == "<b>σ</b>"
+    assert panel.controls["lam"].description == "<b>λ</b>"
+    assert panel.controls["rth"].description == "<b>r<sub>th</sub></b>"
     assert panel.controls["T"].description == "T"
     assert panel.controls["sigma"].description_allow_html
     assert panel.controls["sigma"].tooltip.startswith("sigma (σ) Eq. (6)")
