@@ -28,6 +28,12 @@ _GREEK = {
     "psi": "ψ", "omega": "ω", "Delta": "Δ", "Gamma": "Γ", "Lambda": "Λ", "Sigma": "Σ",
     "Phi": "Φ", "Omega": "Ω",
 }  # fmt: skip
+# Sub- and superscripts as styled spans: a widget's label keeps only a few tags (b, i,
+# span...; no sub or sup) but keeps style attributes.
+_SCRIPT_STYLE = {
+    "sub": "vertical-align:sub;font-size:75%",
+    "super": "vertical-align:super;font-size:75%",
+}
 _SCRIPT = re.compile(r"([_^])(\{([^{}]*)\}|\\[A-Za-z]+|.)")
 
 #: The folder exports go to, beside the notebook, unless ``$FLUIDNB_OUTPUT_DIR`` says.
@@ -132,25 +138,25 @@ def plural(n, noun, nouns=None):
 
 
 def math_html(tex):
-    r"""A short LaTeX formula as plain HTML: Greek letters in Unicode, ``<sub>``, ``<sup>``.
+    r"""A short LaTeX formula as plain HTML: Greek letters in Unicode, scripts as spans.
 
     For labels and widget text, which must read right without MathJax (Voila on a
     laptop with no network shows ``$\sigma$`` raw); Markdown cells keep their LaTeX.
 
-    >>> math_html(r"\sigma"), math_html("r_{th}"), math_html(r"\kappa_b")
-    ('σ', 'r<sub>th</sub>', 'κ<sub>b</sub>')
-    >>> math_html("D_i = F_i - A")
-    'D<sub>i</sub> = F<sub>i</sub> - A'
-    >>> math_html("f^{-2}"), math_html(r"\mathrm{d}t")
-    ('f<sup>-2</sup>', 'dt')
+    >>> math_html(r"\sigma"), math_html(r"\mathrm{d}t")
+    ('σ', 'dt')
+    >>> math_html("r_{th}")
+    "r<span style='vertical-align:sub;font-size:75%'>th</span>"
+    >>> math_html("D_i = F_i - A").count("vertical-align:sub"), math_html("f^{-2}")[-10:]
+    (2, '>-2</span>')
     """
     text = re.sub(r"\\(?:mathrm|text|mathit|operatorname)\{([^{}]*)\}", r"\1", tex)
     text = html.escape(text, quote=False)
 
     def script(match):
-        tag = "sub" if match.group(1) == "_" else "sup"
+        where = "sub" if match.group(1) == "_" else "super"
         body = match.group(3) if match.group(3) is not None else match.group(2)
-        return f"<{tag}>{body}</{tag}>"
+        return f"<span style='{_SCRIPT_STYLE[where]}'>{body}</span>"
 
     text = _SCRIPT.sub(script, text)
     return re.sub(r"\\([A-Za-z]+)", lambda m: _GREEK.get(m.group(1), m.group(1)), text)
@@ -162,8 +168,8 @@ def math_text(tex):
     >>> math_text(r"\kappa_b"), math_text("r_{th}"), math_text(r"f^{-2}")
     ('κ_b', 'r_th', 'f^-2')
     """
-    text = re.sub(r"<sub>(.*?)</sub>", r"_\1", math_html(tex))
-    text = re.sub(r"<sup>(.*?)</sup>", r"^\1", text)
+    text = re.sub(r"<span style='vertical-align:sub[^']*'>(.*?)</span>", r"_\1", math_html(tex))
+    text = re.sub(r"<span style='vertical-align:super[^']*'>(.*?)</span>", r"^\1", text)
     return html.unescape(text)
 
 

@@ -228,7 +228,8 @@ class FireApp(App):
         # change together (a plain Dropdown would pick its first photo on the way).
         self._sample.set_options(_photo_options(name), name)
         h, w = self.photo.shape[:2]
-        self.say(f"photo {name}: {w} x {h} pixels")
+        shown = "your upload" if name == "upload" else f"the {name} sample"
+        self.say(f"photo: {shown}, {w} x {h} pixels")
         return True
 
     def _picked(self, name):

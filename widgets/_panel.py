@@ -22,7 +22,7 @@ class ParamPanel(W.VBox):
     Sliders start at the paper's defaults, span the field's range (log scale where
     the field asks for it: sigma, lambda, rho), and carry a tooltip with the paper's
     symbol and equation. Each label shows the field's name and the paper's symbol in
-    plain HTML (σ, r<sub>th</sub>): it reads the same in JupyterLab and in Voila with
+    plain HTML (σ, r_th as r with a subscript): it reads the same in JupyterLab and in Voila with
     no network for MathJax. :attr:`params` always holds a valid parameter object; an
     invalid combination is shown in the panel (and :attr:`valid` turns False) instead
     of raising.
@@ -215,8 +215,8 @@ def label_html(spec):
     """A control's label: the paper's symbol, after the field's name where that differs.
 
     A name that only spells the symbol out (``sigma``, ``rth``, ``kappa_b``, ``lam``)
-    shows the symbol alone (σ, r<sub>th</sub>, κ<sub>b</sub>, λ); the tooltip names
-    the field.
+    shows the symbol alone (σ, r_th, κ_b, λ, subscripts as subscripts); the tooltip
+    names the field.
     """
     if not spec.symbol or math_html(spec.symbol) == html.escape(spec.name):
         return html.escape(spec.name)

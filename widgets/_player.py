@@ -84,7 +84,7 @@ class FramePlayer(W.VBox):
             step=0.5,
             description="fps",
             style={"description_width": "30px"},
-            layout=W.Layout(width="110px"),
+            layout=W.Layout(width="120px"),
         )
         self._fps.add_class("fluidnb-fps")
         self._gif = W.Button(description="GIF", icon="download", layout=W.Layout(width="80px"))

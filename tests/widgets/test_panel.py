@@ -40,7 +40,9 @@ def test_one_control_per_field_with_paper_defaults_and_tooltips():
     # no MathJax to typeset "$\sigma$" (issue 22, point 9).
     assert panel.controls["sigma"].description == "<b>σ</b>"
     assert panel.controls["lam"].description == "<b>λ</b>"
-    assert panel.controls["rth"].description == "<b>r<sub>th</sub></b>"
+    assert panel.controls["rth"].description == (
+        "<b>r<span style='vertical-align:sub;font-size:75%'>th</span></b>"
+    )
     assert panel.controls["T"].description == "T"
     assert panel.controls["sigma"].description_allow_html
     assert panel.controls["sigma"].tooltip.startswith("sigma (σ) Eq. (6)")
