@@ -79,10 +79,8 @@ def test_long_work_in_a_cell_shows_a_bar_and_no_stderr_box(notebook, page, shot)
     notebook([PROGRESS])
     bar = page.locator(".fluidnb-progressbar")
     bar.wait_for()
-    poll(
-        "the bar to end",
-        lambda: "done in" in page.locator(".fluidnb-progressbar .fluidnb-progress-text").inner_text(),
-    )
+    text = page.locator(".fluidnb-progressbar .fluidnb-progress-text")
+    poll("the bar to end", lambda: "done in" in text.inner_text())
     assert "simulating a flame" in bar.inner_text()
     stderr = page.locator('.jp-RenderedText[data-mime-type="application/vnd.jupyter.stderr"]')
     assert stderr.count() == 0, stderr.all_inner_texts()
