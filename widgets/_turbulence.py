@@ -28,7 +28,7 @@ from fluidnb.turbulence import (
 )
 
 from ._app import App
-from ._common import hint
+from ._common import hint, row
 from ._panel import ParamPanel
 from ._player import FramePlayer
 
@@ -198,7 +198,7 @@ class TurbulenceApp(App):
             panel=panel,
             run=self._run_task,
             title="Example-based turbulence with adaptive search — Watanabe et al.",
-            inputs=[W.HBox([self._size, self._frames])],
+            inputs=[row(self._size, self._frames)],
             controls=[self._compare_button, note],
             aside=[
                 W.HTML("<b>Table 1 — time per frame and error of each search</b>"),
