@@ -291,8 +291,14 @@ class DrawingCanvas(W.VBox):
         else:
             self._layer_pick.layout.display = "none"
         painting = kind == "paint"
-        self._value_slider.layout.display = "" if painting and self.tool != "eraser" else "none"
-        self._radius_slider.layout.display = "" if painting and self.tool != "fill" else "none"
+        # Hidden, their room kept: the canvas under them must not move when the tool
+        # changes (a click meant for the picture would land elsewhere).
+        shown = {True: "visible", False: "hidden"}
+        self._value_slider.layout.visibility = shown[painting and self.tool != "eraser"]
+        self._radius_slider.layout.visibility = shown[painting and self.tool != "fill"]
+        if not any(lay.kind == "paint" for lay in self.layers.values()):
+            # No brush at all: the sliders never show and take no room.
+            self._value_slider.layout.display = self._radius_slider.layout.display = "none"
 
     def _layer_count(self, kind):
         return sum(lay.kind == kind for lay in self.layers.values())

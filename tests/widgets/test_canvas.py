@@ -230,3 +230,20 @@ def test_show_segments_overlay_and_image_replacement():
     with pytest.raises(ValueError, match="image must keep the canvas's size"):
         c.set_image(np.zeros((5, 5)))
     assert len(c.get_strokes()) == 1
+
+
+def test_changing_the_tool_never_moves_the_canvas():
+    # The brush's sliders hide for the points tool; were their row to vanish, the
+    # picture would jump up under the mouse between two clicks.
+    c = make()
+    sliders = (c._value_slider, c._radius_slider)
+    for tool in ("brush", "points", "stroke", "fill", "eraser", "brush"):
+        c.select(tool)
+        assert all(s.layout.display != "none" for s in sliders), tool
+    c.select("points")
+    assert all(s.layout.visibility == "hidden" for s in sliders)
+    c.select("brush")
+    assert all(s.layout.visibility == "visible" for s in sliders)
+    # A canvas with no brush layer never shows them.
+    only = DrawingCanvas(IMG, strokes=["flow"])
+    assert all(s.layout.display == "none" for s in (only._value_slider, only._radius_slider))
