@@ -21,7 +21,7 @@ import numpy as np
 
 from . import _media
 from ._image import _to_float01, to_uint8
-from ._validation import check_int, check_range
+from ._validation import check_fps, check_int, check_range
 
 __all__ = ["Clip", "load_clip"]
 
@@ -44,7 +44,8 @@ class Clip:
         [0, 1]. A channel axis of length 1 is squeezed to grey; an alpha channel is
         dropped. The array is copied, never modified or kept.
     fps : float
-        Frames per second, > 0.
+        Frames per second, in [0.01, 1000] (``fluidnb._validation.FPS_RANGE``: a GIF
+        cannot store a slower rate, and no player shows a faster one).
     metadata : dict, optional
         JSON-serialisable information about how the clip was made. By convention
         ``method`` (str), ``params`` (dict), ``seed`` (the int random seed actually
@@ -55,8 +56,8 @@ class Clip:
     Raises
     ------
     ValueError
-        For frames of the wrong shape, dtype or range (or containing NaN), a
-        non-positive or non-finite ``fps``, or metadata that is not JSON-serialisable.
+        For frames of the wrong shape, dtype or range (or containing NaN), an
+        ``fps`` outside [0.01, 1000], or metadata that is not JSON-serialisable.
 
     See Also
     --------
@@ -75,7 +76,7 @@ class Clip:
     __slots__ = ("_fps", "_frames", "_html", "_metadata")
 
     def __init__(self, frames, fps=DEFAULT_FPS, metadata=None):
-        self._fps = check_range("fps", fps, 0, lo_open=True)
+        self._fps = check_fps(fps)
         self._metadata = _as_metadata(metadata)
         self._frames = _as_frames(frames)
         self._html = None
@@ -278,10 +279,13 @@ class Clip:
           along with the video to keep them.
         - a path without extension, or an existing folder: a PNG sequence
           ``frame_00000.png``, ``frame_00001.png``, ... (8-bit) plus ``clip.json``
-          with the fps and metadata.
+          with the fps and metadata. The folder must be new, empty, or one a clip
+          was saved into before: a file fluidnb did not write there is never
+          replaced (such a folder is refused with a ValueError; choose another).
 
         Parent folders are created. Files are written under a temporary name and then
-        renamed, so a failed save never leaves a truncated file behind.
+        renamed, so a failed save never leaves a truncated file behind, and an
+        OSError names ``path``.
 
         Parameters
         ----------
@@ -301,9 +305,11 @@ class Clip:
         Raises
         ------
         ValueError
-            For an unknown extension or an invalid ``fps`` or ``quality``.
+            For an unknown extension, an ``fps`` outside [0.01, 1000], an invalid
+            ``quality``, or a folder holding files fluidnb did not write.
         OSError
-            If the file cannot be written.
+            If the file cannot be written (a file where a folder should be, no
+            permission, a full disk); the message names ``path``.
 
         Examples
         --------
@@ -315,7 +321,7 @@ class Clip:
         Clip(4 frames, 8x8 grey, 10 fps, method='demo')
         """
         path = _media.as_path(path)
-        fps = self._fps if fps is None else check_range("fps", fps, 0, lo_open=True)
+        fps = self._fps if fps is None else check_fps(fps)
         if quality is not None:
             quality = check_range("quality", quality, 1, 10)
         return _media.write(path, self._frames, fps, self._metadata, quality=quality)

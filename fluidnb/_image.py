@@ -129,6 +129,8 @@ def _to_array(image, name):
 def _read(path, name):
     from PIL import Image, UnidentifiedImageError
 
+    if path.is_dir():
+        raise ValueError(f"{name}: {str(path)!r} is a folder, not an image file")
     if not path.is_file():
         raise ValueError(f"{name}: no such file {str(path)!r}")
     try:

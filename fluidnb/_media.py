@@ -15,7 +15,9 @@ Formats, chosen by extension:
   (a *sidecar*), because imageio-ffmpeg can write container tags but not read them
   back. Without the sidecar a video still loads, with the stream's fps and no
   metadata.
-- a folder: ``frame_00000.png``, ``frame_00001.png``, ... plus ``clip.json``.
+- a folder: ``frame_00000.png``, ``frame_00001.png``, ... plus ``clip.json``. A folder
+  is written only if it is new, empty, or was written by fluidnb (its ``clip.json``
+  says which frames are ours): a file fluidnb did not write is never replaced.
 
 ``clip.json``, the MP4 sidecar and the GIF comment hold the same JSON object (see
 :func:`file_info`), tagged ``"format": "fluidnb.Clip"`` so that a foreign file's
@@ -26,6 +28,7 @@ from __future__ import annotations
 
 import base64
 import contextlib
+import errno
 import io
 import json
 import logging
@@ -42,9 +45,18 @@ from pathlib import Path
 import numpy as np
 
 from ._image import _read, to_uint8
-from ._validation import check_range
+from ._validation import check_fps
 
-__all__ = ["EXTENSIONS", "html_player", "read", "read_video", "write"]
+__all__ = [
+    "EXTENSIONS",
+    "check_folder",
+    "html_player",
+    "read",
+    "read_video",
+    "targets",
+    "write",
+    "write_atomically",
+]
 
 #: File extensions :func:`write` and :func:`read` know (a folder needs none).
 EXTENSIONS = (".gif", ".mp4", ".npz")
@@ -81,15 +93,65 @@ def sidecar(path):
     return path.with_name(path.name + ".json")
 
 
-def _write_atomically(path, write):
-    """Call ``write(tmp)`` for a temporary name next to ``path``, then rename it."""
+def write_atomically(path, write):
+    """Call ``write(tmp)`` for a temporary name next to ``path``, then rename it.
+
+    ``path`` is a :class:`~pathlib.Path`; ``tmp`` keeps its suffix (encoders choose
+    the container from it).
+
+    A failure never leaves the temporary file behind, and its OSError names ``path``
+    (what the caller asked for), not the temporary name.
+    """
     # Keep the suffix: encoders choose the container from it.
     tmp = path.with_name(f".{path.stem}.partial-{os.getpid()}{path.suffix}")
     try:
         write(tmp)
         os.replace(tmp, path)
+    except OSError as exc:
+        raise _write_error(exc, path, tmp) from None
     finally:
-        tmp.unlink(missing_ok=True)
+        with contextlib.suppress(OSError):
+            tmp.unlink(missing_ok=True)
+
+
+def _write_error(exc, path, tmp=None):
+    """An OSError of the same kind as ``exc`` whose message names ``path``."""
+    if exc.errno is not None and exc.strerror:
+        # OSError(errno, text) builds the matching subclass (FileNotFoundError, ...).
+        return OSError(exc.errno, f"cannot write {str(path)!r}: {exc.strerror}")
+    text = str(exc)
+    if tmp is not None:
+        text = text.replace(str(tmp), str(path))
+    return OSError(text if str(path) in text else f"cannot write {str(path)!r}: {text}")
+
+
+def _make_parent(path):
+    """Create the folders above ``path``; a file in the way is a clear NotADirectoryError."""
+    for folder in reversed(path.parents):
+        if folder.exists() and not folder.is_dir():
+            raise NotADirectoryError(
+                errno.ENOTDIR,
+                f"cannot write {str(path)!r}: {str(folder)!r} is a file, not a folder",
+            )
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise _write_error(exc, path) from None
+
+
+def targets(path):
+    """What :func:`write` would create or replace for ``path``: a list of (Path, is_folder).
+
+    A PNG sequence is its whole folder; an MP4 is the video and its JSON sidecar;
+    other formats are the file itself. The command line uses this to check, before
+    any work, that no output lands on an input.
+    """
+    path = as_path(path)
+    if path.is_dir() or path.suffix == "":
+        return [(path, True)]
+    if path.suffix.lower() == ".mp4":
+        return [(path, False), (sidecar(path), False)]
+    return [(path, False)]
 
 
 def file_info(frames, fps, metadata):
@@ -138,28 +200,28 @@ def write(path, frames, fps, metadata, *, quality=None):
         return path
     if suffix not in EXTENSIONS:
         raise ValueError(f"path must end in {_ALLOWED}; got {str(path)!r}")
-    path.parent.mkdir(parents=True, exist_ok=True)
+    _make_parent(path)
     info = file_info(frames, fps, metadata)
     if suffix == ".npz":
-        _write_atomically(path, lambda tmp: _write_npz(tmp, frames, fps, metadata))
+        write_atomically(path, lambda tmp: _write_npz(tmp, frames, fps, metadata))
     elif suffix == ".gif":
 
         def gif(tmp):
             with open(tmp, "wb") as f:
                 _write_gif(f, to_uint8(frames), fps, comment=json.dumps(info))
 
-        _write_atomically(path, gif)
+        write_atomically(path, gif)
     else:
         q = DEFAULT_QUALITY if quality is None else quality
         padded = _pad_even(to_uint8(frames))
-        _write_atomically(path, lambda tmp: _encode_mp4(tmp, padded, fps, q))
+        write_atomically(path, lambda tmp: _encode_mp4(tmp, padded, fps, q, name=path))
         _write_json(sidecar(path), info)
     return path
 
 
 def _write_json(path, info):
     text = json.dumps(info, indent=2) + "\n"
-    _write_atomically(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    write_atomically(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
 
 
 def _write_npz(tmp, frames, fps, metadata):
@@ -174,21 +236,93 @@ def _write_npz(tmp, frames, fps, metadata):
 
 
 def _write_png_folder(folder, frames, fps, metadata):
+    """Write a PNG sequence and its clip.json, never replacing a file fluidnb did not write.
+
+    fluidnb knows what it wrote in a folder by the folder's clip.json: that file and
+    the frames ``frame_00000.png`` ... up to the count it records. A folder that does
+    not exist yet or is empty is filled; a folder with our clip.json may have those
+    frames replaced (and the surplus ones of a longer clip removed); any other folder
+    with files in it is refused, and so is a file our new frames would replace that
+    clip.json does not claim (docs/conventions.md, "Clips and results").
+    """
     from PIL import Image
 
-    had_clip = (folder / "clip.json").is_file()
-    folder.mkdir(parents=True, exist_ok=True)
-    images = to_uint8(frames)
-    for t, frame in enumerate(images):
-        Image.fromarray(frame).save(folder / f"frame_{t:05d}.png")
-    if had_clip:
-        # Overwriting a longer clip: drop its extra frames so the folder holds one
-        # clip. Only our own frame_NNNNN.png names in a folder we wrote are touched.
-        for p in folder.iterdir():
-            m = _PNG_NAME.match(p.name)
-            if m and int(m.group(1)) >= len(images):
-                p.unlink()
-    _write_json(folder / "clip.json", file_info(frames, fps, metadata))
+    names = [f"frame_{t:05d}.png" for t in range(len(frames))]
+    owned = check_folder(folder, names)
+    _make_parent(folder)
+    try:
+        folder.mkdir(exist_ok=True)
+    except OSError as exc:
+        raise _write_error(exc, folder) from None
+    info = file_info(frames, fps, metadata)
+    # Claim every frame before writing the first, so a save cut short leaves a
+    # clip.json that names all our files (and the folder can be saved into again).
+    _write_json(folder / "clip.json", {**info, "unfinished": True, "owned": max(len(names), owned)})
+    try:
+        for name, frame in zip(names, to_uint8(frames)):
+            Image.fromarray(frame).save(folder / name)
+        for t in range(len(names), owned):  # the surplus frames of a longer clip
+            (folder / f"frame_{t:05d}.png").unlink(missing_ok=True)
+    except OSError as exc:
+        raise _write_error(exc, folder) from None
+    _write_json(folder / "clip.json", info)
+
+
+def check_folder(folder, names=(), *, name="path"):
+    """Refuse (ValueError) a folder a PNG sequence must not be written into.
+
+    Returns how many frames fluidnb wrote there before (0 for a new or empty folder).
+
+    Parameters
+    ----------
+    folder : pathlib.Path
+    names : sequence of str
+        The frame files about to be written; each must be new or one of ours.
+    name : str
+        How messages name the folder (``"path"``, ``"--output"``).
+    """
+    if folder.exists() and not folder.is_dir():
+        raise ValueError(
+            f"{name} {str(folder)!r} is a file: a PNG sequence needs a folder (or end the "
+            "path in .gif, .mp4 or .npz)"
+        )
+    owned = _frames_written(folder)
+    present = sorted(p.name for p in folder.iterdir()) if folder.is_dir() else []
+    if owned is None and present:
+        shown = ", ".join(repr(n) for n in present[:3]) + (", ..." if len(present) > 3 else "")
+        raise ValueError(
+            f"{name} {str(folder)!r} is a folder of files fluidnb did not write ({shown}; "
+            "no clip.json of ours): frames saved there could replace them. Nothing was "
+            "written; choose a new or empty folder"
+        )
+    ours = {f"frame_{t:05d}.png" for t in range(owned or 0)}
+    foreign = sorted(set(names).intersection(present) - ours)
+    if foreign:
+        raise ValueError(
+            f"{name} {str(folder)!r}: {foreign[0]!r} there was not written by fluidnb (its "
+            f"clip.json lists {owned} frames) and would be replaced. Nothing was written; "
+            "move that file or choose a new or empty folder"
+        )
+    return owned or 0
+
+
+def _frames_written(folder):
+    """How many ``frame_NNNNN.png`` fluidnb wrote in ``folder`` by its clip.json.
+
+    0 for a folder that does not exist, None for one without a clip.json of ours.
+    """
+    if not folder.exists():
+        return 0
+    path = folder / "clip.json"
+    try:
+        info = _parse_json(path.read_text(encoding="utf-8", errors="replace"))
+    except OSError:
+        return None
+    if not isinstance(info, dict) or info.get("format") != _TAG:
+        return None
+    count = info.get("owned", info.get("n_frames"))
+    ok = isinstance(count, int) and not isinstance(count, bool) and count >= 0
+    return count if ok else None
 
 
 def _gif_delay_ms(fps):
@@ -274,13 +408,14 @@ def _last_lines(log, n=3):
     return " / ".join(lines[-n:]) or "no message"
 
 
-def _encode_mp4(path, frames, fps, quality, *, preset="medium"):
+def _encode_mp4(path, frames, fps, quality, *, preset="medium", name=None):
     """Encode even-sized uint8 frames to H.264/yuv420p MP4 by piping them to ffmpeg.
 
     Our own pipe to imageio-ffmpeg's binary rather than
     :func:`imageio_ffmpeg.write_frames`, which neither checks ffmpeg's exit status
     nor captures its messages: here a failed encode raises OSError with ffmpeg's
-    words, and nothing (pipes, warnings) leaks.
+    words (naming ``name``, the file the caller asked for, if given), and nothing
+    (pipes, warnings) leaks.
     """
     import imageio_ffmpeg
 
@@ -310,7 +445,7 @@ def _encode_mp4(path, frames, fps, quality, *, preset="medium"):
         if code != 0:
             log.seek(0)
             message = _last_lines(log.read().decode("utf-8", errors="replace"))
-            raise OSError(f"ffmpeg could not encode {str(path)!r}: {message}")
+            raise OSError(f"ffmpeg could not encode {str(name or path)!r}: {message}")
 
 
 # ---------------------------------------------------------------------- reading
@@ -371,7 +506,7 @@ def _from_file_info(info, path):
     if not isinstance(info, dict) or info.get("format") != _TAG:
         return None, {}
     try:
-        fps = check_range("fps", info.get("fps"), 0, lo_open=True)
+        fps = check_fps(info.get("fps"))
     except ValueError as exc:
         raise ValueError(f"{str(path)!r}: damaged clip information ({exc})") from None
     metadata = info.get("metadata")
@@ -411,6 +546,10 @@ def _read_png_folder(folder):
         if m:
             files[int(m.group(1))] = p
     info = _read_json(folder / "clip.json")
+    if info is not None and info.get("unfinished"):
+        raise ValueError(
+            f"{str(folder)!r} holds an unfinished clip: saving it was interrupted; save it again"
+        )
     fps, metadata = _from_file_info(info, folder / "clip.json")
     if info is not None and isinstance(info.get("n_frames"), int) and info["n_frames"] > 0:
         wanted = range(info["n_frames"])

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
+import zipfile
 
 import numpy as np
 
@@ -15,8 +17,10 @@ __all__ = [
     "check_array",
     "check_choice",
     "check_finite",
+    "check_fps",
     "check_int",
     "check_mask",
+    "check_npz_file",
     "check_range",
     "check_shape_match",
     "check_vector_field",
@@ -61,6 +65,32 @@ def check_range(name, value, lo=None, hi=None, *, lo_open=False, hi_open=False):
     above = hi is not None and (v >= hi if hi_open else v > hi)
     if below or above:
         raise ValueError(f"{name} must be {_interval(lo, hi, lo_open, hi_open)}, got {_fmt(v)}")
+    return v
+
+
+#: The frame rates a clip may have, frames per second. Below 0.01 a GIF cannot store
+#: the delay (it keeps hundredths of a second in 16 bits: at most 655 s a frame); above
+#: 1000 no player shows the frames and ffmpeg's rate arithmetic fails long before
+#: absurd values such as 1e30.
+FPS_RANGE = (0.01, 1000.0)
+
+
+def check_fps(value, name="fps"):
+    """Return a frame rate as a float if it lies in :data:`FPS_RANGE`, else raise ValueError.
+
+    Examples
+    --------
+    >>> check_fps(24)
+    24.0
+    >>> check_fps(1e30)
+    Traceback (most recent call last):
+    ...
+    ValueError: fps must be in [0.01, 1000] frames per second, got 1e+30
+    """
+    lo, hi = FPS_RANGE
+    v = check_range(name, value)  # a finite real number, or ValueError
+    if not lo <= v <= hi:
+        raise ValueError(f"{name} must be in [{lo:g}, {hi:g}] frames per second, got {_fmt(v)}")
     return v
 
 
@@ -228,3 +258,19 @@ def check_vector_field(name, field, shape=None):
     if shape is not None:
         check_shape_match(name, arr, tuple(shape)[:2], "the field")
     return arr.astype(np.result_type(arr.dtype, np.float32), copy=False)
+
+
+def check_npz_file(path, what):
+    """Raise ValueError unless ``path`` is an existing ``.npz`` archive.
+
+    numpy's own message for a file that is no archive speaks of pickled data, which
+    sends the user the wrong way; this says what is wrong, after ``what`` (e.g.
+    ``"--sim 'x.npz' is not a simulation"``).
+    """
+    if os.path.isdir(path):
+        raise ValueError(f"{what}: it is a folder")
+    if not os.path.isfile(path):
+        raise ValueError(f"{what}: no such file")
+    if not zipfile.is_zipfile(path):
+        raise ValueError(f"{what}: it is not an .npz archive")
+    return path

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from ._common import add_output_option, add_params_options, add_seed_option
+from ._common import add_fps_option, add_output_option, add_params_options, add_seed_option
+from ._paths import add_input
 
 _STARTERS = ("water", "smoke", "fire")
 
@@ -33,15 +34,18 @@ def register(sub):
             "col], ...], ...]}, each stroke drawn along the flow (the app saves it)."
         ),
     )
-    p.add_argument("photo", metavar="PHOTO", help="the still image (RGBA: its alpha is the matte)")
-    p.add_argument(
+    add_input(p, "photo", metavar="PHOTO", help="the still image (RGBA: its alpha is the matte)")
+    add_input(
+        p,
         "--matte",
         default=None,
         metavar="MATTE",
         help="the fluid region: a grey image, white = fluid (default: the alpha, else all)",
     )
-    p.add_argument(
+    add_input(
+        p,
         "--db",
+        is_path=_is_folder_name,
         default="water",
         metavar="DB",
         help="water, smoke or fire (starter databases) or a database folder (default water)",
@@ -49,13 +53,15 @@ def register(sub):
     p.add_argument(
         "--quick", action="store_true", help="use the small starter databases (seconds to build)"
     )
-    p.add_argument(
+    add_input(
+        p,
         "--strokes",
         default=None,
         metavar="STROKES.json",
         help="flow strokes: the direction the fluid moves (Okabe et al., Fig. 8-a)",
     )
-    p.add_argument(
+    add_input(
+        p,
         "--speed",
         default=None,
         metavar="SPEED",
@@ -68,13 +74,14 @@ def register(sub):
         metavar="PX",
         help="the speed of white in --speed, px/frame (default 4)",
     )
-    p.add_argument(
+    add_input(
+        p,
         "--background",
         default=None,
         metavar="IMAGE",
         help="what a moving outline uncovers (--tau > 0; default: the photo inpainted)",
     )
-    p.add_argument("--fps", type=float, default=24.0, help="frame rate of the output (24)")
+    add_fps_option(p, 24.0, "frame rate of the output (24)")
     group = add_params_options(p, AnimateParams)
     group.add_argument(
         "--lambda", dest="lam", type=float, default=None, metavar="LAM", help="the same as --lam"
@@ -82,6 +89,11 @@ def register(sub):
     add_seed_option(p)
     add_output_option(p)
     p.set_defaults(func=_animate)
+
+
+def _is_folder_name(db):
+    """``--db`` names a folder unless it is a starter database's name."""
+    return db not in _STARTERS
 
 
 def _animate(args):

@@ -4,7 +4,16 @@ from __future__ import annotations
 
 import argparse
 
-__all__ = ["add_output_option", "add_params_options", "add_seed_option", "params_from_args"]
+from ._paths import add_output
+
+__all__ = [
+    "add_fps_option",
+    "add_output_option",
+    "add_params_options",
+    "add_seed_option",
+    "fps_value",
+    "params_from_args",
+]
 
 _TYPES = {"int": int, "float": float}
 
@@ -50,12 +59,33 @@ def add_seed_option(parser):
     )
 
 
-def add_output_option(parser, *, required=True):
-    """Add ``-o/--output``: the format follows the extension."""
-    parser.add_argument(
+def add_output_option(parser, *, required=True, kind="clip", help=None):
+    """Add ``-o/--output``: for a clip the format follows the extension."""
+    add_output(
+        parser,
         "-o",
         "--output",
+        kind=kind,
         required=required,
         metavar="OUT",
-        help="output file: .gif, .mp4, .npz, or a folder for a PNG sequence",
+        help=help or "output file: .gif, .mp4, .npz, or a new folder for a PNG sequence",
     )
+
+
+def fps_value(text):
+    """``--fps``: a frame rate the library accepts (argparse refuses it otherwise)."""
+    from .._validation import check_fps
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"fps must be a number, got {text!r}") from None
+    try:
+        return check_fps(value)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_fps_option(parser, default, help):
+    """Add ``--fps``, checked as :class:`fluidnb.Clip` checks it."""
+    parser.add_argument("--fps", type=fps_value, default=default, help=help)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from ._common import add_output_option, add_params_options, add_seed_option, params_from_args
+from ._paths import add_input, add_output
 
 
 def register(sub):
@@ -22,18 +23,21 @@ def register(sub):
             "flame preset is simulated."
         ),
     )
-    p.add_argument(
+    add_input(
+        p,
         "photo",
         metavar="PHOTO",
         help="a photo of fire on a dark background, or a cut-out (RGBA: its alpha is the matte)",
     )
-    p.add_argument(
+    add_input(
+        p,
         "--matte",
         default=None,
         metavar="MATTE",
         help="the photo's alpha matte, same size (default: its alpha channel, if any)",
     )
-    p.add_argument(
+    add_input(
+        p,
         "--sim",
         default=None,
         metavar="SIM.npz",
@@ -46,8 +50,10 @@ def register(sub):
         metavar="N",
         help="number of frames (default: all of --sim, or the preset's length)",
     )
-    p.add_argument(
+    add_output(
+        p,
         "--temperature-output",
+        kind="clip",
         default=None,
         metavar="OUT",
         help="also write the colour-mapped temperature clip here",
@@ -69,6 +75,13 @@ def _fire(args):
     # Without --matte, an RGBA photo's own alpha channel is its matte (fire composites
     # the colour onto black with it, so a cut-out's clear pixels never show).
     matte = alpha if args.matte is None else as_image(args.matte, mode="grey", name="--matte")
+    if matte is not None and not matte.any():
+        where = (
+            f"--matte {args.matte!r}"
+            if args.matte
+            else f"the alpha channel of PHOTO {args.photo!r}"
+        )
+        raise ValueError(f"{where} has no flame region: it is 0 everywhere (white marks the flame)")
     frames = None if args.frames is None else check_int("--frames", args.frames, 1)
     simulation = None
     if args.sim is not None:
@@ -99,6 +112,9 @@ def _load_simulation(path):
     """(temperature, velocity at the pixels) from a saved simulation or a plain npz."""
     import numpy as np
 
+    from .._validation import check_npz_file
+
+    check_npz_file(path, f"--sim {path!r} is not a simulation (.npz)")
     try:
         with np.load(path, allow_pickle=False) as z:
             keys = set(z.files)

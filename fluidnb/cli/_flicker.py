@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from ._common import add_output_option, add_params_options, add_seed_option, params_from_args
+from ._paths import add_input
 
 
 def register(sub):
@@ -21,16 +22,19 @@ def register(sub):
             "beta = 2)."
         ),
     )
-    p.add_argument("image", help="the photo (any format Pillow reads)")
-    p.add_argument(
+    add_input(p, "image", metavar="IMAGE", help="the photo (any format Pillow reads)")
+    add_input(
+        p,
         "--mask",
         default=None,
         metavar="MASK",
         help="region to animate: an image of the same size, white = animate "
         "(default: the whole image)",
     )
-    p.add_argument(
+    add_input(
+        p,
         "--flow",
+        is_path=_is_strokes_file,
         default=None,
         metavar="DY,DX|STROKES.json",
         help="for --mapping flow: the velocity in pixels per frame (e.g. 0,0.5 = to the "
@@ -60,11 +64,15 @@ def _flicker(args):
     return 0
 
 
+def _is_strokes_file(text):
+    return text.lower().endswith(".json")
+
+
 def _flow(text, shape):
     """``--flow``: "DY,DX" in pixels per frame, or a strokes file."""
     if text is None:
         return None
-    if text.lower().endswith(".json"):
+    if _is_strokes_file(text):
         from ..sketch import load_strokes
 
         strokes, _ = load_strokes(text, shape)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_params_options, add_seed_option
+from ._common import add_fps_option, add_output_option, add_params_options, add_seed_option
 
 
 def _shape(text):
@@ -54,15 +54,11 @@ def register(sub):
         help="what a .gif/.mp4/folder output shows (default: temperature for the flame, "
         "density for the smoke)",
     )
-    p.add_argument("--fps", type=float, default=24.0, help="frame rate of a video output")
+    add_fps_option(p, 24.0, "frame rate of a video output")
     add_params_options(p, FluidParams)
     add_seed_option(p)
-    p.add_argument(
-        "-o",
-        "--output",
-        required=True,
-        metavar="OUT",
-        help="OUT.npz (the simulation's arrays) or .gif, .mp4, a folder (a clip of --field)",
+    add_output_option(
+        p, help="OUT.npz (the simulation's arrays) or .gif, .mp4, a folder (a clip of --field)"
     )
     p.set_defaults(func=_simulate)
 

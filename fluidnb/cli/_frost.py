@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from ._common import add_output_option, add_params_options, add_seed_option, params_from_args
+from ._paths import add_input, add_output
 
 
 def _start_point(text):
@@ -39,8 +41,9 @@ def register(sub):
             "--target 130 -o frost.mp4"
         ),
     )
-    p.add_argument("image", help="the picture (any format Pillow reads)")
-    p.add_argument(
+    add_input(p, "image", metavar="IMAGE", help="the picture (any format Pillow reads)")
+    add_input(
+        p,
         "--region",
         default=None,
         metavar="MASK",
@@ -85,7 +88,8 @@ def register(sub):
     )
     p.add_argument("--every", type=int, default=1, help="draw every k-th step (default 1)")
     p.add_argument("--size", type=int, default=None, help="longest side of the output in pixels")
-    p.add_argument(
+    add_output(
+        p,
         "--freeze-times",
         default=None,
         metavar="NPZ",
@@ -100,6 +104,7 @@ def _frost(args):
     import numpy as np
 
     from .._image import as_image, as_mask
+    from .._media import write_atomically
     from .._progress import TextProgress
     from .._random import resolve_seed
     from ..frost import (
@@ -111,9 +116,13 @@ def _frost(args):
         optimise_beta,
         render,
     )
+    from ..frost._render import check_image_size
 
     params = params_from_args(FrostParams, args)
+    if args.freeze_times is not None and not args.freeze_times.endswith(".npz"):
+        raise ValueError(f"--freeze-times must end in .npz, got {args.freeze_times!r}")
     image = as_image(args.image, name="IMAGE", mode="rgb")
+    check_image_size(image.shape, f"IMAGE {args.image!r}")
     if args.region is None:
         region = np.ones(image.shape[:2], bool)
     else:
@@ -171,12 +180,17 @@ def _frost(args):
     out = clip.save(args.output)
     print(f"wrote {out} ({len(clip)} frames, {clip.fps:g} fps, seed {seed})")
     if args.freeze_times is not None:
-        np.savez_compressed(
-            args.freeze_times,
-            freeze_frame=grown.freeze_frame,
-            points_rc=lattice.points,
-            end_frame=-1 if grown.end_frame is None else grown.end_frame,
-            spacing=lattice.spacing,
-        )
+        arrays = {
+            "freeze_frame": grown.freeze_frame,
+            "points_rc": lattice.points,
+            "end_frame": -1 if grown.end_frame is None else grown.end_frame,
+            "spacing": lattice.spacing,
+        }
+
+        def write(tmp):
+            with open(tmp, "wb") as f:  # a file object: numpy would append ".npz" to a name
+                np.savez_compressed(f, **arrays)
+
+        write_atomically(Path(args.freeze_times), write)
         print(f"wrote {args.freeze_times} (freeze frame of {lattice.n_cells} cells)")
     return 0

@@ -6,7 +6,8 @@ import importlib.metadata
 import platform
 import sys
 
-from ._common import add_output_option
+from ._common import add_fps_option, add_output_option
+from ._paths import add_input
 
 _REPORTED = [
     "numpy",
@@ -31,12 +32,12 @@ def register(sub):
     p = sub.add_parser("sample", help="write one of the sample images to a file")
     p.add_argument("name", nargs="?", help="sample name (omit to list them)")
     p.add_argument("--size", type=int, default=None, help="longest side in pixels")
-    add_output_option(p, required=False)
+    add_output_option(p, required=False, kind="file", help="the image file to write (.png, .jpg)")
     p.set_defaults(func=_sample)
 
     p = sub.add_parser("convert", help="convert a clip between .npz, .gif, .mp4 and PNG folders")
-    p.add_argument("input", help="a clip written by fluidnb (.npz, .gif, .mp4 or PNG folder)")
-    p.add_argument("--fps", type=float, default=None, help="override frames per second")
+    add_input(p, "input", help="a clip written by fluidnb (.npz, .gif, .mp4 or PNG folder)")
+    add_fps_option(p, None, "override frames per second")
     add_output_option(p)
     p.set_defaults(func=_convert)
 

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ._common import add_params_options, params_from_args
+from ._common import add_fps_option, add_params_options, params_from_args
+from ._paths import add_input, add_output
 
 
 def register(sub):
@@ -33,11 +34,19 @@ def register(sub):
         ),
     )
     inputs = p.add_argument_group("inputs")
-    inputs.add_argument(
-        "--target", default=None, metavar="T.npz", help="the low-resolution flow to add detail to"
+    add_input(
+        inputs,
+        "--target",
+        default=None,
+        metavar="T.npz",
+        help="the low-resolution flow to add detail to",
     )
-    inputs.add_argument(
-        "--source", default=None, metavar="S.npz", help="the high-resolution flow with the detail"
+    add_input(
+        inputs,
+        "--source",
+        default=None,
+        metavar="S.npz",
+        help="the high-resolution flow with the detail",
     )
     inputs.add_argument(
         "--sample", action="store_true", help="use the sample pair instead of --target/--source"
@@ -55,15 +64,18 @@ def register(sub):
         help="frames to use (the sample's default: 200, 40 with --quick; --target/--source: all)",
     )
     outputs = p.add_argument_group("outputs")
-    outputs.add_argument(
+    add_output(
+        outputs,
         "-o",
         "--output",
         default=None,
         metavar="OUT.npz",
         help="write the synthesised flow (velocity, density, dx) here",
     )
-    outputs.add_argument(
+    add_output(
+        outputs,
         "--render",
+        kind="clip",
         default=None,
         metavar="OUT",
         help="write a dye carried by the synthesised flow: .gif, .mp4, .npz or a folder",
@@ -73,9 +85,12 @@ def register(sub):
         action="store_true",
         help="--render shows target (upsampled) | source | synthesised side by side",
     )
-    outputs.add_argument("--fps", type=float, default=24.0, help="frame rate of --render")
-    outputs.add_argument(
+    add_fps_option(outputs, 24.0, "frame rate of --render")
+    add_output(
+        outputs,
         "--save-sample",
+        kind="folder",
+        writes=("target.npz", "source.npz"),
         default=None,
         metavar="DIR",
         help="write the sample pair as DIR/target.npz and DIR/source.npz",

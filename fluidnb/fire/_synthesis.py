@@ -294,6 +294,16 @@ def _photo_and_matte(photo, matte):
     if matte is not None:
         alpha = as_image(matte, mode="grey", name="matte")
         check_shape_match("matte", alpha, photo.shape[:2], "the photo")
+        if not alpha.any():
+            raise ValueError(
+                "matte has no flame region: it is 0 (black) everywhere; white marks the "
+                "flame to copy"
+            )
+    elif alpha is not None and not alpha.any():
+        raise ValueError(
+            "photo's alpha channel (its matte) has no flame region: it is fully "
+            "transparent; give a cut-out whose flame is opaque, or matte="
+        )
     if alpha is not None:
         photo = photo * alpha[..., None]
     return photo, alpha

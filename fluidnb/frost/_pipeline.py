@@ -12,7 +12,7 @@ from .._random import resolve_seed
 from ._lattice import HexLattice
 from ._optimise import optimise_beta
 from ._reiter import _check_params, grow
-from ._render import render
+from ._render import check_image_size, render
 
 __all__ = ["frost"]
 
@@ -95,6 +95,7 @@ def frost(
     params = _check_params(params)
     started = time.perf_counter()
     img = as_image(image, mode="rgb")
+    check_image_size(img.shape)
     mask = as_mask(region, shape=img.shape[:2], name="region")
     seed = resolve_seed(seed)  # recorded, so the clip can be remade
     report = Progress(progress)

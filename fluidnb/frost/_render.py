@@ -41,7 +41,7 @@ from scipy import ndimage
 from .._clip import Clip
 from .._image import as_image
 from .._progress import Progress
-from .._validation import check_int, check_range
+from .._validation import check_fps, check_int, check_range
 from ._lattice import ROW, HexLattice
 from ._reiter import FrostResult
 
@@ -494,13 +494,29 @@ def _check_look(look):
     return look
 
 
+#: The smallest picture frost is drawn on: the ice is shaded by its slope, a
+#: difference between neighbouring pixels along each axis.
+MIN_SIDE = 2
+
+
+def check_image_size(shape, name="image"):
+    """Raise ValueError unless an image of ``shape`` (H, W, ...) is big enough to draw on."""
+    h, w = shape[:2]
+    if min(h, w) < MIN_SIDE:
+        raise ValueError(
+            f"{name} is {h} x {w} pixels; frost needs at least {MIN_SIDE} x {MIN_SIDE} "
+            "(the ice is shaded by its slope between neighbouring pixels)"
+        )
+
+
 def _out_shape(lattice, size):
     h0, w0 = lattice.image_shape
     if size is None:
         return (h0, w0)
     size = check_int("size", size, 8)
     scale = size / max(h0, w0)
-    return (max(1, round(h0 * scale)), max(1, round(w0 * scale)))
+    # A very long, thin picture keeps MIN_SIDE pixels across.
+    return (max(MIN_SIDE, round(h0 * scale)), max(MIN_SIDE, round(w0 * scale)))
 
 
 def _base(image, lattice, shape):
@@ -580,8 +596,9 @@ def render(
         raise ValueError(f"result must be a FrostResult from grow(), got {type(result).__name__}")
     if result.freeze_frame.shape != (lattice.n_cells,):
         raise ValueError("result was grown on another lattice (its cell count differs)")
+    check_image_size(lattice.image_shape, "the lattice's image")
     every = check_int("every", every, 1)
-    fps = result.params.fps if fps is None else check_range("fps", fps, 0, lo_open=True)
+    fps = result.params.fps if fps is None else check_fps(fps)
     look = FrostLook() if look is None else _check_look(look)
     report = Progress(progress)
     started = time.perf_counter()

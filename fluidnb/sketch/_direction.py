@@ -13,7 +13,7 @@ from scipy.interpolate import RBFInterpolator
 
 from .._validation import check_array, check_choice, check_int, check_range
 
-__all__ = ["direction_field", "resample_stroke", "stroke_tangents"]
+__all__ = ["check_strokes", "direction_field", "resample_stroke", "stroke_tangents"]
 
 _KERNELS = ("thin_plate_spline", "linear", "cubic", "quintic", "gaussian", "multiquadric")
 
@@ -23,6 +23,60 @@ def _as_stroke(stroke, name):
     if arr.shape[1] != 2:
         raise ValueError(f"{name} must have shape (n, 2) as (row, col), got {arr.shape}")
     return arr.astype(np.float64)
+
+
+def check_strokes(strokes, shape=None, name="strokes"):
+    """Return strokes as a list of (n, 2) float64 arrays, refusing what cannot be meant.
+
+    Refused, with a ValueError naming ``name``: no stroke at all, a stroke that is not
+    an (n, 2) array of finite numbers, and (given the image's ``shape``) a point *far*
+    outside the image, i.e. more than the image's own height (width) beyond its top or
+    bottom (left or right) border. Such a point is a mistake -- (x, y) for (row, col),
+    display coordinates, another image's strokes -- not a stroke drawn past the edge;
+    points just outside are kept, as a hand drawing to the border makes them.
+
+    Parameters
+    ----------
+    strokes : sequence of array_like, each shape (n_i, 2), or one (n, 2) array
+        Polylines in (row, col) pixels.
+    shape : tuple of int, optional
+        The image's (H, W) (extra trailing entries are ignored).
+    name : str
+        How messages name the strokes.
+
+    Examples
+    --------
+    >>> check_strokes([[[0, 0], [3, 4]]], (10, 10))[0].shape
+    (2, 2)
+    >>> check_strokes([[[0, 0], [3, 40]]], (10, 10))
+    Traceback (most recent call last):
+    ...
+    ValueError: strokes[0] has a point at (row, col) = (3, 40), far outside the 10 x 10 image: ...
+    """
+    if isinstance(strokes, np.ndarray) and strokes.ndim == 2:
+        strokes = [strokes]
+    try:
+        strokes = list(strokes)
+    except TypeError:
+        raise ValueError(
+            f"{name} must be a list of (n, 2) arrays, got {type(strokes).__name__}"
+        ) from None
+    if not strokes:
+        raise ValueError(f"{name} is empty: draw at least one stroke along the flow")
+    out = [_as_stroke(s, f"{name}[{i}]") for i, s in enumerate(strokes)]
+    if shape is not None:
+        h, w = int(shape[0]), int(shape[1])
+        for i, pts in enumerate(out):
+            rows, cols = pts[:, 0], pts[:, 1]
+            far = (rows < -h) | (rows > 2 * h - 1) | (cols < -w) | (cols > 2 * w - 1)
+            if far.any():
+                r, c = pts[np.argmax(far)]
+                raise ValueError(
+                    f"{name}[{i}] has a point at (row, col) = ({r:g}, {c:g}), far outside "
+                    f"the {h} x {w} image: points may lie at most the image's size beyond "
+                    "its border (strokes are (row, col) pixels of the image)"
+                )
+    return out
 
 
 def resample_stroke(stroke, spacing):
@@ -141,7 +195,8 @@ def direction_field(
     Raises
     ------
     ValueError
-        If no stroke is at least a pixel long, or a stroke is not an (n, 2) array.
+        If there is no stroke, no stroke is at least a pixel long, a stroke is not an
+        (n, 2) array, or a point lies far outside the image (:func:`check_strokes`).
 
     Examples
     --------
@@ -156,10 +211,8 @@ def direction_field(
     if spacing is None:
         spacing = max(2.0, max(h, w) / 40.0)
     spacing = check_range("spacing", spacing, 0, None, lo_open=True)
-    if isinstance(strokes, np.ndarray) and strokes.ndim == 2:
-        strokes = [strokes]
-    strokes = list(strokes)
-    total = sum(_length(_as_stroke(s, f"strokes[{i}]")) for i, s in enumerate(strokes))
+    strokes = check_strokes(strokes, (h, w))
+    total = sum(_length(s) for s in strokes)
     if total < 1.0:
         raise ValueError("strokes: draw at least one stroke longer than one pixel")
     spacing = max(spacing, total / max_samples)

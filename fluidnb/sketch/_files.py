@@ -22,7 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validation import check_array, check_int
+from .._validation import check_int
+from ._direction import check_strokes
 
 __all__ = ["load_strokes", "save_strokes"]
 
@@ -42,6 +43,12 @@ def save_strokes(path, strokes, shape):
     shape : tuple of int
         The image's (H, W).
 
+    Raises
+    ------
+    ValueError
+        For no stroke at all, a stroke that is not (n, 2), or a point far outside the
+        image (:func:`check_strokes`): nothing is written then.
+
     Examples
     --------
     >>> import tempfile, os
@@ -53,12 +60,7 @@ def save_strokes(path, strokes, shape):
     """
     h = check_int("shape[0]", shape[0], 1)
     w = check_int("shape[1]", shape[1], 1)
-    out = []
-    for i, s in enumerate(strokes):
-        arr = check_array(f"strokes[{i}]", s, ndim=2, dtype_kinds="iuf")
-        if arr.shape[1] != 2:
-            raise ValueError(f"strokes[{i}] must have shape (n, 2) as (row, col), got {arr.shape}")
-        out.append([[float(r), float(c)] for r, c in arr])
+    out = [[[float(r), float(c)] for r, c in s] for s in check_strokes(strokes, (h, w))]
     data = {"format": _FORMAT, "version": _VERSION, "shape": [h, w], "strokes": out}
     path = Path(os.fspath(path))
     path.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
@@ -84,9 +86,12 @@ def load_strokes(path, shape=None):
     Raises
     ------
     ValueError
-        For a missing or unreadable file, another format, or a size mismatch.
+        For a missing or unreadable file, another format, a size mismatch, no stroke
+        at all, or a point far outside the image (:func:`check_strokes`).
     """
     path = Path(os.fspath(path))
+    if path.is_dir():
+        raise ValueError(f"strokes: {str(path)!r} is a folder, not a strokes file (.json)")
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
@@ -110,4 +115,8 @@ def load_strokes(path, shape=None):
             f"strokes in {str(path)!r} were drawn on a {size[0]} x {size[1]} image; this "
             f"image is {shape[0]} x {shape[1]}"
         )
+    try:
+        strokes = check_strokes(strokes, size)
+    except ValueError as exc:
+        raise ValueError(f"strokes file {str(path)!r}: {exc}") from None
     return strokes, size

@@ -11,7 +11,7 @@ import numpy as np
 
 from .._cache import cache_dir
 from .._progress import Progress
-from .._validation import check_array, check_int, check_range
+from .._validation import check_array, check_int, check_npz_file, check_range
 
 __all__ = ["PAPER_SHAPES", "Flow", "cache_dir", "sample_flows"]
 
@@ -47,7 +47,13 @@ class Flow:
     dx: float
 
     def __post_init__(self):
-        v = check_array("velocity", self.velocity, ndim=4, dtype_kinds="iuf")
+        v = check_array("velocity", self.velocity, ndim=4, dtype_kinds="iuf", min_size=0)
+        if v.shape[0] == 0:
+            raise ValueError(
+                f"a flow needs at least one frame: velocity has 0 frames, shape {v.shape}"
+            )
+        if v.size == 0:
+            raise ValueError(f"velocity must not be empty, got shape {v.shape}")
         if v.shape[-1] != 2:
             raise ValueError(f"velocity must have shape (I, H, W, 2) as (dy, dx), got {v.shape}")
         d = check_array("density", self.density, ndim=3, dtype_kinds="biuf")
@@ -104,14 +110,27 @@ class Flow:
         return cls(simulation.centred_velocity(), simulation.density, dx)
 
     def save(self, path):
-        """Write an ``.npz`` (arrays plus JSON metadata, no pickle). Returns the path."""
+        """Write an ``.npz`` (arrays plus JSON metadata, no pickle). Returns the path.
+
+        Written under a temporary name and renamed, as :meth:`fluidnb.Clip.save` does:
+        a failed save leaves the file that was there before, and an OSError names
+        ``path``.
+        """
+        from pathlib import Path
+
+        from .._media import write_atomically
+
         path = os.fspath(path)
         if not path.endswith(".npz"):
             raise ValueError(f"path must end in .npz, got {path!r}")
         meta = json.dumps({"format": _FORMAT, "dx": self.dx})
-        np.savez_compressed(
-            path, velocity=self.velocity, density=self.density, metadata=np.array(meta)
-        )
+        arrays = {"velocity": self.velocity, "density": self.density, "metadata": np.array(meta)}
+
+        def write(tmp):
+            with open(tmp, "wb") as f:
+                np.savez_compressed(f, **arrays)
+
+        write_atomically(Path(path), write)
         return path
 
     @classmethod
@@ -122,14 +141,21 @@ class Flow:
         :meth:`from_simulation`).
         """
         path = os.fspath(path)
+        check_npz_file(path, f"path {path!r} is not a saved Flow or Simulation")
         try:
             with np.load(path, allow_pickle=False) as z:
                 meta = json.loads(str(z["metadata"]))
                 fmt = meta.get("format")
                 if fmt == _FORMAT:
-                    return cls(z["velocity"], z["density"], meta["dx"] if dx is None else dx)
+                    arrays = (np.array(z["velocity"]), np.array(z["density"]), meta["dx"])
         except (OSError, KeyError, ValueError, EOFError) as exc:
             raise ValueError(f"path {path!r} is not a saved Flow or Simulation: {exc}") from None
+        if fmt == _FORMAT:
+            velocity, density, stored_dx = arrays
+            try:
+                return cls(velocity, density, stored_dx if dx is None else dx)
+            except ValueError as exc:  # a Flow file, but what it holds is not usable
+                raise ValueError(f"path {path!r}: {exc}") from None
         if fmt == "fluidnb.fluid.Simulation/1":
             from ..fluid import Simulation
 

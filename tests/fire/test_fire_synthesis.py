@@ -183,7 +183,8 @@ def test_alpha_is_the_normalised_luminance_of_the_matted_photo():
     [
         ({"photo": np.zeros((8, 8), np.float32)}, "photo must be an RGB or RGBA image"),
         ({"photo": np.ones((1, 1, 3), np.float32), "matte": None}, "photo must be at least 8 x 8"),
-        ({"matte": "empty"}, "photo has no flame to copy"),
+        ({"matte": "empty"}, "matte has no flame region"),  # the matte, not the photo
+        ({"photo": np.zeros((16, 16, 3), np.float32), "matte": None}, "photo has no flame"),
         ({"matte": np.zeros((5, 5), np.float32)}, "matte must have the same height"),
         ({"target": np.full((6, 6), np.nan, np.float32)}, "target contains"),
         ({"target": np.full((6, 6), 2.0, np.float32)}, r"target must be in \[0, 1\]"),
