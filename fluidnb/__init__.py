@@ -11,7 +11,7 @@ import importlib
 from ._clip import Clip, load_clip
 from ._image import as_image, as_mask, to_uint8
 from ._params import Params, ParamSpec, param
-from ._progress import Cancelled, CancelToken, Progress, TextProgress
+from ._progress import Cancelled, CancelToken, Progress, TextProgress, progress_bar
 from ._random import resolve_seed, rng
 from ._version import __version__
 
@@ -34,6 +34,7 @@ __all__ = [
     "frost",
     "load_clip",
     "param",
+    "progress_bar",
     "resolve_seed",
     "rng",
     "sketch",

@@ -8,6 +8,11 @@ Cancellation goes through the same callable: to stop a run, make the callable ra
 :class:`Cancelled` (for example by using a :class:`CancelToken`). Library functions
 call ``progress`` between units of work, so the run stops within one unit and leaves
 the caller's inputs untouched.
+
+:func:`progress_bar` gives the callable that suits where the code runs: a text bar
+on stderr in a script or a terminal, a widget bar in a notebook -- the widget layer
+(``fluidnb.widgets``) registers that one with :func:`set_progress_bar` when it is
+imported in a kernel, so the library itself never imports Jupyter.
 """
 
 from __future__ import annotations
@@ -16,7 +21,14 @@ import sys
 import threading
 import time
 
-__all__ = ["CancelToken", "Cancelled", "Progress", "TextProgress"]
+__all__ = [
+    "CancelToken",
+    "Cancelled",
+    "Progress",
+    "TextProgress",
+    "progress_bar",
+    "set_progress_bar",
+]
 
 
 class Cancelled(Exception):
@@ -124,14 +136,27 @@ class Progress:
 class TextProgress:
     """A plain-text progress line for scripts and the command line.
 
-    Writes ``message  42%`` to ``stream`` (stderr by default) at most every
-    ``interval`` seconds, and always the final 100 %.
+    Writes ``[####....]  42% message`` to ``stream`` (stderr by default) at most every
+    ``interval`` seconds, and always the final 100 %. In a notebook, use
+    :func:`progress_bar` instead: a notebook shows stderr as an error box.
+
+    Parameters
+    ----------
+    stream : file, optional
+        Where to write (default ``sys.stderr``).
+    interval : float
+        Least seconds between two lines.
+    width : int
+        Characters of the bar.
+    description : str
+        What is being done, written before the bar.
     """
 
-    def __init__(self, stream=None, interval=0.25, width=30):
+    def __init__(self, stream=None, interval=0.25, width=30, description=""):
         self.stream = sys.stderr if stream is None else stream
         self.interval = interval
         self.width = width
+        self.description = description
         self._last = -1.0
 
     def __call__(self, fraction, message=""):
@@ -142,5 +167,49 @@ class TextProgress:
         filled = int(round(self.width * fraction))
         bar = "#" * filled + "." * (self.width - filled)
         end = "\n" if fraction >= 1.0 else "\r"
-        self.stream.write(f"[{bar}] {fraction:4.0%} {message[:40]:<40}{end}")
+        lead = f"{self.description}: " if self.description else ""
+        self.stream.write(f"{lead}[{bar}] {fraction:4.0%} {message[:40]:<40}{end}")
         self.stream.flush()
+
+
+_BAR_FACTORY = None
+
+
+def set_progress_bar(factory):
+    """Make :func:`progress_bar` return ``factory(description, cancel=...)`` (None: text).
+
+    ``fluidnb.widgets`` registers its widget bar here when it is imported in a
+    notebook kernel. Returns the factory that was registered before.
+    """
+    global _BAR_FACTORY
+    if factory is not None and not callable(factory):
+        raise ValueError(f"factory must be None or callable, got {type(factory).__name__}")
+    old, _BAR_FACTORY = _BAR_FACTORY, factory
+    return old
+
+
+def progress_bar(description="", *, cancel=False):
+    """A progress callable that suits where the code runs, to pass as ``progress=``.
+
+    In a notebook where ``fluidnb.widgets`` has been imported: a progress bar widget
+    shown in the cell's output (with a Cancel button if ``cancel``). Elsewhere --
+    scripts, the command line -- a :class:`TextProgress` bar on stderr.
+
+    Parameters
+    ----------
+    description : str
+        What is being done ("building the water database").
+    cancel : bool
+        Offer a Cancel button (widget bar only): the next progress report after a
+        click raises :class:`Cancelled`.
+
+    Examples
+    --------
+    >>> import io
+    >>> bar = progress_bar("summing")  # outside a notebook: a text bar on stderr
+    >>> isinstance(bar, TextProgress), bar.description
+    (True, 'summing')
+    """
+    if _BAR_FACTORY is not None:
+        return _BAR_FACTORY(description, cancel=cancel)
+    return TextProgress(description=description)

@@ -70,3 +70,14 @@ def test_text_progress_writes_final_line():
     assert "50%" in text
     assert text.endswith("\n")
     assert "100%" in text
+
+
+def test_progress_bar_outside_a_notebook_is_a_text_bar_on_stderr(capsys):
+    from fluidnb import progress_bar
+
+    bar = progress_bar("building")
+    assert isinstance(bar, TextProgress)
+    bar(1.0, "done")
+    err = capsys.readouterr().err
+    assert err.startswith("building: [")
+    assert "100%" in err

@@ -5,17 +5,19 @@ points over an image), :class:`FramePlayer` (play and export a clip),
 :class:`ParamPanel` (sliders from a parameter dataclass) and :class:`App` (all of them
 with a run button, progress, cancel and a live preview), and one app per method
 (:class:`FlickerApp`, :class:`FrostApp`, :class:`FireApp`, :class:`TurbulenceApp`,
-:class:`VideoDBApp`).
+:class:`VideoDBApp`). Imported in a notebook kernel, it makes
+:func:`fluidnb.progress_bar` return a :class:`ProgressBar` widget.
 No algorithm lives here: everything calls :mod:`fluidnb`.
 """
 
-from ._app import App
+from ._app import App, _in_kernel
 from ._canvas import DrawingCanvas
 from ._fire import FireApp
 from ._flicker import FlickerApp
 from ._frost import FrostApp
 from ._panel import ParamPanel
 from ._player import FramePlayer
+from ._progress import ProgressBar, install
 from ._turbulence import TurbulenceApp
 from ._videodb import VideoDBApp
 
@@ -27,6 +29,11 @@ __all__ = [
     "FramePlayer",
     "FrostApp",
     "ParamPanel",
+    "ProgressBar",
     "TurbulenceApp",
     "VideoDBApp",
 ]
+
+# In a notebook, fluidnb.progress_bar() gives a widget bar, not text on stderr.
+if _in_kernel():
+    install()

@@ -10,7 +10,7 @@ import traceback
 
 import ipywidgets as W
 from ipywidgets.widgets.trait_types import TypedTuple
-from traitlets import Instance, Unicode, observe
+from traitlets import Instance, Int, Unicode, observe
 
 from fluidnb import Cancelled, CancelToken, Clip
 
@@ -134,6 +134,15 @@ class LatestWins:
             time.sleep(max(0.0, self._interval() - (time.monotonic() - started)))
 
 
+def _players(widgets):
+    """Every FramePlayer among ``widgets`` and inside them."""
+    for widget in widgets:
+        if isinstance(widget, FramePlayer):
+            yield widget
+        else:
+            yield from _players(getattr(widget, "children", ()))
+
+
 class App(W.VBox):
     """A drawing canvas, a parameter panel, a run button with progress and a player.
 
@@ -144,20 +153,23 @@ class App(W.VBox):
     (or later, by setting the attribute of the same name: the layout follows)::
 
         title
-        ┌──────────────┬───────────────────────────┬─────────┐
-        │ canvas       │ inputs                    │ aside   │
-        │ canvas_tools │ panel                     │         │
-        │              │ Run, Cancel, progress bar │         │
-        │              │ status line               │         │
-        │              │ controls                  │         │
-        └──────────────┴───────────────────────────┴─────────┘
-        views: the player, then the app's other views, side by side
+        Run  Cancel  progress bar ............ status line
+        ┌──────────────┬──────────────────┬──────────────────────┐
+        │ canvas       │ views            │ inputs               │
+        │ canvas_tools │ (the player      │ panel (first group;  │
+        │              │  first, then the │  the others folded)  │
+        │              │  app's others)   │ controls             │
+        └──────────────┴──────────────────┴──────────────────────┘
+        aside: under the three columns (wide tables)
 
-    The three columns wrap under each other on a narrow page; empty slots take no
-    room; :attr:`drawing_width` and :attr:`controls_width` fix a column's width. The
-    status line is written with :meth:`say` (its text is :attr:`status`). An app
-    never rebuilds this layout itself, nor reaches into these boxes: it sets its
-    slots.
+    What a person draws on and what it makes sit side by side, with the run bar and
+    the status line above them: at 1400 x 900 the canvas, the player's picture, Run
+    and the status are all in view at once. The columns wrap under each other on a
+    narrow page; empty slots take no room; :attr:`drawing_width`,
+    :attr:`views_width` and :attr:`controls_width` fix a column's width. The
+    parameters' groups are the panel's (:class:`ParamPanel` ``groups=``). The status
+    line is written with :meth:`say` (its text is :attr:`status`). An app never
+    rebuilds this layout itself, nor reaches into these boxes: it sets its slots.
 
     Parameters
     ----------
@@ -178,12 +190,17 @@ class App(W.VBox):
     inputs, controls, canvas_tools, aside : sequence of widgets
         The slots of the same names (see :attr:`inputs` and the others).
     views : sequence of widgets, optional
-        The result views (slot :attr:`views`); default: the player alone.
+        The result views (slot :attr:`views`), one under the other beside the
+        canvas; default: the player alone.
     player : FramePlayer, optional
         The player the Run button's clip goes to (:attr:`player`), for a player of
         another size or export folder; default ``FramePlayer()``.
     min_interval : float
         Least seconds between two previews.
+    seed : int, optional
+        Give the app a random seed: the trait :attr:`seed`, shown in
+        :attr:`seed_box` (which the app places in a slot); a new seed asks for a
+        new preview.
     """
 
     #: The status line's text (errors appear here in plain words; see :meth:`say`).
@@ -194,17 +211,20 @@ class App(W.VBox):
     canvas_tools = TypedTuple(trait=Instance(W.Widget))
     #: Slot: widgets above the parameter panel: what a run works on (photo, size...).
     inputs = TypedTuple(trait=Instance(W.Widget))
-    #: Slot: widgets under the run bar and the status line (more actions, hints).
+    #: Slot: widgets under the parameter panel (more actions, hints).
     controls = TypedTuple(trait=Instance(W.Widget))
-    #: Slot: widgets in a column beside the controls (a table of results, say).
+    #: Slot: widgets under the three columns (a wide table of results, say).
     aside = TypedTuple(trait=Instance(W.Widget))
-    #: Slot: the result views, side by side under the rest (the player first).
+    #: Slot: the result views, one under the other beside the canvas (the player first).
     views = TypedTuple(trait=Instance(W.Widget))
-    #: CSS widths of the canvas column and of the controls column ("": as wide as
-    #: their widgets). A fixed width makes long rows and messages wrap instead of
-    #: widening the column (which would push the controls under the canvas).
+    #: CSS widths of the canvas, views and controls columns ("": as wide as their
+    #: widgets). A fixed width makes long rows and messages wrap instead of widening
+    #: the column (which would push the next column under the others).
     drawing_width = Unicode("")
-    controls_width = Unicode("")  #: see :attr:`drawing_width`
+    views_width = Unicode("")  #: see :attr:`drawing_width`
+    controls_width = Unicode("330px")  #: see :attr:`drawing_width`
+    #: The random seed of the preview and the run (apps made with ``seed=``).
+    seed = Int(0)
 
     def __init__(
         self,
@@ -221,6 +241,7 @@ class App(W.VBox):
         views=None,
         player=None,
         min_interval=0.15,
+        seed=None,
     ):
         self.panel = panel
         self._run_fn = run
@@ -236,6 +257,7 @@ class App(W.VBox):
         )
         self._closed = False
         self._tasks_started = 0  # a preview begun before a task started is stale
+        self._watched = set()  # ids of the players whose exports the status line reports
 
         self._run_button = W.Button(description="Run", icon="play", button_style="primary")
         self._cancel_button = W.Button(description="Cancel", icon="stop", disabled=True)
@@ -263,22 +285,50 @@ class App(W.VBox):
 
         # The boxes the slots are shown in (see _layout).
         self._runbar = W.HBox(
-            [self._run_button, self._cancel_button, self.progress, self._progress_text]
+            [self._run_button, self._cancel_button, self.progress, self._progress_text],
+            layout=W.Layout(align_items="center", flex="0 0 auto"),
         )
-        self._drawing_column = W.VBox()
-        self._controls_column = W.VBox()
-        self._aside_column = W.VBox()
-        self._top = W.HBox(layout=W.Layout(flex_flow="row wrap"))
-        self._views_row = W.HBox(
-            layout=W.Layout(flex_flow="row wrap", align_items="flex-start", margin="0.4em 0 0 0")
+        self._status.layout.margin = "0 0 0 1em"
+        self._status.layout.flex = "1 1 320px"
+        header = W.HBox(
+            [self._runbar, self._status],
+            layout=W.Layout(flex_flow="row wrap", align_items="center", margin="0 0 0.3em 0"),
         )
-        self._top.add_class("fluidnb-app-top")
-        self._views_row.add_class("fluidnb-app-views")
+        header.add_class("fluidnb-app-runbar")
+        self._drawing_column = W.VBox(layout=W.Layout(margin="0 1em 0.5em 0"))
+        self._views_column = W.VBox(layout=W.Layout(margin="0 1em 0.5em 0"))
+        self._controls_column = W.VBox(layout=W.Layout(margin="0 0 0.5em 0"))
+        self._columns = W.HBox(layout=W.Layout(flex_flow="row wrap", align_items="flex-start"))
+        self._aside_row = W.VBox()
+        for box, cls in [
+            (self._columns, "fluidnb-app-columns"),
+            (self._drawing_column, "fluidnb-app-drawing"),
+            (self._views_column, "fluidnb-app-views"),
+            (self._controls_column, "fluidnb-app-controls"),
+            (self._aside_row, "fluidnb-app-aside"),
+        ]:
+            box.add_class(cls)
         heading = []
         if title:
-            heading.append(W.HTML(f"<h3 style='margin:0.2em 0'>{html.escape(title)}</h3>"))
-        super().__init__([*heading, self._top, self._views_row])
+            heading.append(W.HTML(f"<h3 style='margin:0.1em 0 0.3em 0'>{html.escape(title)}</h3>"))
+        super().__init__([*heading, header, self._columns, self._aside_row])
         self.add_class("fluidnb-app")
+        if seed is not None:
+            self.seed = int(seed)
+            #: The seed's input box (apps made with ``seed=``; None otherwise).
+            self.seed_box = W.BoundedIntText(
+                value=self.seed,
+                min=0,
+                max=2**31 - 1,
+                description="seed",
+                style={"description_width": "40px"},
+                layout=W.Layout(width="170px"),
+            )
+            self.seed_box.add_class("fluidnb-seed")
+            W.link((self.seed_box, "value"), (self, "seed"))
+            self.observe(lambda _: self.request_preview(), "seed")
+        else:
+            self.seed_box = None
         self._layout()
         if preview is not None:
             self.request_preview()
@@ -295,44 +345,45 @@ class App(W.VBox):
             self._layout()
             self.request_preview()
 
-    @observe(*SLOTS, "drawing_width", "controls_width")
+    @observe(*SLOTS, "drawing_width", "views_width", "controls_width")
     def _slots_changed(self, change):
         if self._layout_ready():
             self._layout()
 
     def _layout_ready(self):
         # Slots set before App.__init__ built the boxes are laid out by __init__.
-        return "_views_row" in self.__dict__
+        return "_aside_row" in self.__dict__
 
     def _layout(self):
         """Put every slot's widgets in their boxes (empty slots take no room)."""
         drawing = [self.canvas] if self.canvas is not None else []
         drawing += self.canvas_tools
-        self._drawing_column.children = drawing
-        self._drawing_column.layout.width = self.drawing_width or None
-        self._controls_column.children = (
-            *self.inputs,
-            self.panel,
-            self._runbar,
-            self._status,
-            *self.controls,
-        )
-        # Gaps between the columns (on the left of the one that follows a canvas, on
-        # the right of the one an aside follows: nothing indents a wrapped column).
-        left, right = ("1em" if drawing else "0"), ("2em" if self.aside else "0")
-        self._controls_column.layout.margin = f"0 {right} 0.5em {left}"
-        self._controls_column.layout.width = self.controls_width or None
-        self._aside_column.children = self.aside
-        self._top.children = [
-            box
-            for box, used in (
-                (self._drawing_column, drawing),
-                (self._controls_column, True),
-                (self._aside_column, self.aside),
-            )
-            if used
-        ]
-        self._views_row.children = self.views
+        columns = []
+        controls = (*self.inputs, self.panel, *self.controls)
+        # The canvas column as wide as the canvas: its tool rows wrap under it rather
+        # than widen the column (which would push the result under the canvas).
+        drawing_width = self.drawing_width
+        if not drawing_width and self.canvas is not None:
+            drawing_width = f"{max(self.canvas.canvas.width, 300)}px"
+        for box, widgets, width in (
+            (self._drawing_column, drawing, drawing_width),
+            (self._views_column, self.views, self.views_width),
+            (self._controls_column, controls, self.controls_width),
+        ):
+            box.children = tuple(widgets)
+            box.layout.width = width or None
+            if widgets:
+                columns.append(box)
+        self._columns.children = columns
+        self._aside_row.children = self.aside
+        for player in _players(self.views):
+            if id(player) not in self._watched:
+                self._watched.add(id(player))
+                player.observe(self._exported, "exported")
+
+    def _exported(self, change):
+        if change["new"]:
+            self.say(f"saved {change['new']}", "ok")
 
     @staticmethod
     def titled(heading, *widgets, margin="0 1.5em 0.6em 0"):
@@ -381,7 +432,9 @@ class App(W.VBox):
         # preview rather than cover the run's result with it.
         if not self.running and generation == self._tasks_started:
             self.player.clip = clip
-            self.say(f"preview ({time.monotonic() - started:.2f} s)")
+            note = clip.metadata.get("note")
+            note = f": {note}" if note else ""
+            self.say(f"preview ({time.monotonic() - started:.2f} s){note}")
 
     def wait_preview(self, timeout=30):
         """Block until every preview requested so far has been shown (for scripts/tests)."""

@@ -8,6 +8,8 @@ the notebook; every coordinate the user produces is mapped back to image pixels,
 
 from __future__ import annotations
 
+import html
+
 import ipywidgets as W
 import numpy as np
 from ipycanvas import MultiCanvas, hold_canvas
@@ -17,7 +19,8 @@ from fluidnb import as_image, to_uint8
 from fluidnb.fields import resize
 from fluidnb.sketch import arrow_heads, flood_fill, paint_segment, scalar_to_rgba
 
-from ._layers import PaintLayer, PointLayer, StrokeLayer
+from ._common import Choice, plural
+from ._layers import History, PaintLayer, PointLayer, StrokeLayer
 
 __all__ = ["DrawingCanvas"]
 
@@ -103,23 +106,27 @@ class DrawingCanvas(W.VBox):
         masks=(),
         maps=(),
         points=(),
-        display_size=512,
+        display_size=420,
         scale=None,
         value_slider=True,
-        button_width="100px",
+        button_width="auto",
     ):
         self.image = as_image(image)
         h, w = self.image.shape[:2]
         self.layers = {}
+        #: Every layer's undo steps in the order they happened (Undo takes back the
+        #: last action, whichever layer it was on).
+        self.history = History()
+        steps = {"history": self.history}
         for name in strokes:
-            self.layers[name] = StrokeLayer(name, (h, w))
+            self.layers[name] = StrokeLayer(name, (h, w), **steps)
         for name in masks:
-            self.layers[name] = PaintLayer(name, (h, w), mask=True)
+            self.layers[name] = PaintLayer(name, (h, w), mask=True, **steps)
         for i, name in enumerate(maps):
             color = [(0.2, 1.0, 0.4), (0.6, 0.4, 1.0), (1.0, 0.2, 0.6)][i % 3]
-            self.layers[name] = PaintLayer(name, (h, w), color=color, opacity=0.6)
+            self.layers[name] = PaintLayer(name, (h, w), color=color, opacity=0.6, **steps)
         for name in points:
-            self.layers[name] = PointLayer(name, (h, w))
+            self.layers[name] = PointLayer(name, (h, w), **steps)
         if not self.layers:
             raise ValueError(
                 "DrawingCanvas needs at least one layer (strokes, masks, maps, points)"
@@ -142,7 +149,6 @@ class DrawingCanvas(W.VBox):
         # they stay visible when a large canvas is shown scaled down in a narrow cell.
         self._pen = max(2.5, max(cw, ch) / 250)
         self._overlay_segments = None
-        self._syncing = False
         self._current = None  # the points of the drag in progress
 
         self._tool_buttons = W.ToggleButtons(
@@ -151,14 +157,15 @@ class DrawingCanvas(W.VBox):
             layout=W.Layout(width="auto"),
         )
         self._tool_buttons.icons = [_ICONS[t] for t in self._tool_buttons.options]
-        self._layer_pick = W.Dropdown(description="layer", layout=W.Layout(width="180px"))
+        self._layer_pick = Choice(description="layer", layout=W.Layout(width="180px"))
         self._value_slider = W.FloatSlider(
             value=1.0,
             min=0,
             max=1,
             step=0.05,
             description="value",
-            layout=W.Layout(width="220px"),
+            style={"description_width": "40px"},
+            layout=W.Layout(width="190px"),
         )
         self._radius_slider = W.FloatSlider(
             value=6.0,
@@ -166,11 +173,23 @@ class DrawingCanvas(W.VBox):
             max=max(2.0, max(h, w) / 4),
             step=0.5,
             description="radius",
-            layout=W.Layout(width="220px"),
+            style={"description_width": "46px"},
+            layout=W.Layout(width="190px"),
         )
-        self._undo = W.Button(description="Undo", icon="undo", layout=W.Layout(width="90px"))
-        self._clear = W.Button(description="Clear", icon="trash", layout=W.Layout(width="90px"))
+        self._undo = W.Button(
+            description="Undo",
+            icon="undo",
+            tooltip="take back the last change, on any layer",
+            layout=W.Layout(width="82px"),
+        )
+        self._clear = W.Button(
+            description="Clear",
+            icon="trash",
+            tooltip="clear the chosen layer (undoable)",
+            layout=W.Layout(width="82px"),
+        )
         self.status = W.HTML(layout=W.Layout(min_height="1.5em"))
+        self.caption = ""
         for wid, cls in [
             (self._tool_buttons, "fluidnb-tools"),
             (self._layer_pick, "fluidnb-layer"),
@@ -183,7 +202,7 @@ class DrawingCanvas(W.VBox):
         W.link((self._tool_buttons, "value"), (self, "tool"))
         W.link((self._value_slider, "value"), (self, "brush_value"))
         W.link((self._radius_slider, "value"), (self, "brush_radius"))
-        self._layer_pick.observe(self._layer_picked, "value")
+        self._layer_pick.on_pick(self._layer_picked)
         self._undo.on_click(lambda _: self.undo())
         self._clear.on_click(lambda _: self.clear())
 
@@ -249,9 +268,9 @@ class DrawingCanvas(W.VBox):
             raise ValueError(f"layer must be one of {', '.join(self.layers)}, got {name!r}")
         return name
 
-    def _layer_picked(self, change):
-        if not self._syncing and change["new"] is not None:
-            self.layer = change["new"]
+    def _layer_picked(self, name):
+        if name is not None:
+            self.layer = name
 
     @observe("layer")
     def _layer_changed(self, change):
@@ -263,12 +282,7 @@ class DrawingCanvas(W.VBox):
         names = [n for n, lay in self.layers.items() if lay.kind == kind]
         current = self.layer if self.layer in names else names[0]
         self.layer = current
-        self._syncing = True
-        try:
-            self._layer_pick.options = names
-            self._layer_pick.value = current
-        finally:
-            self._syncing = False
+        self._layer_pick.set_options(names, current)
         # The layer choice shows when the tool has several layers. Where some tool has
         # (a matte and a speed map, say), its room is kept for every tool: the canvas
         # must not jump under the mouse when the tool changes.
@@ -277,8 +291,14 @@ class DrawingCanvas(W.VBox):
         else:
             self._layer_pick.layout.display = "none"
         painting = kind == "paint"
-        self._value_slider.layout.display = "" if painting and self.tool != "eraser" else "none"
-        self._radius_slider.layout.display = "" if painting and self.tool != "fill" else "none"
+        # Hidden, their room kept: the canvas under them must not move when the tool
+        # changes (a click meant for the picture would land elsewhere).
+        shown = {True: "visible", False: "hidden"}
+        self._value_slider.layout.visibility = shown[painting and self.tool != "eraser"]
+        self._radius_slider.layout.visibility = shown[painting and self.tool != "fill"]
+        if not any(lay.kind == "paint" for lay in self.layers.values()):
+            # No brush at all: the sliders never show and take no room.
+            self._value_slider.layout.display = self._radius_slider.layout.display = "none"
 
     def _layer_count(self, kind):
         return sum(lay.kind == kind for lay in self.layers.values())
@@ -331,7 +351,11 @@ class DrawingCanvas(W.VBox):
         active = self.layers[self.layer]
         if self.tool == "stroke":
             added = active.add(np.array(points))
-            self._changed("added a stroke" if added else "")
+            self._changed(
+                f"added a stroke to {active.name}"
+                if added
+                else "a click is not a stroke: drag along the flow"
+            )
         else:
             self._changed(f"painted {active.name}")
 
@@ -375,11 +399,16 @@ class DrawingCanvas(W.VBox):
             for tip, end in arrow_heads(pts, size=4 * self._pen):
                 layer.stroke_line(*tip, *end)
 
-    def _changed(self, message=""):
+    def _changed(self, message):
+        """Redraw, say what happened (every change says, so no old message lingers)."""
         self.redraw()
-        if message:
-            self.status.value = f"<span style='opacity:0.7'>{message}</span>"
+        self._say(message)
         self.version += 1
+
+    def _say(self, message):
+        #: What the caption under the canvas says (plain text; see :attr:`status`).
+        self.caption = message
+        self.status.value = f"<span style='opacity:0.7'>{html.escape(message)}</span>"
 
     # ------------------------------------------------------------------ drawing
     def redraw(self):
@@ -485,12 +514,18 @@ class DrawingCanvas(W.VBox):
 
     # ------------------------------------------------------------------ undo / clear
     def undo(self, layer=None):
-        """Undo the last action on ``layer`` (default: the active one)."""
-        target = self.layers[layer or self.layer]
-        if target.undo():
-            self._changed(f"undid the last change to {target.name}")
-        else:
-            self.status.value = f"nothing to undo on {target.name}"
+        """Take back the last action: on any layer (default, the Undo button), or on ``layer``.
+
+        Returns the name of the layer whose action was undone, or None.
+        """
+        if layer is not None and layer not in self.layers:
+            raise ValueError(f"layer must be one of {', '.join(self.layers)}, got {layer!r}")
+        target = self.history.undo(None if layer is None else self.layers[layer])
+        if target is None:
+            self._say(f"nothing to undo{'' if layer is None else ' on ' + layer}")
+            return None
+        self._changed(f"undid the last change to {target.name}")
+        return target.name
 
     def clear(self, layer=None):
         """Clear ``layer`` (default: the active one); undoable."""
@@ -530,20 +565,24 @@ class DrawingCanvas(W.VBox):
 
     def set_strokes(self, strokes, layer=None):
         """Replace the strokes of a layer (undoable)."""
-        self._layer(layer, "strokes").set(strokes)
-        self._changed()
+        target = self._layer(layer, "strokes")
+        target.set(strokes)
+        self._changed(f"{target.name}: {plural(len(target.strokes), 'stroke')}")
 
     def set_mask(self, mask, layer=None):
         """Replace a painted mask or map (undoable)."""
-        self._layer(layer, "paint").set(mask)
-        self._changed()
+        target = self._layer(layer, "paint")
+        target.set(mask)
+        share = float(np.mean(target.array > 0))
+        self._changed(f"{target.name}: {share:.0%} of the image painted")
 
     set_map = set_mask
 
     def set_points(self, points, layer=None):
         """Replace the points of a layer (undoable)."""
-        self._layer(layer, "points").set(points)
-        self._changed()
+        target = self._layer(layer, "points")
+        target.set(points)
+        self._changed(f"{target.name}: {plural(len(target.points), 'point')}")
 
     # ------------------------------------------------------------------ headless driving
     def drag(self, points, tool=None, layer=None):

@@ -7,7 +7,6 @@ import io
 
 import ipywidgets as W
 import numpy as np
-from traitlets import Int
 
 from fluidnb import Clip, Params, as_image
 from fluidnb.fire import FireParams, colour_temperature, fire
@@ -15,10 +14,20 @@ from fluidnb.fluid import FluidParams, flame_preset, simulate
 
 from ._app import App
 from ._canvas import DrawingCanvas
+from ._common import Choice, hint, row
 from ._panel import ParamPanel
 from ._player import FramePlayer
 
 __all__ = ["FireApp", "FireAppParams"]
+
+#: The panel's groups: the flame and the synthesis's main settings open, the rest folded.
+GROUPS = (
+    ("flame and synthesis", ("kappa_b", "epsilon", "C_r", "interval", "weight")),
+    ("the flame's source", ("source_radius", "source_T")),
+    ("synthesis details", ("overlap", "coherence", "cutoff")),
+)
+#: The sample photos the photo menu offers ("upload" joins them after an upload).
+SAMPLES = ("fire", "flame")
 
 
 def _field_of(cls, name):
@@ -112,62 +121,60 @@ class FireApp(App):
     >>> app.close()
     """
 
-    #: Seed of the simulation and the synthesis.
-    seed = Int(0)
-
     def __init__(
         self, photo=None, *, matte=None, quick=False, n_frames=None, seed=0, display_size=320
     ):
         from fluidnb import data
 
         self.quick = bool(quick)
-        if photo is None:
-            photo, matte = data.sample("fire", size=128, return_alpha=True)
+        name = "fire" if photo is None else photo if _is_sample(photo) else "upload"
+        if name != "upload":
+            photo, matte = data.sample(name, size=128, return_alpha=True)
         self.photo, self.photo_matte = self._load(photo, matte)
+        self.photo_name = name  #: The photo shown: a sample's name or "upload".
         self.shape = (64, 64) if quick else (128, 128)
         self.fire_result = None  #: The last run's FireResult.
         self._display_size = int(display_size)
-        panel = ParamPanel(FireAppParams)
+        panel = ParamPanel(FireAppParams, groups=GROUPS)
 
         self._frames = W.BoundedIntText(
             value=n_frames or (16 if quick else 72),
             min=2,
             max=1000,
             description="frames",
-            layout=W.Layout(width="180px"),
+            style={"description_width": "50px"},
+            layout=W.Layout(width="150px"),
         )
-        self._seed = W.BoundedIntText(
-            value=seed, min=0, max=2**31 - 1, description="seed", layout=W.Layout(width="180px")
-        )
-        W.link((self._seed, "value"), (self, "seed"))
-        self._sample = W.Dropdown(
-            options=["fire", "flame"],
-            value="fire",
+        self._sample = Choice(
+            options=_photo_options(name),
+            value=name,
             description="photo",
             layout=W.Layout(width="200px"),
         )
-        self._sample.observe(lambda c: self.set_photo(c["new"]), "value")
+        self._sample.on_pick(self._picked)
         self._upload = W.FileUpload(accept="image/*", multiple=False, description="Upload")
         self._upload.observe(self._uploaded, "value")
         for wid, cls in [
             (self._frames, "fluidnb-frames"),
-            (self._seed, "fluidnb-seed"),
             (self._sample, "fluidnb-photo"),
             (self._upload, "fluidnb-upload"),
         ]:
             wid.add_class(cls)
-        self.compare = FramePlayer(display_width=3 * 160, label="compare")
-        hint = W.HTML(
-            "<span style='opacity:0.7'>Paint the flame's matte on the photo (white = "
-            "flame) or leave it empty to use the photo's own matte / luminance.</span>"
-        )
+        self.compare = FramePlayer(display_width=3 * 128, label="compare")
         super().__init__(
             panel=panel,
             run=self._run,
             canvas=self._make_canvas(),
+            seed=seed,
             title="Fire from a photograph — Furukawa, Dobashi & Yamamoto",
-            inputs=[W.HBox([self._sample, self._upload])],
-            controls=[W.HBox([self._frames, self._seed]), hint],
+            inputs=[row(self._sample, self._upload)],
+        )
+        self.controls = (
+            row(self._frames, self.seed_box),
+            hint(
+                "Paint the flame's matte on the photo (white = flame) or leave it empty "
+                "to use the photo's own matte / luminance."
+            ),
         )
         comparison = self.titled("temperature | latest keyframe | fire", self.compare)
         self.views = (self.player, comparison)
@@ -195,21 +202,39 @@ class FireApp(App):
         return image, alpha
 
     def set_photo(self, photo, matte=None):
-        """Use another photo: a sample name (``"fire"``, ``"flame"``) or an image."""
+        """Use another photo: a sample name (``"fire"``, ``"flame"``) or an image.
+
+        The photo menu follows: a sample's name, or "upload" for an image. Returns
+        False (and says why in the status line) if the photo is refused; the old one
+        stays.
+        """
         from fluidnb import data
 
-        if isinstance(photo, str) and photo in data.names():
+        name = photo if _is_sample(photo) else "upload"
+        if name != "upload":
             photo, matte = data.sample(photo, size=128, return_alpha=True)
         try:
             self.photo, self.photo_matte = self._load(photo, matte)
         except ValueError as exc:
             self.say(str(exc), "error")
-            return
+            return False
+        self.photo_name = name
         # A canvas keeps its image's size: a photo of another size gets a new canvas
         # (the canvas slot shows it in the old one's place).
         old = self.canvas
         self.canvas = self._make_canvas()
         old.close()
+        # "upload" is offered only while an uploaded photo is shown; options and value
+        # change together (a plain Dropdown would pick its first photo on the way).
+        self._sample.set_options(_photo_options(name), name)
+        h, w = self.photo.shape[:2]
+        shown = "your upload" if name == "upload" else f"the {name} sample"
+        self.say(f"photo: {shown}, {w} x {h} pixels")
+        return True
+
+    def _picked(self, name):
+        if name != self.photo_name and name in SAMPLES:
+            self.set_photo(name)
 
     def _uploaded(self, change):
         files = change["new"]
@@ -256,6 +281,15 @@ class FireApp(App):
         self.fire_result = result
         self.compare.clip = comparison_clip(result)
         return result.clip
+
+
+def _is_sample(photo):
+    return isinstance(photo, str) and photo in SAMPLES
+
+
+def _photo_options(name):
+    """The photo menu: the samples, and "upload" while an uploaded photo is shown."""
+    return [*SAMPLES, *(["upload"] if name == "upload" else [])]
 
 
 def comparison_clip(result):

@@ -6,7 +6,6 @@ import io
 import threading
 
 import ipywidgets as W
-from traitlets import Int
 
 from fluidnb import as_image
 from fluidnb.flicker import (
@@ -20,9 +19,19 @@ from fluidnb.flicker import (
 
 from ._app import App
 from ._canvas import DrawingCanvas
+from ._common import hint, row
 from ._panel import ParamPanel
 
 __all__ = ["FlickerApp"]
+
+#: The panel's groups: the spectrum open, the rarely touched ones folded.
+GROUPS = (
+    ("the spectrum (Eq. 7-10)", ("mapping", "T", "f0", "kappa", "beta")),
+    ("light and relief", ("azimuth", "elevation", "bump", "k")),
+    ("noise", ("noise_norm", "noise_regions")),
+    ("height (Eq. 1-3)", ("A", "C", "branch")),
+    ("region and playback", ("feather", "fps")),
+)
 
 
 class FlickerApp(App):
@@ -65,14 +74,11 @@ class FlickerApp(App):
     >>> app.close()
     """
 
-    #: The noise seed used by the preview and the run.
-    seed = Int(0)
-
     def __init__(
         self,
         image=None,
         *,
-        display_size=480,
+        display_size=420,
         quick=False,
         params=None,
         seed=0,
@@ -96,24 +102,12 @@ class FlickerApp(App):
         )
         canvas.select("brush", "region")
         canvas.brush_radius = max(2.0, max(self.image.shape[:2]) / 24)
-        panel = ParamPanel(params)
-
-        self._seed = W.BoundedIntText(
-            value=seed,
-            min=0,
-            max=2**31 - 1,
-            description="noise seed",
-            layout=W.Layout(width="200px"),
-        )
-        self._seed.add_class("fluidnb-seed")
+        panel = ParamPanel(params, groups=GROUPS)
         self._new_noise = W.Button(
             description="New noise", icon="random", layout=W.Layout(width="110px")
         )
         self._new_noise.add_class("fluidnb-new-noise")
-        self._new_noise.on_click(
-            lambda _: setattr(self._seed, "value", (self._seed.value + 1) % 2**31)
-        )
-        W.link((self._seed, "value"), (self, "seed"))
+        self._new_noise.on_click(lambda _: setattr(self, "seed", (self.seed + 1) % 2**31))
         self._analyse = W.Button(
             description="Analyse", icon="bar-chart", layout=W.Layout(width="110px")
         )
@@ -122,22 +116,24 @@ class FlickerApp(App):
         # Hidden until Analyse draws it (an empty image shows as a broken-image icon).
         self.analysis = W.Image(format="png", layout=W.Layout(max_width="100%", display="none"))
         self.analysis.add_class("fluidnb-analysis")
-        hint = W.HTML(
-            "<span style='opacity:0.7'>Paint the region to animate (nothing painted: the "
-            "whole photo). Mapping <i>flow</i>: draw a stroke along the stream (its "
-            "length = how far it travels in one loop). Points tool: pick the pixel "
-            "whose spectrum Analyse shows.</span>"
-        )
         super().__init__(
             panel=panel,
             run=self._run,
             preview=self._preview,
             canvas=canvas,
+            seed=seed,
             title="Flicker (yuragi) — Yamamoto & Sakamoto",
-            controls=[W.HBox([self._seed, self._new_noise, self._analyse]), hint],
+        )
+        self.controls = (
+            row(self.seed_box, self._new_noise, self._analyse),
+            hint(
+                "Paint the region to animate (nothing painted: the whole photo). Mapping "
+                "<i>flow</i>: draw a stroke along the stream (its length = how far it "
+                "travels in one loop). Points tool: pick the pixel whose spectrum Analyse "
+                "shows."
+            ),
         )
         self.views = (self.player, self.analysis)
-        self.observe(lambda _: self.request_preview(), "seed")
 
     # ------------------------------------------------------------------ inputs
     def region(self):

@@ -8,7 +8,6 @@ import threading
 
 import ipywidgets as W
 import numpy as np
-from traitlets import Int
 
 from fluidnb import Progress, as_image, as_mask
 from fluidnb.frost import (
@@ -23,9 +22,16 @@ from fluidnb.frost import (
 
 from ._app import App
 from ._canvas import DrawingCanvas
+from ._common import hint, plural, row
 from ._panel import ParamPanel
 
 __all__ = ["FrostApp"]
+
+#: The panel's groups: the automaton open, the lattice and the clip folded.
+GROUPS = (
+    ("the automaton (Reiter; Eq. 2)", ("beta", "gamma", "alpha", "rth", "target")),
+    ("lattice, clip and limits", ("spacing", "fps", "coverage", "max_frames")),
+)
 
 # The live preview runs on a lattice at most this many points across the region, a
 # few hundred frames at most, drawn this small: cheap enough to follow a slider.
@@ -33,9 +39,12 @@ _PREVIEW_CELLS = 36
 _PREVIEW_FRAMES = 600
 _PREVIEW_SIZE = 240
 _PREVIEW_CLIP_FRAMES = 24
-# A full run keeps at most this many frames (every k-th step beyond): a clip of
-# 480 x 360 RGB float32 frames costs 2 MB a frame.
-_RUN_CLIP_FRAMES = 120
+# A full run's clip plays every frame at the panel's fps (the clip lasts as long as
+# the frost grows). It is drawn smaller for long runs so it stays under this many
+# bytes (480 x 360 RGB float32 costs 2 MB a frame), down to _RUN_MIN_SIZE pixels;
+# beyond that, every k-th frame (and the fps / k that keeps the duration).
+_RUN_BYTES = 400 * 2**20
+_RUN_MIN_SIZE = 240
 
 
 class FrostApp(App):
@@ -82,9 +91,6 @@ class FrostApp(App):
     >>> app.close()
     """
 
-    #: Random seed of r_t(p) used by the preview, the optimiser and the run.
-    seed = Int(0)
-
     def __init__(
         self,
         image=None,
@@ -94,7 +100,7 @@ class FrostApp(App):
         params=None,
         seed=0,
         quick=False,
-        display_size=480,
+        display_size=420,
     ):
         if image is None:
             from fluidnb import data
@@ -111,13 +117,7 @@ class FrostApp(App):
             self.image, masks=["region"], points=["starts"], display_size=display_size
         )
         canvas.brush_radius = max(2.0, max(self.image.shape[:2]) / 16)
-        panel = ParamPanel(params)
-
-        self._seed = W.BoundedIntText(
-            value=seed, min=0, max=2**31 - 1, description="seed", layout=W.Layout(width="200px")
-        )
-        self._seed.add_class("fluidnb-seed")
-        W.link((self._seed, "value"), (self, "seed"))
+        panel = ParamPanel(params, groups=GROUPS)
         self._solver = W.Dropdown(
             options=[("secant (robust)", "secant"), ("steepest descent (paper)", "steepest")],
             value="secant",
@@ -157,33 +157,31 @@ class FrostApp(App):
         self._gamma_button.on_click(lambda _: self.fit_gamma())
         self.estimate = None  #: The last EndFrameEstimate (full lattice), or None.
         self.gamma_fit = None  #: The last GammaFit.
-        hint = W.HTML(
-            "<span style='opacity:0.7'>Brush: paint where frost may grow. Points tool "
-            "(layer <b>starts</b>): click start points. The preview runs on a coarse "
-            "lattice; Run uses the spacing you set.</span>"
-        )
         super().__init__(
             panel=panel,
             run=self._run,
             preview=self._preview,
             canvas=canvas,
+            seed=seed,
             title="Frost — Amano, Sato & Itoh (Reiter's automaton)",
-            controls=[
-                self._seed,
-                self.length,
-                self._gamma_button,
-                W.HBox([self._solver, self._optimise_button]),
-                self._eta,
-                self.table,
-                hint,
-            ],
+        )
+        self.controls = (
+            self.length,
+            row(self.seed_box, self._gamma_button),
+            row(self._solver, self._optimise_button),
+            self._eta,
+            self.table,
+            hint(
+                "Brush: paint where frost may grow. Points tool (layer <b>starts</b>): "
+                "click start points. The preview runs on a coarse lattice; Run uses the "
+                "spacing you set."
+            ),
         )
         canvas.select("brush", "region")
         if region is not None:
             self.set_region(region)
         if starts is not None:
             self.set_starts(starts)
-        self.observe(lambda _: self.request_preview(), "seed")
         self._show_table()
 
     # ------------------------------------------------------------------ inputs
@@ -234,17 +232,40 @@ class FrostApp(App):
         size = min(_PREVIEW_SIZE, max(self.image.shape[:2]))
         # Played at a fixed 8 fps: the coarse lattice shows the pattern, not the timing.
         clip = render(self.image, lattice, result, every=every, fps=8.0 * every, size=size)
-        return clip.with_metadata(preview=True, preview_spacing=spacing)
+        return clip.with_metadata(
+            preview=True,
+            preview_spacing=spacing,
+            note=f"a coarse lattice, {every * 8 / params.fps:.3g}× faster than the run",
+        )
 
     def _run(self, params, progress):
+        self._show_length(params)  # the estimate of this very run (no preview came after)
         lattice, cells = self._lattice(params.spacing)
         grow_report, draw_report = Progress(progress).split(0.6)
         result = grow(lattice, cells, params, seed=self.seed, progress=grow_report)
         self.frost_result = result
-        every = max(1, math.ceil((result.n_frames + 1) / _RUN_CLIP_FRAMES))
-        size = min(480, max(self.image.shape[:2]))
+        last = result.n_frames if result.end_frame is None else result.end_frame
+        size, every = _run_size(last + 1, lattice.image_shape, min(480, max(self.image.shape[:2])))
         clip = render(self.image, lattice, result, every=every, size=size, progress=draw_report)
         return clip.with_metadata(seed=self.seed, n_cells=lattice.n_cells)
+
+    def _show_clip(self, clip, seconds):
+        super()._show_clip(clip, seconds)
+        meta, params = clip.metadata, self.frost_result.params
+        end = meta["end_frame"]
+        last = meta["frames"][-1]
+        ended = (
+            f"frost ended at frame {end:,} (target {params.target:,})"
+            if end is not None
+            else f"the frost did not cover the region by the frame limit {last:,}"
+        )
+        played = f"{plural(len(clip), 'frame')} at {clip.fps:g} fps = {len(clip) / clip.fps:.1f} s"
+        if meta["every"] > 1:
+            played += (
+                f" (every {_ordinal(meta['every'])} of the {last + 1:,} frames at "
+                f"{params.fps:g} fps, to keep the clip in memory)"
+            )
+        return f"{ended}: {played}; done in {seconds:.1f} s"
 
     # ------------------------------------------------------------------ length
     def _show_length(self, params):
@@ -377,3 +398,24 @@ class FrostApp(App):
             + body.replace("<td>", f"<td style='{cell}'>")
             + "</table>"
         )
+
+
+def _run_size(n_frames, shape, size):
+    """(longest side, every) for a clip of ``n_frames`` of a ``shape`` lattice image."""
+    h, w = shape[:2]
+    per_pixel = 3 * 4 * (h * w) / max(h, w) ** 2  # bytes per (longest side)^2
+
+    def fits(side, every):
+        return math.ceil(n_frames / every) * per_pixel * side**2 <= _RUN_BYTES
+
+    side = size
+    while not fits(side, 1) and side > _RUN_MIN_SIZE:
+        side = max(_RUN_MIN_SIZE, int(side * 0.9))
+    every = 1
+    while not fits(side, every):
+        every += 1
+    return side, every
+
+
+def _ordinal(k):
+    return {1: "1st", 2: "2nd", 3: "3rd"}.get(k, f"{k}th")

@@ -11,34 +11,64 @@ import numpy as np
 
 from fluidnb._validation import check_array, check_range
 
-__all__ = ["PaintLayer", "PointLayer", "StrokeLayer"]
+__all__ = ["History", "PaintLayer", "PointLayer", "StrokeLayer"]
 
-_HISTORY = 30  # undo steps kept per layer (a 512 x 512 map costs 1 MB a step)
+_HISTORY = 40  # undo steps kept (a 512 x 512 map costs 1 MB a step)
+
+
+class History:
+    """The undo steps of several layers, in the order the actions happened.
+
+    Each layer records the state before each of its actions here; :meth:`undo`
+    takes back the last action *whichever layer it was on* -- what a person expects
+    of an Undo button -- and a layer's own :meth:`_Layer.undo` its own last one.
+    """
+
+    def __init__(self, limit=_HISTORY):
+        self.limit = int(limit)
+        self._steps = []  # (layer, state before the action)
+
+    def push(self, layer, state):
+        self._steps.append((layer, state))
+        del self._steps[: -self.limit]
+
+    def undo(self, layer=None):
+        """Restore the state before the last action (on ``layer`` only, if given).
+
+        Returns the layer whose action was undone, or None if there was none.
+        """
+        for i in range(len(self._steps) - 1, -1, -1):
+            owner, state = self._steps[i]
+            if layer is None or owner is layer:
+                del self._steps[i]
+                owner._restore(state)
+                return owner
+        return None
+
+    def can_undo(self, layer=None):
+        """Whether :meth:`undo` has something to undo (on ``layer``, if given)."""
+        return any(layer is None or owner is layer for owner, _ in self._steps)
 
 
 class _Layer:
     kind = ""
 
-    def __init__(self, name, color):
+    def __init__(self, name, color, history=None):
         self.name = name
         self.color = tuple(float(c) for c in color)
-        self._history = []
+        self.history = History() if history is None else history
 
     def _remember(self):
-        self._history.append(self._snapshot())
-        del self._history[:-_HISTORY]
+        self.history.push(self, self._snapshot())
 
     def undo(self):
-        """Restore the state before the last action; False if there is none."""
-        if not self._history:
-            return False
-        self._restore(self._history.pop())
-        return True
+        """Restore the state before this layer's last action; False if there is none."""
+        return self.history.undo(self) is not None
 
     @property
     def can_undo(self):
         """Whether :meth:`undo` has something to undo."""
-        return bool(self._history)
+        return self.history.can_undo(self)
 
 
 class StrokeLayer(_Layer):
@@ -46,8 +76,8 @@ class StrokeLayer(_Layer):
 
     kind = "strokes"
 
-    def __init__(self, name, shape, color=(0.2, 0.8, 1.0)):
-        super().__init__(name, color)
+    def __init__(self, name, shape, color=(0.2, 0.8, 1.0), history=None):
+        super().__init__(name, color, history)
         self.shape = tuple(shape)
         self.strokes = []
 
@@ -89,8 +119,10 @@ class PaintLayer(_Layer):
 
     kind = "paint"
 
-    def __init__(self, name, shape, *, mask=False, color=(1.0, 0.35, 0.1), opacity=0.45):
-        super().__init__(name, color)
+    def __init__(
+        self, name, shape, *, mask=False, color=(1.0, 0.35, 0.1), opacity=0.45, history=None
+    ):
+        super().__init__(name, color, history)
         self.mask = bool(mask)
         self.opacity = float(opacity)
         self.array = np.zeros(tuple(shape)[:2], bool if mask else np.float32)
@@ -143,8 +175,8 @@ class PointLayer(_Layer):
 
     kind = "points"
 
-    def __init__(self, name, shape, color=(1.0, 0.9, 0.2)):
-        super().__init__(name, color)
+    def __init__(self, name, shape, color=(1.0, 0.9, 0.2), history=None):
+        super().__init__(name, color, history)
         self.shape = tuple(shape)
         self.points = np.empty((0, 2))
 

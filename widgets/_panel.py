@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import html
 import math
+import re
 
 import ipywidgets as W
 from traitlets import Any, Bool, Unicode
 
 from fluidnb import Params
+
+from ._common import math_html, math_text
 
 __all__ = ["ParamPanel"]
 
@@ -18,9 +21,15 @@ class ParamPanel(W.VBox):
 
     Sliders start at the paper's defaults, span the field's range (log scale where
     the field asks for it: sigma, lambda, rho), and carry a tooltip with the paper's
-    symbol and equation. :attr:`params` always holds a valid parameter object; an
+    symbol and equation. Each label shows the field's name and the paper's symbol in
+    plain HTML (σ, r_th as r with a subscript): it reads the same in JupyterLab and in Voila with
+    no network for MathJax. :attr:`params` always holds a valid parameter object; an
     invalid combination is shown in the panel (and :attr:`valid` turns False) instead
     of raising.
+
+    The controls come in *groups*: the first is always shown, the others are folded
+    in an accordion under it (the rarely touched ones), so the panel stays short
+    beside the canvas and the result.
 
     Parameters
     ----------
@@ -30,6 +39,12 @@ class ParamPanel(W.VBox):
         Fields to leave out of the panel (they keep their values).
     continuous_update : bool
         Whether sliders report while dragging (apps throttle their previews).
+    groups : sequence of (str, sequence of str), optional
+        ``(title, field names)`` pairs in the order shown; the first group is open,
+        the rest folded. Fields no group names join a last group, "more". Default:
+        every field in one group.
+    width : str
+        CSS width of each control.
 
     Examples
     --------
@@ -51,7 +66,7 @@ class ParamPanel(W.VBox):
     #: What is wrong with the controls, in plain words ("" when valid).
     message = Unicode("")
 
-    def __init__(self, params, *, exclude=(), continuous_update=True):
+    def __init__(self, params, *, exclude=(), continuous_update=True, groups=None, width="330px"):
         if isinstance(params, type) and issubclass(params, Params):
             params = params()
         if not isinstance(params, Params):
@@ -59,9 +74,11 @@ class ParamPanel(W.VBox):
         self._cls = type(params)
         self._specs = {n: s for n, s in self._cls.specs().items() if n not in set(exclude)}
         self.controls = {
-            name: _control(spec, getattr(params, name), continuous_update)
+            name: _control(spec, getattr(params, name), continuous_update, width)
             for name, spec in self._specs.items()
         }
+        #: The groups as shown: ``{title: [field names]}``, the first one open.
+        self.groups = _groups(groups, list(self.controls))
         self._quiet = False
         for name, control in self.controls.items():
             control.add_class(f"fluidnb-param-{name}")
@@ -73,11 +90,31 @@ class ParamPanel(W.VBox):
         )
         self._reset.add_class("fluidnb-reset")
         self._reset.on_click(lambda _: self.reset())
+        self._reset.layout.width = "auto"
         self._msg = W.HTML()
         self._msg.add_class("fluidnb-param-message")
-        super().__init__([*self.controls.values(), self._reset, self._msg])
+        boxes = [W.VBox([self.controls[n] for n in names]) for names in self.groups.values()]
+        folded = []
+        if len(boxes) > 1:
+            #: The folded groups (None when every control is in the first).
+            self.accordion = W.Accordion(children=boxes[1:], titles=tuple(self.groups)[1:])
+            self.accordion.selected_index = None
+            self.accordion.layout.width = f"calc({width} + 24px)"
+            self.accordion.add_class("fluidnb-param-groups")
+            folded = [self.accordion]
+        else:
+            self.accordion = None
+        super().__init__([*boxes[:1], *folded, self._reset, self._msg])
         self.add_class("fluidnb-panel")
         self.params = params
+
+    def show_group(self, title):
+        """Unfold the group ``title`` (as a click on its heading does)."""
+        titles = list(self.groups)
+        if title not in titles:
+            raise ValueError(f"no group {title!r}; the panel has {', '.join(titles)}")
+        if titles.index(title) > 0:
+            self.accordion.selected_index = titles.index(title) - 1
 
     def _gather(self):
         values = self.params.to_dict() if self.params is not None else {}
@@ -155,16 +192,58 @@ def _bounds(spec, default):
     return lo, hi
 
 
-def _control(spec, value, continuous_update):
+def _groups(groups, names):
+    """``{title: [names]}`` from ``groups``; every name once, the leftovers in "more"."""
+    if groups is None:
+        return {"parameters": names}
+    out, seen = {}, set()
+    for title, fields in groups.items() if isinstance(groups, dict) else groups:
+        fields = [f for f in fields if f in names]  # an excluded field is left out
+        unknown = seen.intersection(fields)
+        if unknown:
+            raise ValueError(f"groups name {', '.join(sorted(unknown))} twice")
+        seen.update(fields)
+        if fields:
+            out[str(title)] = fields
+    rest = [n for n in names if n not in seen]
+    if rest:
+        out.setdefault("more", []).extend(rest)
+    return out
+
+
+def label_html(spec):
+    """A control's label: the paper's symbol, after the field's name where that differs.
+
+    A name that only spells the symbol out (``sigma``, ``rth``, ``kappa_b``, ``lam``)
+    shows the symbol alone (σ, r_th, κ_b, λ, subscripts as subscripts); the tooltip
+    names the field.
+    """
+    if not spec.symbol or math_html(spec.symbol) == html.escape(spec.name):
+        return html.escape(spec.name)
+    symbol = f"<b>{math_html(spec.symbol)}</b>"
+    spelled = re.sub(r"[\\_{}\s]", "", spec.symbol)
+    name = spec.name.replace("_", "")
+    if name == spelled or (len(name) >= 3 and spelled.startswith(name)):
+        return symbol
+    return f"{html.escape(spec.name)} {symbol}"
+
+
+def tooltip(spec):
+    """The spec's one-line description, its symbol in Unicode (tooltips show no LaTeX)."""
+    text = spec.describe()
+    if spec.symbol:
+        text = text.replace(f"(${spec.symbol}$)", f"({math_text(spec.symbol)})", 1)
+    return text
+
+
+def _control(spec, value, continuous_update, width="310px"):
     kind = spec.kind
-    label = (
-        f"{spec.name} ${spec.symbol}$" if spec.symbol and spec.symbol != spec.name else spec.name
-    )
     common = {
-        "description": label,
-        "tooltip": spec.describe(),
-        "style": {"description_width": "110px"},
-        "layout": W.Layout(width="420px"),
+        "description": label_html(spec),
+        "description_allow_html": True,
+        "tooltip": tooltip(spec),
+        "style": {"description_width": "96px"},
+        "layout": W.Layout(width=width),
     }
     if kind == "choice":
         return W.Dropdown(options=list(spec.choices), value=value, **common)

@@ -9,11 +9,12 @@ from pathlib import Path
 
 import ipywidgets as W
 from PIL import Image
-from traitlets import Any, Int, observe
+from traitlets import Any, Int, Unicode, observe
 
 from fluidnb import Clip, to_uint8
 
 from ._canvas import STYLE
+from ._common import output_dir, shown_path
 
 __all__ = ["FramePlayer"]
 
@@ -31,8 +32,10 @@ class FramePlayer(W.VBox):
         What to play (set :attr:`clip` later to change it).
     display_width : int
         Width on screen in pixels (small simulation grids are enlarged, pixelated).
-    export_dir : str or Path
-        Where the export buttons write (default: the notebook's folder).
+    export_dir : str or Path, optional
+        Where the export buttons write (default: the apps' output folder,
+        ``fluidnb-output/`` beside the notebook or ``$FLUIDNB_OUTPUT_DIR``; see
+        :func:`output_dir`).
     label : str
         The export files' name when the clip's metadata names no method.
     slider_width : str, optional
@@ -52,12 +55,14 @@ class FramePlayer(W.VBox):
     clip = Any(None, allow_none=True)
     #: Index of the frame on screen.
     frame = Int(0)
+    #: Where the last export was written ("" before one, and again when the clip changes).
+    exported = Unicode("")
 
     def __init__(
-        self, clip=None, *, display_width=384, export_dir=".", label="clip", slider_width=None
+        self, clip=None, *, display_width=384, export_dir=None, label="clip", slider_width=None
     ):
         self.display_width = int(display_width)
-        self.export_dir = Path(export_dir)
+        self.export_dir = None if export_dir is None else Path(export_dir)
         self.label = label
         self._png = {}
         self.image = W.Image(format="png", layout=W.Layout(width=f"{self.display_width}px"))
@@ -65,14 +70,21 @@ class FramePlayer(W.VBox):
         self._play = W.Play(interval=125, step=1, repeat=True, show_repeat=True)
         self._play.add_class("fluidnb-play")
         self._slider = W.IntSlider(description="frame", readout=True, continuous_update=True)
-        if slider_width is not None:
-            self._slider.layout.width = slider_width
-            self._slider.style.description_width = "40px"
+        # As wide as the picture with the play buttons: the player stays a column of
+        # the picture's width (apps put it beside the canvas).
+        self._slider.layout.width = slider_width or f"{max(self.display_width - 175, 160)}px"
+        self._slider.style.description_width = "40px"
         self._slider.add_class("fluidnb-frame-slider")
         # The slider follows Play in the browser (jslink): no kernel round trip per tick.
         W.jslink((self._play, "value"), (self._slider, "value"))
         self._fps = W.BoundedFloatText(
-            value=8.0, min=0.5, max=60, step=0.5, description="fps", layout=W.Layout(width="150px")
+            value=8.0,
+            min=0.5,
+            max=60,
+            step=0.5,
+            description="fps",
+            style={"description_width": "30px"},
+            layout=W.Layout(width="120px"),
         )
         self._fps.add_class("fluidnb-fps")
         self._gif = W.Button(description="GIF", icon="download", layout=W.Layout(width="80px"))
@@ -86,9 +98,11 @@ class FramePlayer(W.VBox):
         self._fps.observe(self._fps_changed, "value")
         self._gif.on_click(lambda _: self.export("gif"))
         self._mp4.on_click(lambda _: self.export("mp4"))
-        controls = W.HBox([self._play, self._slider, self._fps])
-        exports = W.HBox([self._gif, self._mp4, self.link])
+        wrap = W.Layout(flex_flow="row wrap", align_items="center")
+        controls = W.HBox([self._play, self._slider], layout=wrap)
+        exports = W.HBox([self._gif, self._mp4, self._fps, self.link], layout=wrap)
         super().__init__([STYLE, self.image, controls, self.info, exports])
+        self.layout.max_width = f"{max(self.display_width, 300)}px"
         self.add_class("fluidnb-player")
         self.clip = clip
         if clip is None:  # no change event for the default: set the empty state now
@@ -100,6 +114,9 @@ class FramePlayer(W.VBox):
         if clip is not None and not isinstance(clip, Clip):
             raise ValueError(f"clip must be a fluidnb.Clip, got {type(clip).__name__}")
         self._png = {}
+        # An export link belongs to the clip it was written from.
+        self.link.value = ""
+        self.exported = ""
         n = 0 if clip is None else len(clip)
         with self.hold_sync():
             self._play.playing = False
@@ -179,26 +196,33 @@ class FramePlayer(W.VBox):
     def export(self, fmt="gif"):
         """Write the clip as ``fmt`` ("gif" or "mp4") into :attr:`export_dir`.
 
-        Returns the path and shows a link to it under the player.
+        Returns the path, shows a link to it under the player and sets
+        :attr:`exported` (an app says where in its status line).
         """
         if self.clip is None:
             raise ValueError("there is no clip to export yet")
         if fmt not in ("gif", "mp4"):
             raise ValueError(f"fmt must be 'gif' or 'mp4', got {fmt!r}")
+        folder = output_dir() if self.export_dir is None else self.export_dir
+        folder.mkdir(parents=True, exist_ok=True)
         stamp = time.strftime("%Y%m%d-%H%M%S")
         method = str(self.clip.metadata.get("method") or self.label)
-        path = self.export_dir / f"fluidnb-{method}-{stamp}.{fmt}"
+        path = folder / f"fluidnb-{method}-{stamp}.{fmt}"
         n = 1
         while path.exists():
-            path = self.export_dir / f"fluidnb-{method}-{stamp}-{n}.{fmt}"
+            path = folder / f"fluidnb-{method}-{stamp}-{n}.{fmt}"
             n += 1
-        self.link.value = f"<i>writing {path.name}…</i>"
-        out = self.clip.save(path, fps=self.fps)
-        href = html.escape(out.name if out.parent.resolve() == Path.cwd().resolve() else str(out))
+        clip = self.clip
+        self.link.value = f"<i>writing {html.escape(shown_path(path))}…</i>"
+        out = clip.save(path, fps=self.fps)
+        if self.clip is not clip:  # a new clip came meanwhile: its player shows no old link
+            return out
+        shown = shown_path(out)
         self.link.value = (
-            f"<a href='{href}' download target='_blank'>{html.escape(out.name)}</a>"
+            f"<a href='{html.escape(shown)}' download target='_blank'>{html.escape(shown)}</a>"
             f" <span style='opacity:0.7'>({_size(out.stat().st_size)})</span>"
         )
+        self.exported = shown
         return out
 
 

@@ -28,6 +28,7 @@ from fluidnb.turbulence import (
 )
 
 from ._app import App
+from ._common import hint, row
 from ._panel import ParamPanel
 from ._player import FramePlayer
 
@@ -43,6 +44,11 @@ ROW_ORDER = (*PAPER_TABLE1, "exact-fft", "exact-bounds")
 #: The three flows shown side by side, left to right.
 PANELS = ("target (upsampled)", "source", "synthesised")
 MAX_FRAMES = 400
+#: The panel's groups: the search (the paper's subject) open, the energy's terms folded.
+GROUPS = (
+    ("the search (Table 1)", ("strategy", "m0", "interval", "B", "b")),
+    ("the energy (Eq. 1-2) and pasting", ("alpha", "beta", "D_th", "blend")),
+)
 
 _ERR = "var(--jp-error-color1, #d32f2f)"
 
@@ -75,8 +81,9 @@ class TurbulenceApp(App):
         Frames to synthesise (default: the size's; all of your flows').
     display_width : int
         Width on screen of each player (three flows side by side).
-    export_dir : str or Path
-        Where the export buttons write.
+    export_dir : str or Path, optional
+        Where the export buttons write (default: the apps' output folder, see
+        :class:`FramePlayer`).
 
     Examples
     --------
@@ -96,7 +103,7 @@ class TurbulenceApp(App):
         size="quick",
         n_frames=None,
         display_width=432,
-        export_dir=".",
+        export_dir=None,
     ):
         if (target is None) != (source is None):
             raise ValueError("give both target and source flows, or neither (the sample pair)")
@@ -123,7 +130,7 @@ class TurbulenceApp(App):
         self._prep_cache = None  # (key, Prepared)
         self._check_error = ""  # what the live check of the settings found
 
-        panel = ParamPanel(TurbulenceParams)
+        panel = ParamPanel(TurbulenceParams, groups=GROUPS)
         self._size = W.Dropdown(
             options=[(label, key) for key, label in sizes.items()],
             value=size,
@@ -173,10 +180,9 @@ class TurbulenceApp(App):
         self._size.observe(self._size_changed, "value")
         self._frames.observe(lambda _: self._check_settings(), "value")
         self._compare_button.on_click(lambda _: self.start_compare())
-        hint = W.HTML(
-            "<span style='opacity:0.8'>Run synthesises with the chosen search and adds its "
-            "row to the table; errors are measured against the exhaustive search.</span>",
-            layout=W.Layout(max_width="420px"),
+        note = hint(
+            "Run synthesises with the chosen search and adds its row to the table; errors "
+            "are measured against the exhaustive search."
         )
         self._headers = [W.HTML(_header(None, display_width)) for _ in range(2)]
         dye_view, vorticity_view = (
@@ -187,14 +193,13 @@ class TurbulenceApp(App):
                 (dye, self.vorticity),
             )
         )
-        # The size above the sliders, Table 1 beside them (below on a narrow page),
-        # the two players side by side underneath.
+        # The size above the sliders, the two players beside them, Table 1 underneath.
         super().__init__(
             panel=panel,
             run=self._run_task,
             title="Example-based turbulence with adaptive search — Watanabe et al.",
-            inputs=[W.HBox([self._size, self._frames])],
-            controls=[self._compare_button, hint],
+            inputs=[row(self._size, self._frames)],
+            controls=[self._compare_button, note],
             aside=[
                 W.HTML("<b>Table 1 — time per frame and error of each search</b>"),
                 self.table,

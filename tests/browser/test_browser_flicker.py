@@ -58,7 +58,8 @@ def test_paint_region_move_slider_frames_change_only_inside(notebook, page, shot
     assert dist.max() <= region["radius"] + 1.5
     src0 = page.locator(".fluidnb-app .fluidnb-frame").get_attribute("src")
 
-    # Move the light's azimuth: the live preview follows.
+    # Unfold the light's group and move its azimuth: the live preview follows.
+    page.locator(".fluidnb-app .fluidnb-param-groups").get_by_text("light and relief").click()
     shown = drag_slider(page, page.locator(".fluidnb-param-azimuth"), 0.9)
     assert shown != first["azimuth"]
     nb.state("clip.json", lambda s: abs(s["azimuth"] - shown) < 0.5 and not s["full"])

@@ -78,10 +78,12 @@ def test_gif_export_writes_file_and_link(notebook, page, shot):
     button.click()
     link = page.locator(".fluidnb-export-link a")
     link.wait_for(timeout=30_000)
-    gifs = list(nb.folder.glob("fluidnb-*.gif"))
+    # Into the output folder beside the notebook, none among the notebooks.
+    assert not list(nb.folder.glob("*.gif"))
+    gifs = list(nb.folder.glob("fluidnb-output/fluidnb-*.gif"))
     assert len(gifs) == 1, gifs
-    assert link.inner_text() == gifs[0].name
-    assert link.get_attribute("href") == gifs[0].name
+    assert link.inner_text() == f"fluidnb-output/{gifs[0].name}"
+    assert link.get_attribute("href") == f"fluidnb-output/{gifs[0].name}"
     with Image.open(gifs[0]) as im:
         assert im.size == (32, 24)
         assert im.n_frames == N

@@ -42,10 +42,12 @@ def voila(tmp_path, request):
     """Serve a notebook with Voila; yields a function ``serve(source) -> url``."""
     procs = []
 
-    def serve(source):
+    def serve(source, markdown=None):
         nb = nbformat.v4.new_notebook()
         nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3"}
         nb.cells = [nbformat.v4.new_code_cell(source)]
+        if markdown is not None:
+            nb.cells.insert(0, nbformat.v4.new_markdown_cell(markdown))
         path = tmp_path / f"{node_slug(request)}.ipynb"
         nbformat.write(nb, path)
         port = free_port()
@@ -106,3 +108,53 @@ def test_voila_shows_the_preloaded_drawing(voila, page, shot):
         poll("the preloaded drawing on the Voila canvas", drawn, timeout=30)
     finally:
         shot(page)
+
+
+APP = """\
+from fluidnb.widgets import FrostApp
+app = FrostApp(quick=True)
+app
+"""
+LESSON_TEXT = r"""
+## The parameters
+
+$\beta$ is the initial vapour, $\gamma$ the vapour added each step, and
+$$f(\beta) = \big(T - T_{sim}(\beta)\big)^2$$
+"""
+
+
+def test_voila_offline_shows_no_raw_latex(voila, page, shot):
+    # Issue 22, point 9: a lecture hall's laptop often has no network; Voila showed
+    # "sigma $\sigma$" on the sliders. Block every request that leaves this machine.
+    url = voila(APP, markdown=LESSON_TEXT)
+    blocked = []
+
+    def route(r):
+        host = r.request.url.split("/")[2].split(":")[0]
+        if host in ("127.0.0.1", "localhost"):
+            return r.continue_()
+        blocked.append(r.request.url)
+        return r.abort()
+
+    page.route("**/*", route)
+    page.set_default_timeout(120_000)
+    page.goto(url)
+    page.locator(".fluidnb-param-beta").wait_for()
+    page.locator(".fluidnb-param-gamma .widget-label").wait_for()
+    # MathJax (bundled with Voila, like JupyterLab's) typesets the Markdown.
+    poll(
+        "the Markdown's math to be typeset",
+        lambda: "$" not in page.locator(".jp-MarkdownOutput").first.inner_text() or None,
+        timeout=30,
+    )
+    try:
+        text = page.evaluate("() => document.body.innerText")
+        assert "$\\" not in text, [line for line in text.splitlines() if "$" in line][:5]
+        # (A label still in LaTeX: Voila's MathJax fails on it, "Math input error".)
+        assert "Math input error" not in text
+        labels = page.locator(".fluidnb-panel .widget-label").all_inner_texts()
+        assert "β" in labels
+        assert "γ" in labels
+        assert any(label.startswith("rth") or label.startswith("r") for label in labels)
+    finally:
+        shot(page, "offline")

@@ -207,3 +207,35 @@ def test_an_app_that_refuses_its_arguments_is_collected_cleanly(make, why):
     finally:
         sys.unraisablehook = old
     assert not seen, [str(u.exc_value) for u in seen]
+
+
+def test_exports_land_in_the_output_folder_and_the_status_line_says_where(tmp_path, monkeypatch):
+    # Issue 22, point 8: a class's exports made `git status` dirty among the notebooks.
+    lesson = tmp_path / "notebooks"
+    lesson.mkdir()
+    monkeypatch.chdir(lesson)
+    monkeypatch.delenv("FLUIDNB_OUTPUT_DIR", raising=False)
+    app = FireApp(quick=True, n_frames=4)
+    try:
+        app.run(timeout=120)
+        app.player._gif.click()
+        app.compare._mp4.click()
+        written = sorted(p.relative_to(lesson).as_posix() for p in lesson.rglob("*.*"))
+        assert [w.split("/")[0] for w in written] == ["fluidnb-output"] * len(written)
+        assert any(w.endswith(".mp4") for w in written)
+        assert app.status.startswith("saved fluidnb-output/fluidnb-fire-")
+        assert app.status.endswith(".mp4")
+    finally:
+        app.close()
+
+
+def test_the_repository_ignores_the_output_folder():
+    import subprocess
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    for path in ("notebooks/fluidnb-output/fluidnb-fire-1.gif", "fluidnb-output/strokes.json"):
+        ignored = subprocess.run(
+            ["git", "check-ignore", "-q", path], cwd=root, check=False
+        ).returncode
+        assert ignored == 0, f"{path} is not ignored by .gitignore"

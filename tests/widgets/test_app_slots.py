@@ -74,18 +74,19 @@ def test_each_slot_is_shown_where_the_docstring_draws_it():
         views=[App.titled("the clip", W.Label("x")), view],
     )
     try:
-        heading, top, views = app.children
+        heading, runbar, columns, aside = app.children
         assert "Demo" in heading.value
-        drawing, controls, aside = top.children
+        # Run, Cancel and the progress bar, then the status line, above everything.
+        assert app.progress in tree(runbar)
+        assert app._run_button in tree(runbar)
+        assert app._status in tree(runbar)
+        # The canvas, the result beside it, then inputs, panel and controls.
+        drawing, views, controls = columns.children
         assert drawing.children == (canvas, tool)
-        # inputs, the panel, the run bar, the status line, then the controls.
-        assert controls.children[0] is inp
-        assert controls.children[1] is panel
-        assert controls.children[-1] is ctl
-        assert app.progress in tree(controls)
-        assert aside.children == (side,)
-        assert views.children[-1] is view
         assert "the clip" in views.children[0].children[0].value
+        assert views.children[-1] is view
+        assert controls.children == (inp, panel, ctl)
+        assert aside.children == (side,)
         # The default views slot is the player alone; the player exists either way.
         assert isinstance(app.player, FramePlayer)
     finally:
@@ -95,11 +96,38 @@ def test_each_slot_is_shown_where_the_docstring_draws_it():
 def test_empty_slots_take_no_room_and_the_player_is_the_default_view():
     app = App(panel=ParamPanel(Demo), run=lambda p, progress: clip_of(p))
     try:
-        top, views = app.children  # no title, no heading
-        (controls,) = top.children  # no canvas column, no aside column
-        assert app.panel in controls.children
+        _runbar, columns, aside = app.children  # no title, no heading
+        views, controls = columns.children  # no canvas column
         assert views.children == (app.player,)
+        assert controls.children == (app.panel,)
+        assert aside.children == ()
         assert app.canvas is None
+        assert app.seed_box is None
+    finally:
+        app.close()
+
+
+def test_a_seed_gives_the_app_a_seed_box_and_a_new_seed_a_new_preview():
+    seen = []
+
+    def preview(params):
+        seen.append(app.seed)
+        return clip_of(params)
+
+    app = App(
+        panel=ParamPanel(Demo),
+        run=lambda p, progress: clip_of(p),
+        preview=preview,
+        seed=3,
+        min_interval=0,
+    )
+    try:
+        app.wait_preview()
+        assert app.seed == app.seed_box.value == 3
+        app.seed_box.value = 7
+        app.wait_preview()
+        assert app.seed == 7
+        assert seen[-1] == 7
     finally:
         app.close()
 
@@ -186,11 +214,15 @@ def test_every_app_fills_the_slots_and_keeps_the_apps_layout(name):
     app = APPS[name]()
     try:
         shown = tree(app)
-        # The App's own structure: a heading, the top row, the views row.
-        heading, _top, views = app.children
+        # The App's own structure: a heading, the run bar, the columns, the aside row.
+        heading, _runbar, columns, _aside = app.children
         assert "<h3" in heading.value
         assert app.views
-        assert views.children == app.views
+        # The result beside the canvas: the views' column follows the canvas's.
+        boxes = columns.children
+        views = next(b for b in boxes if b.children == app.views)
+        if app.canvas is not None:
+            assert boxes.index(views) == boxes.index(box_holding(app, app.canvas)) + 1
         assert app.player in shown
         assert app.panel in shown
         for slot in SLOTS:

@@ -85,7 +85,48 @@ def test_points_click_adds_and_click_again_removes():
     assert c.get_points().tolist() == [[20, 30]]
 
 
-def test_undo_and_clear_are_per_layer():
+def test_undo_takes_back_the_last_action_whichever_layer_it_was_on():
+    # Issue 22, point 7: the Undo button undid only the active layer's actions.
+    c = make()
+    c.draw_stroke([[1, 1], [1, 20]])
+    c.paint([[10, 10]], radius=2, layer="region")
+    c.select("stroke")  # the active layer is now "flow", the last action was on "region"
+    c._undo.click()
+    assert not c.get_mask("region").any()
+    assert len(c.get_strokes()) == 1
+    assert "undid the last change to region" in c.caption
+    assert c.undo() == "flow"
+    assert c.get_strokes() == []
+    assert c.undo() is None
+    assert "nothing to undo" in c.caption
+    c.set_strokes([[[2, 2], [2, 30]]])  # setters and clears are actions too
+    c.clear("region")
+    c.paint([[10, 10]], radius=2, layer="region")
+    c.clear("flow")
+    assert c.undo() == "flow"
+    assert len(c.get_strokes()) == 1
+    with pytest.raises(ValueError, match="layer must be one of"):
+        c.undo("nope")
+
+
+def test_the_caption_says_what_the_last_change_was():
+    # Issue 22, point 7: "cleared flow" stayed after strokes were loaded.
+    c = make()
+    c.draw_stroke([[1, 1], [1, 20]])
+    c.clear("flow")
+    assert c.caption == "cleared flow"
+    c.set_strokes([[[2, 2], [2, 30]], [[5, 2], [5, 30]]], "flow")
+    assert c.caption == "flow: 2 strokes"
+    c.set_strokes([[[2, 2], [2, 30]]], "flow")
+    assert c.caption == "flow: 1 stroke"
+    c.set_points([[4, 4]])
+    assert c.caption == "seeds: 1 point"
+    c.drag([[6, 6]], tool="stroke")  # a click with the stroke tool draws nothing
+    assert "not a stroke" in c.caption
+    assert "not a stroke" in c.status.value
+
+
+def test_undo_and_clear_per_layer():
     c = make()
     c.draw_stroke([[1, 1], [1, 20]])
     c.draw_stroke([[3, 1], [3, 20]])
@@ -189,3 +230,20 @@ def test_show_segments_overlay_and_image_replacement():
     with pytest.raises(ValueError, match="image must keep the canvas's size"):
         c.set_image(np.zeros((5, 5)))
     assert len(c.get_strokes()) == 1
+
+
+def test_changing_the_tool_never_moves_the_canvas():
+    # The brush's sliders hide for the points tool; were their row to vanish, the
+    # picture would jump up under the mouse between two clicks.
+    c = make()
+    sliders = (c._value_slider, c._radius_slider)
+    for tool in ("brush", "points", "stroke", "fill", "eraser", "brush"):
+        c.select(tool)
+        assert all(s.layout.display != "none" for s in sliders), tool
+    c.select("points")
+    assert all(s.layout.visibility == "hidden" for s in sliders)
+    c.select("brush")
+    assert all(s.layout.visibility == "visible" for s in sliders)
+    # A canvas with no brush layer never shows them.
+    only = DrawingCanvas(IMG, strokes=["flow"])
+    assert all(s.layout.display == "none" for s in (only._value_slider, only._radius_slider))

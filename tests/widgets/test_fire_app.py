@@ -108,6 +108,46 @@ def test_choosing_a_sample_and_uploading_a_photo(app):
     assert app.photo.shape == photo.shape  # the previous photo is kept
 
 
+def test_an_upload_shows_the_upload_and_the_menu_says_so(app):
+    # Issue 22, point 1: changing a menu's options must not pick its first entry.
+    app._sample.value = "flame"
+    flame = app.photo.copy()
+    picked = []
+    app._sample.on_pick(picked.append)
+    green = np.zeros((40, 60, 3), np.float32)
+    green[..., 1] = 1.0
+    buf = io.BytesIO()
+    Image.fromarray(to_uint8(green)).save(buf, format="png")
+    app._upload.value = (upload("green.png", buf.getvalue()),)
+    np.testing.assert_array_equal(app.photo, green)
+    np.testing.assert_array_equal(app.canvas.image, green)
+    assert app.photo_name == "upload"
+    assert app._sample.value == "upload"
+    assert picked == ["upload"]  # never "fire" (the first option) on the way
+    assert "upload" in app.status
+    # The sample is one pick away again, and "upload" leaves the menu with the upload.
+    app._sample.value = "flame"
+    np.testing.assert_array_equal(app.photo, flame)
+    assert app._sample.options == ("fire", "flame")
+    app.set_photo(green)
+    app.set_photo(green[:, :50])  # a second upload keeps the menu on "upload"
+    assert app.photo.shape == (40, 50, 3)
+    assert app._sample.value == "upload"
+
+
+def test_a_sample_name_given_at_start_is_the_menus_choice():
+    app = FireApp("flame", quick=True)
+    try:
+        assert app.photo_name == app._sample.value == "flame"
+    finally:
+        app.close()
+    app = FireApp(np.zeros((32, 32, 3)), quick=True)
+    try:
+        assert app.photo_name == app._sample.value == "upload"
+    finally:
+        app.close()
+
+
 def test_invalid_combination_disables_run_and_says_why(app):
     app.panel.set("interval", 4)
     with pytest.raises(ValueError, match="overlap must be < interval"):

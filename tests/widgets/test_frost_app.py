@@ -152,3 +152,34 @@ def test_the_app_says_up_front_how_long_the_papers_gamma_takes_and_fits_gamma_to
     assert "ends at frame" in app.status
     clip = app.run(timeout=120)
     assert abs(clip.metadata["end_frame"] - 120) <= 0.1 * 120
+
+
+def test_the_clip_plays_at_the_panels_fps_and_the_status_tells_its_length(app):
+    # Issue 22, point 6: the fps slider said 24, the clip played at 8, and the
+    # status gave neither the clip's length nor its fps.
+    paint_and_start(app)
+    app.panel.set("fps", 12.0)
+    clip = app.run(timeout=120)
+    end = clip.metadata["end_frame"]
+    assert end is not None
+    assert clip.fps == app.panel.params.fps == 12.0
+    assert clip.n_frames == end + 1  # every frame of the growth, in real time
+    assert clip.metadata["every"] == 1
+    assert f"frost ended at frame {end}" in app.status
+    assert f"{clip.n_frames} frames at 12 fps = {clip.n_frames / 12:.1f} s" in app.status
+    # The estimate above the run speaks the same units: frames at the panel's fps.
+    assert "at 12 fps" in app.length.value
+
+
+def test_a_long_run_is_drawn_smaller_then_thinned_and_the_status_says_so():
+    from fluidnb.widgets._frost import _RUN_BYTES, _RUN_MIN_SIZE, _run_size
+
+    assert _run_size(100, (360, 480), 480) == (480, 1)  # 100 x 2 MB fits
+    side, every = _run_size(400, (360, 480), 480)
+    assert every == 1
+    assert _RUN_MIN_SIZE <= side < 480
+    assert 400 * 12 * side * side * 0.75 <= _RUN_BYTES
+    side, every = _run_size(5000, (360, 480), 480)
+    assert side == _RUN_MIN_SIZE
+    assert every > 1
+    assert -(-5000 // every) * 12 * side * side * 0.75 <= _RUN_BYTES

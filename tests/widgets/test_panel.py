@@ -36,7 +36,19 @@ def test_one_control_per_field_with_paper_defaults_and_tooltips():
     for name, control in panel.controls.items():
         assert control.value == getattr(Demo(), name)
     assert "Eq. (6)" in panel.controls["sigma"].tooltip
-    assert r"$\sigma$" in panel.controls["sigma"].description
+    # The paper's symbols as HTML and Unicode, never LaTeX: Voila with no network has
+    # no MathJax to typeset "$\sigma$" (issue 22, point 9).
+    assert panel.controls["sigma"].description == "<b>σ</b>"
+    assert panel.controls["lam"].description == "<b>λ</b>"
+    assert panel.controls["rth"].description == (
+        "<b>r<span style='vertical-align:sub;font-size:75%'>th</span></b>"
+    )
+    assert panel.controls["T"].description == "T"
+    assert panel.controls["sigma"].description_allow_html
+    assert panel.controls["sigma"].tooltip.startswith("sigma (σ) Eq. (6)")
+    for control in panel.controls.values():
+        assert "$" not in control.description
+        assert "$" not in control.tooltip
     # Within the ui_range (0.1, 100) and as wide as the grid through the default allows.
     assert -1 <= panel.controls["sigma"].min < -1 + 0.01
     assert 2 - 0.01 < panel.controls["sigma"].max <= 2
@@ -136,3 +148,48 @@ def test_log_slider_keeps_an_awkward_default_exactly():
     assert 10 ** (
         control.min + round((np.log10(0.005) - control.min) / control.step) * control.step
     ) == pytest.approx(0.005, rel=1e-9)
+
+
+def test_groups_show_the_first_and_fold_the_rest():
+    # Issue 22, point 3: a compact panel, the rarely touched parameters folded.
+    panel = ParamPanel(Demo, groups=[("main", ["sigma", "lam"]), ("loop", ["T", "f0"])])
+    assert list(panel.groups) == ["main", "loop", "more"]
+    assert panel.groups["more"] == ["rth", "mapping", "shade"]  # nothing left out
+    first, accordion = panel.children[:2]
+    assert first.children == (panel.controls["sigma"], panel.controls["lam"])
+    assert isinstance(accordion, W.Accordion)
+    assert accordion.titles == ("loop", "more")
+    assert accordion.selected_index is None  # folded
+    panel.show_group("more")
+    assert accordion.selected_index == 1
+    # A folded control still drives the parameters.
+    panel.set("rth", 0.5)
+    assert panel.params.rth == 0.5
+    with pytest.raises(ValueError, match="no group 'nope'"):
+        panel.show_group("nope")
+    with pytest.raises(ValueError, match="groups name lam twice"):
+        ParamPanel(Demo, groups=[("a", ["lam"]), ("b", ["lam"])])
+    plain = ParamPanel(Demo)
+    assert plain.accordion is None
+    assert list(plain.groups) == ["parameters"]
+
+
+def test_the_apps_group_their_panels_with_the_open_group_first():
+    from fluidnb.widgets import _fire, _flicker, _frost, _turbulence
+
+    for module in (_fire, _flicker, _frost, _turbulence):
+        names = [n for _, fields in module.GROUPS for n in fields]
+        assert len(names) == len(set(names)), module.__name__
+        assert len(module.GROUPS[0][1]) <= 5  # the open group stays short
+
+
+def test_a_log_slider_spans_decades_on_a_grid_through_the_default():
+    panel = ParamPanel(Demo)
+    sigma = panel.controls["sigma"]
+    assert isinstance(sigma, W.FloatLogSlider)
+    # Three decades, ends within one step (0.01 of a decade) of the ui_range (0.1, 100).
+    assert -1 <= sigma.min < -1 + sigma.step
+    assert 2 - sigma.step < sigma.max <= 2
+    for value in (0.2, 1.0, 10.0, 90.0):
+        panel.set("sigma", value)
+        assert panel.params.sigma == pytest.approx(value)

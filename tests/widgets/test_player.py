@@ -1,5 +1,3 @@
-import os
-
 import numpy as np
 import pytest
 
@@ -61,16 +59,31 @@ def test_export_gif_and_mp4_write_files_with_links(tmp_path):
     assert "<a href=" in p.link.value
 
 
-def test_export_button_writes_next_to_the_notebook(tmp_path):
-    cwd = os.getcwd()
-    os.chdir(tmp_path)
-    try:
-        p = FramePlayer(clip())
-        p._gif.click()
-        (written,) = tmp_path.glob("fluidnb-demo-*.gif")
-        assert f"href='{written.name}'" in p.link.value
-    finally:
-        os.chdir(cwd)
+def test_export_button_writes_into_the_output_folder_not_beside_the_notebook(tmp_path, monkeypatch):
+    # Issue 22, point 8: exports landed among the notebooks (git status dirty).
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("FLUIDNB_OUTPUT_DIR", raising=False)
+    p = FramePlayer(clip())
+    p._gif.click()
+    (written,) = tmp_path.glob("fluidnb-output/fluidnb-demo-*.gif")
+    assert list(tmp_path.glob("*.gif")) == []
+    assert f"href='fluidnb-output/{written.name}'" in p.link.value
+    assert p.exported == f"fluidnb-output/{written.name}"
+    monkeypatch.setenv("FLUIDNB_OUTPUT_DIR", str(tmp_path / "class"))
+    assert p.export("mp4").parent == tmp_path / "class"
+
+
+def test_an_export_link_goes_with_its_clip(tmp_path):
+    # Issue 22, point 7: an old MP4 link survived a new run.
+    p = FramePlayer(clip(), export_dir=tmp_path)
+    p.export("gif")
+    assert "href" in p.link.value
+    p.clip = clip(3)
+    assert p.link.value == ""
+    assert p.exported == ""
+    p.export("gif")
+    p.clip = None
+    assert p.link.value == ""
 
 
 def test_errors_without_clip_and_bad_values():

@@ -67,7 +67,8 @@ def test_the_panel_has_the_papers_sliders_with_symbols_and_equations(app):
         assert type(control).__name__ == "FloatLogSlider"
         assert control.value == getattr(defaults, name)
         assert eq in control.tooltip
-        assert "\\" in control.description  # the paper's symbol, in LaTeX
+        # the paper's symbol, as Unicode (Voila offline shows LaTeX raw; issue 22)
+        assert {"sigma": "σ", "lam": "λ", "rho": "ρ"}[name] in control.description
     # N belongs to the database: shown beside the panel, not a slider.
     assert "N = <b>32</b>" in app._n_label.value
 
