@@ -20,7 +20,7 @@ import os
 import numpy as np
 
 from . import _media
-from ._image import _to_float01, to_uint8
+from ._image import to_float01, to_uint8
 from ._validation import check_fps, check_int, check_range
 
 __all__ = ["Clip", "load_clip"]
@@ -450,7 +450,7 @@ def _as_frames(frames):
         )
     if arr.ndim == 4 and arr.shape[3] == 4:
         arr = arr[..., :3]  # drop alpha before converting: less to convert
-    out = _to_float01(arr, "frames")  # always a new array, so clipping in place is safe
+    out = to_float01(arr, name="frames")  # always a new array, so clipping in place is safe
     np.clip(out, 0.0, 1.0, out=out)
     out = np.ascontiguousarray(out, dtype=np.float32)
     out.setflags(write=False)

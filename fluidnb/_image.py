@@ -14,9 +14,12 @@ import numpy as np
 
 from ._validation import check_choice
 
-__all__ = ["as_image", "as_mask", "to_uint8"]
+__all__ = ["LUMA", "as_image", "as_mask", "to_float01", "to_uint8"]
 
 _MODES = (None, "grey", "rgb")
+
+#: Rec. 709 luminance weights of R, G, B (as scikit-image's ``rgb2gray``): grey = RGB @ LUMA.
+LUMA = np.array([0.2125, 0.7154, 0.0721], dtype=np.float32)
 
 
 def as_image(image, *, mode=None, name="image", return_alpha=False, background=None):
@@ -80,7 +83,7 @@ def as_image(image, *, mode=None, name="image", return_alpha=False, background=N
         )
     if arr.shape[0] == 0 or arr.shape[1] == 0:
         raise ValueError(f"{name} is empty: got shape {arr.shape}")
-    out = _to_float01(arr, name)
+    out = to_float01(arr, name=name)
     alpha = None
     if out.ndim == 3 and out.shape[2] in (2, 4):
         alpha = out[:, :, -1].copy()
@@ -90,7 +93,7 @@ def as_image(image, *, mode=None, name="image", return_alpha=False, background=N
     if background is not None and alpha is not None:
         out = _composite(out, alpha, background, name)
     if mode == "grey" and out.ndim == 3:
-        out = out @ np.array([0.2125, 0.7154, 0.0721], dtype=np.float32)
+        out = out @ LUMA
     elif mode == "rgb" and out.ndim == 2:
         out = np.repeat(out[:, :, None], 3, axis=2)
     out = np.ascontiguousarray(np.clip(out, 0.0, 1.0), dtype=np.float32)
@@ -149,7 +152,37 @@ def _from_pil(im):
     return np.asarray(im)
 
 
-def _to_float01(arr, name):
+def to_float01(pixels, *, name="pixels"):
+    """Pixels of any shape as float32 in [0, 1]: what :func:`as_image` does once read.
+
+    For stacks of frames and other arrays :func:`as_image` does not take (it wants
+    one image): ``uint8`` (0-255) and ``uint16`` (0-65535) are divided by their
+    maximum, ``bool`` is 0 or 1, floats must already lie in [0, 1] (to 1e-6).
+
+    Parameters
+    ----------
+    pixels : ndarray
+        Any shape.
+    name : str
+        The parameter's name in error messages.
+
+    Returns
+    -------
+    ndarray, float32
+        A new array of the same shape (values are not clipped: floats within 1e-6
+        outside [0, 1] stay as they are; :func:`to_uint8` clips).
+
+    Raises
+    ------
+    ValueError
+        For another dtype, NaN or infinite values, or floats outside [0, 1].
+
+    Examples
+    --------
+    >>> to_float01(np.array([[0, 65535]], dtype=np.uint16)).tolist()
+    [[0.0, 1.0]]
+    """
+    arr = np.asarray(pixels)
     kind = arr.dtype.kind
     if kind == "b":
         return arr.astype(np.float32)

@@ -36,6 +36,7 @@ def app_params(name):
     from fluidnb.flicker import FlickerParams
     from fluidnb.frost import FrostParams
     from fluidnb.turbulence import TurbulenceParams
+    from fluidnb.videodb import AnimateParams
     from fluidnb.widgets._fire import FireAppParams
 
     return {
@@ -44,6 +45,7 @@ def app_params(name):
         "03_frost.ipynb": lambda: FrostParams,
         "05_fire.ipynb": lambda: FireAppParams,
         "06_turbulence.ipynb": lambda: TurbulenceParams,
+        "07b_videodb_animation.ipynb": lambda: AnimateParams,
     }[name]()
 
 
@@ -54,6 +56,7 @@ LESSONS = {
     "03_frost.ipynb": {("gamma", 0.005)},
     "05_fire.ipynb": {("weight", 0.9), ("overlap", 0.0)},
     "06_turbulence.ipynb": {("alpha", 0.0)},
+    "07b_videodb_animation.ipynb": {("lam", 0.001), ("lam", 1.0), ("sigma", 1000.0)},
 }
 
 

@@ -17,7 +17,7 @@ from fluidnb import Cancelled, CancelToken, Clip
 from ._canvas import DrawingCanvas
 from ._player import FramePlayer
 
-__all__ = ["App"]
+__all__ = ["App", "LatestWins"]
 
 #: The slots an app fills with sequences of widgets (:attr:`App.canvas` holds one).
 SLOTS = ("inputs", "controls", "canvas_tools", "aside", "views")
@@ -39,6 +39,99 @@ def _in_kernel():
         return False
     shell = get_ipython()
     return shell is not None and getattr(shell, "kernel", None) is not None
+
+
+class LatestWins:
+    """A worker thread that runs ``work()`` when asked, the latest request winning.
+
+    :meth:`request` returns at once; the worker then runs ``work()`` once for every
+    request made so far (it reads the latest state itself, so requests made while it
+    works are served together by one more run), at most once every ``interval()``
+    seconds. ``work``'s ValueErrors are shown with ``say`` as plain messages, other
+    errors as ``"<what> failed: ..."``; none reaches the kernel. The apps' live
+    previews and the video-database app's re-solves run on it.
+
+    Parameters
+    ----------
+    work : callable
+        ``work()``, called in the worker thread.
+    say : callable
+        ``say(text, kind)``: the app's status line.
+    interval : callable
+        ``interval() -> float``: least seconds between two runs (read each time).
+    name : str
+        The thread's name, and what ``work`` does in messages ("preview").
+    """
+
+    def __init__(self, work, *, say, interval, name):
+        self._work = work
+        self._say = say
+        self._interval = interval
+        self.name = name
+        self._lock = threading.Condition()
+        self._requested = 0
+        self._done = 0
+        self._thread = None
+        self._closed = False
+
+    def request(self):
+        """Ask for a run; returns at once (the worker thread starts on the first)."""
+        with self._lock:
+            if self._closed:
+                return
+            self._requested += 1
+            self._lock.notify_all()
+            if self._thread is None:
+                self._thread = threading.Thread(
+                    target=self._loop, name=f"fluidnb-{self.name}", daemon=True
+                )
+                self._thread.start()
+
+    def skip_pending(self):
+        """Count every request so far as served (their runs are obsolete)."""
+        with self._lock:
+            self._done = self._requested
+            self._lock.notify_all()
+
+    def wait(self, timeout=30):
+        """Block until every run requested so far is done; TimeoutError after ``timeout`` s."""
+        deadline = time.monotonic() + timeout
+        with self._lock:
+            target = self._requested
+            while self._done < target:
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    raise TimeoutError(f"the {self.name} did not finish in time")
+                self._lock.wait(left)
+
+    def close(self):
+        """Stop the worker thread (after the run going on, if any)."""
+        with self._lock:
+            self._closed = True
+            self._lock.notify_all()
+
+    def _loop(self):
+        while True:
+            with self._lock:
+                while self._done >= self._requested and not self._closed:
+                    self._lock.wait()
+                if self._closed:
+                    return
+                # Everything requested so far is served by this one run, which reads
+                # the latest parameters and drawing: the latest state wins.
+                target = self._requested
+            started = time.monotonic()
+            try:
+                self._work()
+            except ValueError as exc:
+                self._say(str(exc), "error")
+            except Exception as exc:  # shown, never raised into the kernel's thread
+                self._say(f"{self.name} failed: {type(exc).__name__}: {exc}", "error")
+                traceback.print_exc()
+            with self._lock:
+                self._done = max(self._done, target)
+                self._lock.notify_all()
+            time.sleep(max(0.0, self._interval() - (time.monotonic() - started)))
 
 
 def _players(widgets):
@@ -159,10 +252,9 @@ class App(W.VBox):
         self._token = None
         self._thread = None
         self._busy = ()  # widgets start_task disables while a task runs
-        self._preview_lock = threading.Condition()
-        self._preview_requested = 0
-        self._preview_done = 0
-        self._preview_thread = None
+        self._previews = LatestWins(
+            self._preview_once, say=self.say, interval=lambda: self.min_interval, name="preview"
+        )
         self._closed = False
         self._tasks_started = 0  # a preview begun before a task started is stale
         self._watched = set()  # ids of the players whose exports the status line reports
@@ -328,60 +420,25 @@ class App(W.VBox):
         """Ask for a fresh preview; returns at once (a worker computes it)."""
         if self._preview_fn is None or self._closed:
             return
-        with self._preview_lock:
-            self._preview_requested += 1
-            self._preview_lock.notify_all()
-            if self._preview_thread is None:
-                self._preview_thread = threading.Thread(
-                    target=self._preview_loop, name="fluidnb-preview", daemon=True
-                )
-                self._preview_thread.start()
+        self._previews.request()
 
-    def _preview_loop(self):
-        while True:
-            with self._preview_lock:
-                while self._preview_done >= self._preview_requested and not self._closed:
-                    self._preview_lock.wait()
-                if self._closed:
-                    return
-                # Everything requested so far is served by this one computation,
-                # which reads the latest parameters and drawing: the latest state wins.
-                target = self._preview_requested
-            started = time.monotonic()
-            generation = self._tasks_started
-            try:
-                clip = self._preview_fn(self.panel.params)
-                if not isinstance(clip, Clip):
-                    raise TypeError(
-                        f"preview must return a fluidnb.Clip, got {type(clip).__name__}"
-                    )
-                # A run that started (or finished) meanwhile owns the player now:
-                # drop this preview rather than cover the run's result with it.
-                if not self.running and generation == self._tasks_started:
-                    self.player.clip = clip
-                    note = clip.metadata.get("note")
-                    note = f": {note}" if note else ""
-                    self.say(f"preview ({time.monotonic() - started:.2f} s){note}")
-            except ValueError as exc:
-                self.say(str(exc), "error")
-            except Exception as exc:  # shown, never raised into the kernel's thread
-                self.say(f"preview failed: {type(exc).__name__}: {exc}", "error")
-                traceback.print_exc()
-            with self._preview_lock:
-                self._preview_done = max(self._preview_done, target)
-                self._preview_lock.notify_all()
-            time.sleep(max(0.0, self.min_interval - (time.monotonic() - started)))
+    def _preview_once(self):
+        started = time.monotonic()
+        generation = self._tasks_started
+        clip = self._preview_fn(self.panel.params)
+        if not isinstance(clip, Clip):
+            raise TypeError(f"preview must return a fluidnb.Clip, got {type(clip).__name__}")
+        # A run that started (or finished) meanwhile owns the player now: drop this
+        # preview rather than cover the run's result with it.
+        if not self.running and generation == self._tasks_started:
+            self.player.clip = clip
+            note = clip.metadata.get("note")
+            note = f": {note}" if note else ""
+            self.say(f"preview ({time.monotonic() - started:.2f} s){note}")
 
     def wait_preview(self, timeout=30):
         """Block until every preview requested so far has been shown (for scripts/tests)."""
-        deadline = time.monotonic() + timeout
-        with self._preview_lock:
-            target = self._preview_requested
-            while self._preview_done < target:
-                left = deadline - time.monotonic()
-                if left <= 0:
-                    raise TimeoutError("the preview did not finish in time")
-                self._preview_lock.wait(left)
+        self._previews.wait(timeout)
 
     # ------------------------------------------------------------------ run / cancel
     @property
@@ -437,10 +494,8 @@ class App(W.VBox):
         self.progress.bar_style = ""
         self.say(message)
         self._tasks_started += 1
-        with self._preview_lock:
-            # Previews asked for before this run are obsolete: its result will show.
-            self._preview_done = self._preview_requested
-            self._preview_lock.notify_all()
+        # Previews asked for before this run are obsolete: its result will show.
+        self._previews.skip_pending()
         self._thread = threading.Thread(
             target=self._run_worker,
             args=(task, done, params, self._token),
@@ -535,10 +590,9 @@ class App(W.VBox):
         self._closed = True
         # A subclass that refused its arguments never reached App.__init__; ipywidgets
         # still closes it when it is collected.
-        lock = getattr(self, "_preview_lock", None)
-        if lock is not None:
-            with lock:
-                lock.notify_all()
+        previews = getattr(self, "_previews", None)
+        if previews is not None:
+            previews.close()
         token = getattr(self, "_token", None)
         if token is not None:
             token.cancel()

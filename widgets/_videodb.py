@@ -31,10 +31,12 @@ from fluidnb.videodb import (
     FRAGMENT,
     STARTER_KINDS,
     STRIDE,
-    VERSIONS,
     AnimateParams,
     VideoDatabase,
     assign,
+    clip_colour,
+    clip_map_picture,
+    motion_arrows,
     open_database,
     render,
     starter_database,
@@ -42,7 +44,7 @@ from fluidnb.videodb import (
     starter_path,
 )
 
-from ._app import App, _in_kernel, _quick_mode
+from ._app import App, LatestWins, _in_kernel, _quick_mode
 from ._canvas import DrawingCanvas
 from ._panel import ParamPanel
 
@@ -62,33 +64,9 @@ _HIDDEN = ("max_angle", "max_speed_ratio", "denoise", "cell")
 _SOLVE_FIELDS = ("sigma", "lam", "rho")
 _RETRIEVAL_FIELDS = ("candidates", "max_angle", "max_speed_ratio")
 
-# Source-clip colours of the assignment map (Okabe & Ito's colour-blind-safe set,
-# then a few more), RGB 0-255.
-_PALETTE = np.array(
-    [
-        (0, 114, 178),
-        (230, 159, 0),
-        (0, 158, 115),
-        (204, 121, 167),
-        (86, 180, 233),
-        (213, 94, 0),
-        (240, 228, 66),
-        (120, 94, 240),
-        (170, 170, 170),
-        (140, 86, 75),
-        (23, 190, 207),
-        (188, 189, 34),
-    ],
-    np.uint8,
-)
 _QUIVER = "rgba(255, 214, 10, 0.95)"
 _MAP_WIDTH = 320
 _TILE = 60  # pixels per tile of the fragment view
-
-
-def clip_colour(index):
-    """RGB 0-255 of a source clip on the assignment map (cycles after 12 clips)."""
-    return tuple(int(v) for v in _PALETTE[int(index) % len(_PALETTE)])
 
 
 def _kernel_loop():
@@ -107,12 +85,16 @@ def _kernel_loop():
 
 
 class _AssignmentMap(W.VBox):
-    """Which source clip each target fragment came from; a click shows that fragment."""
+    """Which source clip each target fragment came from; a click shows that fragment.
+
+    Drawn by the library's rule for pictures of an assignment
+    (:func:`fluidnb.videodb.clip_map_picture`, :func:`fluidnb.videodb.motion_arrows`),
+    the one the lesson's figures use.
+    """
 
     def __init__(self, width=_MAP_WIDTH):
         self.width = int(width)
         self.photo = None
-        self._shown = None
         self.assignment = None
         self.selected = None  #: index of the picked target fragment, or None
         self.on_pick = None  #: called with the picked index
@@ -140,7 +122,6 @@ class _AssignmentMap(W.VBox):
 
     def set_photo(self, photo):
         self.photo = photo
-        self._shown = None
         self.assignment = None
         self.selected = None
         h, w = photo.shape[:2]
@@ -166,23 +147,10 @@ class _AssignmentMap(W.VBox):
     # ------------------------------------------------------------------ drawing
     def picture(self):
         """The map as RGB uint8 at canvas size: the photo tinted by source clip."""
-        ch, cw = self.canvas.height, self.canvas.width
-        if self._shown is None or self._shown.shape[:2] != (ch, cw):
-            rgb = self.photo
-            shown = resize(rgb, (ch, cw)) if (ch, cw) != rgb.shape[:2] else rgb
-            self._shown = np.clip(shown, 0, 1)
-        shown = self._shown
-        out = 0.35 * shown
-        if self.assignment is not None:
-            clips = self.assignment.clip_map()
-            h, w = clips.shape
-            rows = np.minimum((np.arange(ch) * h / ch).astype(int), h - 1)
-            cols = np.minimum((np.arange(cw) * w / cw).astype(int), w - 1)
-            k = clips[rows][:, cols]
-            inside = k >= 0
-            colour = _PALETTE[np.where(inside, k, 0) % len(_PALETTE)] / 255.0
-            out = np.where(inside[..., None], 0.4 * shown + 0.6 * colour, out)
-        return to_uint8(out)
+        a = self.assignment
+        clips = None if a is None else a.clip_map()
+        shape = (self.canvas.height, self.canvas.width)
+        return to_uint8(clip_map_picture(self.photo, clips, shape=shape))
 
     def redraw(self, *_):
         if self.photo is None:
@@ -220,20 +188,11 @@ class _AssignmentMap(W.VBox):
     def motion_segments(self):
         """The assigned fragments' mean motion as arrows (k, 2, 2) (row, col) in the image.
 
-        One per target fragment that moves, centred on it; the fastest spans 0.9 of a
-        24-pixel cell.
+        :func:`fluidnb.videodb.motion_arrows`: one per moving fragment, centred on it.
         """
-        a = self.assignment
-        if a is None:
+        if self.assignment is None:
             return np.empty((0, 2, 2))
-        motion = a.db.mean_motion[a.fragments].astype(float)
-        speed = np.linalg.norm(motion, axis=1)
-        keep = speed > 1e-6
-        if not keep.any():
-            return np.empty((0, 2, 2))
-        vec = motion[keep] / speed.max() * 0.9 * STRIDE
-        centre = a.target.positions[keep] + FRAGMENT / 2 - 0.5
-        return np.stack([centre - vec / 2, centre + vec / 2], axis=1)
+        return motion_arrows(self.assignment)[0]
 
     def _legend(self):
         a = self.assignment
@@ -241,7 +200,7 @@ class _AssignmentMap(W.VBox):
         used, counts = np.unique(clips, return_counts=True)
         items = []
         for k, n in zip(used, counts):
-            r, g, b = clip_colour(k)
+            r, g, b = (round(255 * v) for v in clip_colour(k))
             name = html.escape(str(a.db.clips[int(k)]["name"]))
             items.append(
                 f"<span class='fluidnb-vdb-clip' data-clip='{int(k)}' style='display:inline-flex;"
@@ -257,13 +216,8 @@ class _AssignmentMap(W.VBox):
 
     # ------------------------------------------------------------------ picking
     def fragment_at(self, row, col):
-        """The target fragment whose cell holds image pixel (row, col), or None."""
-        if self.assignment is None:
-            return None
-        centre = self.assignment.target.positions + FRAGMENT / 2 - 0.5
-        d = np.abs(centre - np.array([row, col], float)).max(axis=1)
-        i = int(np.argmin(d))
-        return i if d[i] <= FRAGMENT / 2 else None
+        """The target fragment under image pixel (row, col), or None (see the library's)."""
+        return None if self.assignment is None else self.assignment.fragment_at(row, col)
 
     def _clicked(self, x, y):
         if self.photo is None:
@@ -400,10 +354,13 @@ class VideoDBApp(App):
         self._field = None
         self._loop = _kernel_loop()
         self._main_thread = threading.get_ident()
-        self._resolve_lock = threading.Condition()
-        self._resolve_requested = 0
-        self._resolve_done = 0
-        self._resolve_thread = None
+        # Re-solves run on the app shell's latest-wins worker, as previews do.
+        self._resolves = LatestWins(
+            self._resolve_once,
+            say=self.say,
+            interval=lambda: self.resolve_interval,
+            name="re-solve",
+        )
         self.resolve_interval = 0.1  #: Least seconds between two live re-solves.
         self.quiver_segments = 0  #: Arrows of the direction field on the canvas now.
 
@@ -1032,37 +989,8 @@ class VideoDBApp(App):
 
     def request_resolve(self):
         """Re-solve for the panel's sigma, lambda, rho in the background (latest wins)."""
-        if self._closed:
-            return
-        with self._resolve_lock:
-            self._resolve_requested += 1
-            self._resolve_lock.notify_all()
-            if self._resolve_thread is None:
-                self._resolve_thread = threading.Thread(
-                    target=self._resolve_loop, name="fluidnb-resolve", daemon=True
-                )
-                self._resolve_thread.start()
-
-    def _resolve_loop(self):
-        while True:
-            with self._resolve_lock:
-                while self._resolve_done >= self._resolve_requested and not self._closed:
-                    self._resolve_lock.wait()
-                if self._closed:
-                    return
-                target = self._resolve_requested
-            started = time.monotonic()
-            try:
-                self._resolve_once()
-            except ValueError as exc:
-                self.say(str(exc), "error")
-            except Exception as exc:  # shown, never raised into the kernel
-                self.say(f"re-solve failed: {type(exc).__name__}: {exc}", "error")
-                traceback.print_exc()
-            with self._resolve_lock:
-                self._resolve_done = max(self._resolve_done, target)
-                self._resolve_lock.notify_all()
-            time.sleep(max(0.0, self.resolve_interval - (time.monotonic() - started)))
+        if not self._closed:
+            self._resolves.request()
 
     def _resolve_once(self):
         base, current, params = self._base, self.assignment, self.panel.params
@@ -1088,14 +1016,7 @@ class VideoDBApp(App):
 
     def wait_resolve(self, timeout=30):
         """Block until every re-solve asked for so far is done (for scripts and tests)."""
-        deadline = time.monotonic() + timeout
-        with self._resolve_lock:
-            target = self._resolve_requested
-            while self._resolve_done < target:
-                left = deadline - time.monotonic()
-                if left <= 0:
-                    raise TimeoutError("the re-solve did not finish in time")
-                self._resolve_lock.wait(left)
+        self._resolves.wait(timeout)
 
     # ------------------------------------------------------------------ results
     def use_result_speed(self):
@@ -1135,26 +1056,11 @@ class VideoDBApp(App):
         return self._show_fragment(i)
 
     def fragment_info(self, i):
-        """What the assignment gave target fragment ``i`` (a dict of plain values)."""
-        a = self.assignment
-        fid = int(a.fragments[i])
-        clip, version, first, row, col = (int(v) for v in a.db.source[fid])
-        flip, scale, angle = VERSIONS[version]
-        label = int(a.labels[i])
-        dy, dx = (float(v) for v in a.db.mean_motion[fid])
-        return {
-            "index": int(i),
-            "position": [int(v) for v in a.target.positions[i]],
-            "fragment": fid,
-            "clip": clip,
-            "clip_name": str(a.db.clips[clip]["name"]),
-            "version": {"flip": bool(flip), "scale": float(scale), "angle": float(angle)},
-            "frames": [first, first + a.db.params.N - 1],
-            "source_position": [row, col],
-            "mean_motion": [dy, dx],
-            "rank": label,
-            "score": float(a.scores[i, label]) / 324.0,
-        }
+        """What the assignment gave target fragment ``i`` (a dict of plain values).
+
+        :meth:`fluidnb.videodb.Assignment.fragment_info` of the current assignment.
+        """
+        return self.assignment.fragment_info(i)
 
     def _show_fragment(self, i):
         info = self.fragment_info(i)
@@ -1271,10 +1177,9 @@ class VideoDBApp(App):
     def close(self):
         """Stop the workers and close the widgets."""
         self._closed = True
-        lock = getattr(self, "_resolve_lock", None)
-        if lock is not None:
-            with lock:
-                lock.notify_all()
+        resolves = getattr(self, "_resolves", None)
+        if resolves is not None:
+            resolves.close()
         if hasattr(self, "map"):
             self.map.close()
         super().close()

@@ -111,7 +111,7 @@ def resize_vector_field(velocity, shape, *, order=1):
     return out
 
 
-def downsample(field, factor, *, vector=False):
+def downsample(field, factor, *, vector=False, precision="float64"):
     """Shrink a field by an integer factor.
 
     When ``factor`` divides both sides, each output pixel is the mean of a
@@ -130,11 +130,16 @@ def downsample(field, factor, *, vector=False):
     vector : bool
         The field is a vector field (H, W, 2) in pixels: divide its components by
         the scale change, as :func:`resize_vector_field` does.
+    precision : {"float64", "float32"}
+        The arithmetic of the block means: float64 (numpy), or float32 through
+        OpenCV's area resize (about 25 times as fast on many channels, equal to
+        float64 to float32 round-off), for which ``factor`` must divide both sides.
 
     Returns
     -------
     ndarray, shape (ceil(H / factor), ceil(W / factor)[, C])
-        Float32 for float32 (and integer or bool) input, float64 for float64 input.
+        Float32 for float32 (and integer or bool) input or ``precision="float32"``,
+        float64 for float64 input.
 
     Examples
     --------
@@ -145,6 +150,16 @@ def downsample(field, factor, *, vector=False):
     """
     arr, factor = _check_factor_args(field, factor, vector)
     h, w = arr.shape[:2]
+    if check_choice("precision", precision, ("float64", "float32")) == "float32":
+        if h % factor or w % factor:
+            raise ValueError(
+                f"factor must divide the field's height and width {(h, w)} with "
+                f'precision="float32", got {factor}: crop the field to whole blocks first'
+            )
+        out = _block_means32(arr, factor)
+        if vector:
+            out /= np.float32(factor)
+        return out
     if h % factor or w % factor:
         shape = (math.ceil(h / factor), math.ceil(w / factor))
         return resize_vector_field(arr, shape) if vector else resize(arr, shape)
@@ -192,6 +207,38 @@ def upsample(field, factor, *, order=1, vector=False):
     if vector:
         out *= factor
     return out
+
+
+# OpenCV's filters and resizes take at most a few hundred channels: channels go
+# through in chunks of this many.
+_CV_CHANNELS = 128
+
+
+def _per_chunk(x, fn, shape_out):
+    """Apply an OpenCV call to (h, w, C) float32 in chunks of channels."""
+    c = x.shape[2]
+    if c <= _CV_CHANNELS:
+        return fn(x).reshape(shape_out + (c,))
+    out = np.empty(shape_out + (c,), dtype=np.float32)
+    for c0 in range(0, c, _CV_CHANNELS):
+        c1 = min(c, c0 + _CV_CHANNELS)
+        out[..., c0:c1] = fn(np.ascontiguousarray(x[..., c0:c1])).reshape(shape_out + (c1 - c0,))
+    return out
+
+
+def _block_means32(arr, factor):
+    """Means of ``factor x factor`` blocks in float32 (OpenCV's area resize by a whole factor).
+
+    OpenCV's area resampling by a whole factor is exactly the block mean, 25 times
+    as fast as a numpy reduction over strided axes.
+    """
+    import cv2
+
+    x = np.ascontiguousarray(arr if arr.ndim == 3 else arr[..., None], dtype=np.float32)
+    shape = (arr.shape[0] // factor, arr.shape[1] // factor)
+    size = (shape[1], shape[0])
+    out = _per_chunk(x, lambda a: cv2.resize(a, size, interpolation=cv2.INTER_AREA), shape)
+    return out if arr.ndim == 3 else out[..., 0]
 
 
 def _check_field(field, name="field"):

@@ -11,24 +11,34 @@ alpha-expansion (Eq. 4-6, with :math:`\sigma`, :math:`\lambda`, :math:`\rho`);
 rendering from the assigned fragments' difference frames with pyramid blending,
 pseudo motion blur, histogram matching and a dynamic matte.
 
-Every compiled or optimised step has a plain numpy version beside it (the
-``reference_*`` functions) that the tests compare it with.
+Every compiled or optimised step has a plain numpy version, in the paper's notation,
+in one module (:mod:`fluidnb.videodb._reference`, the ``reference_*`` functions),
+that the tests compare it with.
+
+One idea per module, in the order of the method:
+
+- the database (sec. 4): ``_geometry`` (fragment sizes, the 18 versions), ``_params``,
+  ``_video`` (reading clips), ``_flow`` (optical flow), ``_augment`` (the versions'
+  pixels and motion), ``_features`` (mean image, motion spectra, textureness),
+  ``_sift`` (dense SIFT), ``_words`` (codebook, visual words, pyramid histograms,
+  Eq. 1), ``_build`` and ``_store`` (building and reading the zarr store),
+  ``_starter_clips``, ``_flow_map`` and ``_starter`` (the starter databases' clips and
+  their cache);
+- the assignment (sec. 5): ``_target`` (the target cut into fragments, the user's
+  motion), ``_retrieval`` (top-K by Eq. 1, the motion filter), ``_smoothness`` (Eq. 2,
+  3, 6 in bulk), ``_mrf`` (Eq. 4, 5 and the solvers), ``_assign`` (the
+  :class:`Assignment`);
+- the rendering (sec. 6): ``_blend`` (multi-band blending of the differences),
+  ``_appearance`` (motion blur, histogram matching), ``_composite`` (moving matte,
+  background, loop, composite), ``_render`` (the pipeline), ``_animate`` (the entry
+  point);
+- ``_reference`` (the plain versions) and ``_figures`` (the lesson's pictures).
 """
 
-from ._animate import (
-    TEXTURE_SCALE,
-    Animation,
-    Assignment,
-    Target,
-    animate,
-    assign,
-    cut_target,
-    fragment_motion,
-    render,
-)
+from ._animate import animate
+from ._appearance import match_histograms_cells, motion_blur
+from ._assign import Assignment, assign
 from ._augment import (
-    reference_sample_version,
-    reference_transform_vectors,
     sample_version,
     transform_flow,
     transform_vectors,
@@ -36,14 +46,17 @@ from ._augment import (
     version_coordinates,
     version_shape,
 )
+from ._blend import blend_differences, fragment_weights
 from ._build import add_clips, build_database, clip_fragments
+from ._composite import composite, dynamic_matte, inpaint_background, loop_crossfade
 from ._features import motion_spectra, textureness, window_features
 from ._figures import (
     assignment_figure,
+    clip_colour,
     clip_fragments_figure,
+    clip_map_picture,
     fragment_figure,
-    mean_image_mosaic,
-    motion_coherence,
+    motion_arrows,
     rendering_figure,
     retrieval_figure,
     spectra_figure,
@@ -52,40 +65,31 @@ from ._figures import (
     versions_figure,
 )
 from ._flow import optical_flow
+from ._flow_map import flow_map_texture
 from ._geometry import ANGLES, FRAGMENT, SCALES, STRIDE, VERSIONS
 from ._lock import DatabaseBusy
-from ._mrf import (
-    MRFSolution,
-    PairTables,
-    alpha_expansion,
-    brute_force,
-    energy,
-    grid_edges,
-    icm,
-    pair_tables,
-    reference_pair_tables,
-    solve,
-)
+from ._mrf import MRFSolution, alpha_expansion, brute_force, energy, grid_edges, icm, solve
 from ._params import AUGMENTATIONS, FLOW_BACKENDS, AnimateParams, DatabaseParams
-from ._render import (
-    blend_differences,
-    composite,
-    dynamic_matte,
-    fragment_weights,
-    inpaint_background,
-    loop_crossfade,
-    match_histograms_cells,
-    motion_blur,
+from ._reference import (
     reference_blend_differences,
+    reference_dense_sift,
     reference_match_histograms_cells,
+    reference_pair_tables,
+    reference_quantise,
+    reference_sample_version,
+    reference_top_k,
+    reference_transform_vectors,
 )
-from ._retrieval import HistogramIndex, reference_top_k
-from ._sift import dense_sift, reference_dense_sift
+from ._render import Animation, render
+from ._retrieval import HistogramIndex
+from ._sift import dense_sift
+from ._smoothness import TEXTURE_SCALE, PairTables, pair_tables
 from ._starter import starter_database, starter_params, starter_path
-from ._starter_clips import STARTER_KINDS, flow_map_texture, starter_clips
+from ._starter_clips import STARTER_KINDS, starter_clips
 from ._store import VideoDatabase, open_database, verify_database
+from ._target import Target, cut_target, fragment_motion
 from ._video import Video, read_video
-from ._words import fit_codebook, intersection, pyramid_histograms, quantise, reference_quantise
+from ._words import fit_codebook, intersection, pyramid_histograms, quantise
 
 __all__ = [
     "ANGLES",
@@ -116,8 +120,10 @@ __all__ = [
     "blend_differences",
     "brute_force",
     "build_database",
+    "clip_colour",
     "clip_fragments",
     "clip_fragments_figure",
+    "clip_map_picture",
     "composite",
     "cut_target",
     "dense_sift",
@@ -134,9 +140,8 @@ __all__ = [
     "intersection",
     "loop_crossfade",
     "match_histograms_cells",
-    "mean_image_mosaic",
+    "motion_arrows",
     "motion_blur",
-    "motion_coherence",
     "motion_spectra",
     "open_database",
     "optical_flow",

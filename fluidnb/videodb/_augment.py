@@ -35,9 +35,9 @@ can rebuild one fragment from the source clip exactly as the build cut it.
 
 The sampling runs in two small numba kernels (a separable Gaussian and a bilinear
 gather that serves all frames from one set of indices and weights) on a pixel-major
-copy of the source window; :func:`reference_sample_version` and
-:func:`reference_transform_vectors` write the same computation out literally with
-scipy and explicit matrices, and the tests compare the two. All 18 versions of a
+copy of the source window; :func:`fluidnb.videodb.reference_sample_version` and
+:func:`fluidnb.videodb.reference_transform_vectors` write the same computation out
+literally with scipy and explicit matrices, and the tests compare the two. All 18 versions of a
 64-frame 320 x 180 grey clip take about 0.5 s on one core, its flow's about 1 s.
 
 References
@@ -55,7 +55,6 @@ from functools import cache
 
 import numpy as np
 from numba import njit
-from scipy import ndimage as ndi
 
 from .._validation import check_array, check_int
 from ._geometry import FRAGMENT, STRIDE, VERSIONS
@@ -63,8 +62,6 @@ from ._geometry import FRAGMENT, STRIDE, VERSIONS
 __all__ = [
     "IDENTITY",
     "prefilter_sigma",
-    "reference_sample_version",
-    "reference_transform_vectors",
     "sample_version",
     "transform_flow",
     "transform_vectors",
@@ -335,58 +332,6 @@ def valid_positions(shape, version):
     )
     keep = np.argwhere(count == 0)
     return np.stack([rows[keep[:, 0]], cols[keep[:, 1]]], axis=1).astype(np.int64)
-
-
-# --- reference versions (literal, slow; the tests compare the fast path with them) ---
-
-
-def reference_sample_version(frames, version, *, origin=(0, 0), size=None):
-    r""":func:`sample_version` written out literally, frame by frame and pixel by pixel.
-
-    Each version pixel's coordinates come from the module's formula with explicit
-    matrices, each frame is prefiltered whole with :func:`scipy.ndimage.gaussian_filter`
-    and sampled with :func:`scipy.ndimage.map_coordinates` (order 1, edge clamped).
-    Agrees with the fast path to float32 round-off, not bit for bit.
-    """
-    arr = np.asarray(frames, dtype=np.float64)
-    h, w = arr.shape[1:3]
-    hv, wv = version_shape((h, w), version)
-    (r0, c0), (hh, ww) = _window(h, w, version, origin, size)
-    flip, s, _ = VERSIONS[version]
-    theta = math.radians(-VERSIONS[version][2])
-    rot = np.array([[math.cos(theta), -math.sin(theta)], [math.sin(theta), math.cos(theta)]])
-    mirror = np.diag([1.0, -1.0 if flip else 1.0])
-    centre_v = np.array([(hv - 1) / 2, (wv - 1) / 2])
-    centre_s = np.array([(h - 1) / 2, (w - 1) / 2])
-    coords = np.empty((2, hh, ww))
-    for i in range(hh):
-        for j in range(ww):
-            p = np.array([r0 + i, c0 + j]) - centre_v
-            coords[:, i, j] = mirror @ rot @ p / s + centre_s
-    sigma = prefilter_sigma(version)
-    out = np.empty((arr.shape[0], hh, ww, *arr.shape[3:]))
-    for t in range(arr.shape[0]):
-        for ch in np.ndindex(arr.shape[3:]):
-            plane = arr[(t, slice(None), slice(None), *ch)]
-            if sigma > 0:
-                plane = ndi.gaussian_filter(plane, sigma, mode="nearest", truncate=_TRUNCATE)
-            out[(t, slice(None), slice(None), *ch)] = ndi.map_coordinates(
-                plane, coords, order=1, mode="nearest"
-            )
-    return out.astype(np.float32)
-
-
-def reference_transform_vectors(vectors, version):
-    r""":math:`u_v = s R(\theta) F u_s`, one explicit matrix product per vector."""
-    flip, s, angle = VERSIONS[version]
-    theta = math.radians(angle)
-    rot = np.array([[math.cos(theta), -math.sin(theta)], [math.sin(theta), math.cos(theta)]])
-    mirror = np.diag([1.0, -1.0 if flip else 1.0])
-    u = np.asarray(vectors, dtype=np.float64)
-    out = np.empty_like(u)
-    for idx in np.ndindex(u.shape[:-1]):
-        out[idx] = s * rot @ mirror @ u[idx]
-    return out
 
 
 # --- internals ---

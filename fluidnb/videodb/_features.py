@@ -29,6 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._image import LUMA
+from ..fields import downsample, expand, laplacian_pyramid
 from ._geometry import (
     FRAGMENT,
     SPECTRA_BLOCK,
@@ -38,29 +40,22 @@ from ._geometry import (
     TEXTURE_SIDE,
 )
 
-__all__ = ["GREY", "block_mean", "grey", "motion_spectra", "textureness", "window_features"]
-
-#: Rec. 709 luminance weights, as ``fluidnb.as_image(mode="grey")``.
-GREY = np.array([0.2125, 0.7154, 0.0721], dtype=np.float32)
+__all__ = ["block_mean", "grey", "motion_spectra", "textureness", "window_features"]
 
 
 def grey(frames):
     """Luminance of RGB frames (uint8 or float in [0, 1]) as float32 in [0, 1]."""
     arr = np.asarray(frames)
     scale = np.float32(1 / 255) if arr.dtype == np.uint8 else np.float32(1)
-    return (arr.astype(np.float32) @ GREY) * scale
+    return (arr.astype(np.float32) @ LUMA) * scale
 
 
 def block_mean(field, block):
     """Average ``field`` (..., H, W) over ``block x block`` tiles (a ragged edge is dropped).
 
-    OpenCV's area resampling by a whole factor is exactly the tile mean, 25 times as
-    fast as a numpy reduction over strided axes.
+    In float32 through OpenCV (:func:`fluidnb.fields.downsample` with
+    ``precision="float32"``), the leading axes batched as channels.
     """
-    import cv2
-
-    from ..fields._pyramid import _per_chunk
-
     h, w = field.shape[-2:]
     hb, wb = h // block, w // block
     lead = field.shape[:-2]
@@ -68,9 +63,7 @@ def block_mean(field, block):
         -1, hb * block, wb * block
     )
     stack = np.ascontiguousarray(np.moveaxis(flat, 0, -1))
-    out = _per_chunk(
-        stack, lambda a: cv2.resize(a, (wb, hb), interpolation=cv2.INTER_AREA), (hb, wb)
-    )
+    out = downsample(stack, block, precision="float32")
     return np.moveaxis(out, -1, 0).reshape(*lead, hb, wb)
 
 
@@ -133,20 +126,19 @@ def textureness(frames):
     ndarray, shape (4, H // 2, W // 2), float32
         Level ``l`` is :math:`\sum_i |L_l(F_i)|` resampled to the full grid.
     """
-    from ..fields._pyramid import _laplacian32, _resize32
-
     h, w = frames.shape[1:]
     # The frames are the channels of one pyramid (channels never mix): N pyramids for
     # the price of one call, in float32 through OpenCV (the library's pyramid to
     # float32 round-off, ~15 times as fast as its float64 version).
-    bands = _laplacian32(
-        np.ascontiguousarray(np.moveaxis(frames, 0, -1), np.float32), TEXTURE_LEVELS
-    )
+    frames = np.ascontiguousarray(np.moveaxis(frames, 0, -1), np.float32)
+    bands = laplacian_pyramid(frames, TEXTURE_LEVELS, precision="float32")
     levels = []
     for band in bands:
-        # Summing over frames first is exact (resampling is linear) and N times cheaper.
+        # Summing over frames first is exact (resampling is linear) and N times cheaper;
+        # back to the full grid by bilinear resampling (expand without its blur).
         mag = np.abs(band).sum(axis=-1, dtype=np.float32)
-        levels.append(_resize32(mag[..., None], (h, w))[..., 0] if mag.shape != (h, w) else mag)
+        full = mag.shape == (h, w)
+        levels.append(mag if full else expand(mag, (h, w), sigma=0, precision="float32"))
     return block_mean(np.stack(levels), TEXTURE_BLOCK).astype(np.float32)
 
 

@@ -1,7 +1,8 @@
 r"""Teaching figures of the video-database method (Okabe et al., secs. 4-6).
 
-What the lesson (``notebooks/07_videodb.ipynb``) draws, as library functions so the
-notebook's cells stay short and the app can reuse them:
+What the lessons (``notebooks/07a_videodb_database.ipynb`` and
+``07b_videodb_animation.ipynb``) draw, as library functions so the notebooks' cells
+stay short and the app can reuse them:
 
 - :func:`clip_fragments_figure`: a clip, its fragment grid, and one fragment's mean
   image, difference frame, visual words, motion spectra and textureness (Okabe et al., Fig. 2,
@@ -14,27 +15,42 @@ notebook's cells stay short and the app can reuse them:
   (Okabe et al., Fig. 7) of a few fragments side by side;
 - :func:`assignment_figure`, :func:`sweep_figure`: which source clip animates each
   target fragment and its mean motion, for one or several assignments (Eq. 4-6);
-- :func:`rendering_figure`: the rendering's stages (Okabe et al., sec. 6);
-- :func:`mean_image_mosaic` and :func:`motion_coherence`: the numbers and pictures the
-  figures are made of.
+- :func:`rendering_figure`: the rendering's stages (Okabe et al., sec. 6).
+
+One drawing rule for an assignment, shared with the app's assignment map
+(:class:`fluidnb.widgets.VideoDBApp`): each source clip's colour (:func:`clip_colour`),
+the photo tinted by the clip of each fragment's cell (:func:`clip_map_picture`), and
+each fragment's mean motion as an arrow (:func:`motion_arrows`).
 
 Matplotlib's object API only (no pyplot), so figures can be made in a worker thread and
-outside Jupyter.
+outside Jupyter. Matplotlib itself is imported when the first figure is drawn (half a
+second), so that importing :mod:`fluidnb.videodb` and the command line stay quick.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from .._image import LUMA
 from .._validation import check_array, check_int
+from ..fields import resize
+from ..sketch import arrow_heads
+from ._assign import Assignment
+from ._augment import IDENTITY, sample_version, valid_positions, version_coordinates
 from ._geometry import FRAGMENT, GRID, SPECTRA_BLOCK, STRIDE, TEXTURE_LEVELS, VERSIONS
+from ._render import Animation
+from ._retrieval import MIN_MOTION
+from ._store import VideoDatabase
+from ._words import HISTOGRAM_TOTAL, pyramid_cells
 
 __all__ = [
+    "CLIP_PALETTE",
     "assignment_figure",
+    "clip_colour",
     "clip_fragments_figure",
+    "clip_map_picture",
     "fragment_figure",
-    "mean_image_mosaic",
-    "motion_coherence",
+    "motion_arrows",
     "rendering_figure",
     "retrieval_figure",
     "spectra_figure",
@@ -43,8 +59,29 @@ __all__ = [
     "versions_figure",
 ]
 
-# Below this speed (px/frame) a mean motion has no direction (as retrieval's MIN_MOTION).
-_STILL = 1e-6
+#: The source clips' colours in every picture of an assignment, RGB 0-255: Okabe &
+#: Ito's colour-blind-safe set, then a few more; clip ``k`` has colour ``k mod 12``.
+CLIP_PALETTE = np.array(
+    [
+        (0, 114, 178),
+        (230, 159, 0),
+        (0, 158, 115),
+        (204, 121, 167),
+        (86, 180, 233),
+        (213, 94, 0),
+        (240, 228, 66),
+        (120, 94, 240),
+        (170, 170, 170),
+        (140, 86, 75),
+        (23, 190, 207),
+        (188, 189, 34),
+    ],
+    np.uint8,
+)
+# The assignment map's picture: the photo at this brightness around the fragments'
+# cells, and inside them mixed with its clip's colour in this share.
+_SHADE = 0.35
+_TINT = 0.6
 # Arrow length (pixels of a version) per px/frame in versions_figure.
 _VERSION_GAIN = 30.0
 
@@ -53,8 +90,6 @@ _VERSION_GAIN = 30.0
 
 
 def _check_db(db):
-    from ._store import VideoDatabase
-
     if not isinstance(db, VideoDatabase):
         raise ValueError(f"db must be a VideoDatabase, got {type(db).__name__}")
     return db
@@ -65,8 +100,6 @@ def _check_fragment(db, fragment, name="fragment"):
 
 
 def _check_assignment(assignment, name="assignment"):
-    from ._animate import Assignment
-
     if not isinstance(assignment, Assignment):
         raise ValueError(f"{name} must be an Assignment, got {type(assignment).__name__}")
     return assignment
@@ -103,28 +136,101 @@ def _clip_name(db, clip):
     return str(db.clips[int(clip)]["name"])
 
 
-def _clip_colours(n):
-    """``n`` distinct colours (tab10, then tab20's lighter ones)."""
-    from matplotlib import colormaps
+def clip_colour(index):
+    """The colour of source clip ``index`` in the pictures of an assignment, RGB in [0, 1].
 
-    base = list(colormaps["tab10"].colors) + list(colormaps["tab20"].colors[1::2])
-    return [base[i % len(base)] for i in range(n)]
+    Examples
+    --------
+    >>> clip_colour(0), clip_colour(12) == clip_colour(0)
+    ((0.0, 0.4470588235294118, 0.6980392156862745), True)
+    """
+    return tuple(float(v) / 255 for v in CLIP_PALETTE[int(index) % len(CLIP_PALETTE)])
+
+
+def clip_map_picture(photo, clip_map=None, *, shape=None):
+    """The assignment map's picture: the photo tinted by the clip animating each cell.
+
+    Parameters
+    ----------
+    photo : ndarray, shape (H, W, 3)
+        The target photo, in [0, 1].
+    clip_map : ndarray of int, shape (H, W), optional
+        The source clip of each pixel's fragment, -1 for none
+        (:meth:`Assignment.clip_map`); None before there is an assignment.
+    shape : (int, int), optional
+        The picture's size (a canvas's): the photo resized bilinearly, the clip map
+        sampled at the nearest pixel. Default the photo's.
+
+    Returns
+    -------
+    ndarray, shape (h, w, 3), float
+        Inside a fragment's cell 0.4 of the photo plus 0.6 of its clip's colour
+        (:func:`clip_colour`), elsewhere the photo at 0.35 of its brightness.
+    """
+    photo = np.asarray(photo)
+    h, w = photo.shape[:2]
+    ch, cw = (h, w) if shape is None else (int(shape[0]), int(shape[1]))
+    shown = np.clip(resize(photo, (ch, cw)) if (ch, cw) != (h, w) else photo, 0, 1)
+    if clip_map is None:
+        return _SHADE * shown
+    rows = np.minimum((np.arange(ch) * h / ch).astype(int), h - 1)
+    cols = np.minimum((np.arange(cw) * w / cw).astype(int), w - 1)
+    k = np.asarray(clip_map)[rows][:, cols]
+    inside = k >= 0
+    colour = CLIP_PALETTE[np.where(inside, k, 0) % len(CLIP_PALETTE)] / 255.0
+    return np.where(inside[..., None], (1 - _TINT) * shown + _TINT * colour, _SHADE * shown)
+
+
+def motion_arrows(assignment, *, gain=None, thin=False):
+    """Each assigned fragment's mean motion as an arrow centred on its fragment.
+
+    Parameters
+    ----------
+    assignment : Assignment
+    gain : float, optional
+        Arrow length in pixels per px/frame; default: the 90th percentile of the
+        fragments' speeds spans 0.9 of a stride (24 px).
+    thin : bool
+        Every other fragment in each direction only (arrows that do not overlap).
+
+    Returns
+    -------
+    segments : ndarray, shape (k, 2, 2)
+        Start and end (row, col) in image pixels, for every fragment whose centre lies
+        in the image and that moves (speed above
+        :data:`~fluidnb.videodb._retrieval.MIN_MOTION`).
+    gain : float
+        The gain used.
+    """
+    a = _check_assignment(assignment)
+    h, w = a.target.shape
+    pos = a.target.positions
+    centres = pos + FRAGMENT / 2 - 0.5
+    motion = a.db.mean_motion[a.fragments].astype(np.float64)
+    inside = (centres[:, 0] < h) & (centres[:, 1] < w)
+    if thin:
+        cell = pos // STRIDE
+        inside &= (cell[:, 0] % 2 == 0) & (cell[:, 1] % 2 == 0)
+    c, m = centres[inside], motion[inside]
+    speed = np.hypot(m[:, 0], m[:, 1])
+    if gain is None:
+        top = float(np.percentile(speed, 90)) if len(m) else 0.0
+        gain = 0.9 * STRIDE / top if top > MIN_MOTION else 1.0
+    moving = speed > MIN_MOTION
+    vec = m[moving] * gain
+    return np.stack([c[moving] - vec / 2, c[moving] + vec / 2], axis=1), float(gain)
 
 
 # ------------------------------------------------------------------ fragment panels
 
 
 def _grey(rgb):
-    from ._features import GREY
-
-    return np.asarray(rgb, np.float32) @ GREY
+    return np.asarray(rgb, np.float32) @ LUMA
 
 
 def _word_map(ax, words, k):
     """The 9 x 9 word map, coloured by word, with the spatial pyramid's cell borders."""
     from matplotlib import colormaps
-
-    from ._words import pyramid_cells
 
     cmap = colormaps["tab20"].resampled(20)
     ax.imshow(np.asarray(words) % 20, cmap=cmap, vmin=0, vmax=19, interpolation="nearest")
@@ -151,7 +257,7 @@ def _block_quiver(ax, dc, *, colour="yellow", gain=None):
     dy, dx = np.asarray(dc[0], np.float64), np.asarray(dc[1], np.float64)
     step = 2  # every other block: 6 x 6 arrows stay readable on 48 pixels
     top = float(np.hypot(dy, dx).max())
-    if top <= _STILL:
+    if top <= MIN_MOTION:
         return
     gain = 1.6 * step * SPECTRA_BLOCK / top if gain is None else gain
     ax.quiver(
@@ -300,8 +406,6 @@ def _version_canvas(db, clip, version, first, frame, *, shade=False):
     With ``shade``, pixels that map outside the source (the sampler clamps them, so
     they smear the border) are darkened: no fragment is cut there.
     """
-    from ._augment import sample_version, version_coordinates
-
     frames = db.clip_frames(clip, first + frame, first + frame + 1).astype(np.float32) / 255
     canvas = sample_version(frames, version)[0].clip(0, 1)
     if shade:
@@ -314,8 +418,6 @@ def _version_canvas(db, clip, version, first, frame, *, shade=False):
 
 def _default_fragment(db, clip):
     """The fragment of the clip itself (version 7, first window) nearest its centre."""
-    from ._augment import IDENTITY
-
     src = db.source
     own = np.flatnonzero((src[:, 0] == clip) & (src[:, 1] == IDENTITY) & (src[:, 2] == 0))
     if len(own) == 0:
@@ -362,8 +464,6 @@ def clip_fragments_figure(db, clip=None, *, fragment=None, frame=0, figsize=(13,
         If ``fragment`` does not belong to ``clip``, or the clip has no fragment.
     """
     from matplotlib.patches import Rectangle
-
-    from ._augment import valid_positions
 
     db = _check_db(db)
     if fragment is not None:
@@ -506,7 +606,7 @@ def versions_figure(db, clip=0, *, frame=0, figsize=(14, 4.4)):
         if count:
             dy, dx = db.mean_motion[mine].astype(np.float64).mean(axis=0)
             speed = float(np.hypot(dy, dx))
-            if speed > _STILL:
+            if speed > MIN_MOTION:
                 # One px/frame is drawn GAIN px long at every scale: the arrows compare.
                 ax.quiver(
                     [wv / 2],
@@ -556,8 +656,6 @@ def retrieval_figure(db, image, *, k=6, figsize=None):
         The query, its visual-word map, then the candidates' mean images, each titled
         with its id, its clip and :math:`I(H_e, H_t)` (Eq. 1, normalised to [0, 1]).
     """
-    from ._words import HISTOGRAM_TOTAL
-
     db = _check_db(db)
     img = check_array("image", image, ndim=3)
     if img.shape != (FRAGMENT, FRAGMENT, 3):
@@ -618,7 +716,7 @@ def spectra_figure(db, fragments, *, labels=None, figsize=None):
     labels = [str(s) for s in labels]
     if len(labels) != len(ids):
         raise ValueError(f"labels must have one entry per fragment ({len(ids)}), got {len(labels)}")
-    colours = _clip_colours(len(ids))
+    colours = [f"C{i}" for i in range(len(ids))]
     fig = _figure(figsize or (13, 1.0 + 1.75 * max(2, len(ids))))
     left, right = fig.subfigures(1, 2, width_ratios=[1, 1.5])
     ax = left.subplots()
@@ -649,72 +747,7 @@ def spectra_figure(db, fragments, *, labels=None, figsize=None):
 # ---------------------------------------------------------------------- assignment
 
 
-def mean_image_mosaic(assignment):
-    r"""The assigned fragments' mean images, blended where they overlap.
-
-    What the assignment looks like in the database's own pixels: each target
-    fragment's chosen database fragment's mean image :math:`A`, pasted at the
-    fragment's place and blended with the render's partition-of-unity weights
-    (:func:`fragment_weights`). Comparing it with the photo shows how well Eq. (1)
-    matched appearance.
-
-    Parameters
-    ----------
-    assignment : Assignment
-
-    Returns
-    -------
-    ndarray, shape (H, W, 3), float32
-        The mosaic inside the taking-part fragments, the target photo elsewhere.
-    """
-    from ._render import fragment_weights
-
-    a = _check_assignment(assignment)
-    target = a.target
-    h, w = target.shape
-    hc, wc = target.canvas.shape[:2]
-    weights = fragment_weights(target.positions, (hc, wc))
-    means = a.db.mean_images(a.fragments)
-    out = np.zeros((hc, wc, 3), np.float64)
-    cover = np.zeros((hc, wc), np.float64)
-    for (r, c), wgt, m in zip(target.positions, weights, means):
-        out[r : r + FRAGMENT, c : c + FRAGMENT] += wgt[..., None] * m
-        cover[r : r + FRAGMENT, c : c + FRAGMENT] += wgt
-    inside = cover > 0.5
-    out[~inside] = target.canvas[~inside]
-    return out[:h, :w].astype(np.float32)
-
-
-def motion_coherence(assignment):
-    r"""How much neighbouring fragments agree on where the fluid goes, in [-1, 1].
-
-    The mean, over the MRF's edges (neighbouring target fragments), of the cosine of
-    the angle between their assigned fragments' mean motions: 1 when all flow the
-    same way, about 0 when directions are random (Okabe et al., sec. 7: a large
-    :math:`\sigma` ignores the mean motion and the motion turns random). Edges with a
-    still fragment count as 0; a target of one fragment (no edge) gives 1.
-
-    Parameters
-    ----------
-    assignment : Assignment
-
-    Returns
-    -------
-    float
-    """
-    a = _check_assignment(assignment)
-    if len(a.edges) == 0:
-        return 1.0
-    m = a.db.mean_motion[a.fragments].astype(np.float64)
-    p, q = a.edges[:, 0], a.edges[:, 1]
-    norm = np.linalg.norm(m[p], axis=1) * np.linalg.norm(m[q], axis=1)
-    cos = np.where(norm > _STILL**2, (m[p] * m[q]).sum(axis=1) / np.maximum(norm, 1e-300), 0.0)
-    return float(cos.mean())
-
-
 def _draw_strokes(ax, strokes, side):
-    from ..sketch import arrow_heads
-
     for s in strokes:
         pts = check_array("strokes", s, ndim=2).astype(np.float64)
         ax.plot(pts[:, 1], pts[:, 0], "-", color="w", lw=4, solid_capstyle="round")
@@ -742,21 +775,15 @@ def _draw_assignment(
 
     target = a.target
     h, w = target.shape
-    if background == "mosaic":
-        ax.imshow(mean_image_mosaic(a), interpolation="nearest")
-    else:
-        photo = target.image
-        ax.imshow(0.35 + 0.65 * photo if background == "clips" else photo)
     names = []
-    if background == "clips":
-        cmap_ids = a.clip_map()
-        used = np.unique(cmap_ids[cmap_ids >= 0])
-        colours = _clip_colours(len(a.db.clips))
-        rgba = np.zeros((h, w, 4), np.float32)
-        for k in used:
-            rgba[cmap_ids == k] = (*colours[k][:3], 0.55)
-        ax.imshow(rgba, interpolation="nearest")
-        names = [(int(k), colours[int(k)]) for k in used]
+    if background == "mosaic":
+        ax.imshow(a.mean_image_mosaic(), interpolation="nearest")
+    elif background == "clips":
+        clips = a.clip_map()
+        ax.imshow(clip_map_picture(target.image, clips), interpolation="nearest")
+        names = [(int(k), clip_colour(k)) for k in np.unique(clips[clips >= 0])]
+    else:
+        ax.imshow(target.image)
     if speed is not None:
         s = np.asarray(speed, np.float64)
         ax.imshow(np.ma.masked_less_equal(s, 0), cmap="viridis", alpha=0.6, vmin=0)
@@ -780,22 +807,14 @@ def _draw_assignment(
     if strokes is not None:
         _draw_strokes(ax, strokes, max(h, w))
     if arrows:
-        centres = target.positions + FRAGMENT / 2 - 0.5
-        motion = a.db.mean_motion[a.fragments].astype(np.float64)
-        inside = (centres[:, 0] < h) & (centres[:, 1] < w)
-        if thin:
-            # Every other fragment in each direction: arrows that do not overlap.
-            cell = target.positions // STRIDE
-            inside &= (cell[:, 0] % 2 == 0) & (cell[:, 1] % 2 == 0)
-        c, m = centres[inside], motion[inside]
-        if gain is None:
-            top = float(np.percentile(np.hypot(m[:, 0], m[:, 1]), 90)) if len(m) else 0.0
-            gain = 0.9 * STRIDE / top if top > _STILL else 1.0
+        segments, gain = motion_arrows(a, gain=gain, thin=thin)
+        c = segments.mean(axis=1)  # the arrows' middles: the fragments' centres
+        v = segments[:, 1] - segments[:, 0]
         ax.quiver(
             c[:, 1],
             c[:, 0],
-            m[:, 1] * gain,
-            m[:, 0] * gain,
+            v[:, 1],
+            v[:, 0],
             angles="xy",
             scale_units="xy",
             scale=1,
@@ -849,10 +868,12 @@ def assignment_figure(
     background : {"clips", "mosaic", "photo"}
         ``"clips"``: the photo, each fragment's cell coloured by the source clip its
         fragment came from (:meth:`Assignment.clip_map`), with a legend;
-        ``"mosaic"``: the assigned fragments' mean images (:func:`mean_image_mosaic`);
+        ``"mosaic"``: the assigned fragments' mean images
+        (:meth:`Assignment.mean_image_mosaic`);
         ``"photo"``: the photo alone.
     arrows : bool
-        Draw each assigned fragment's mean motion (dy, dx) at its fragment's centre.
+        Draw each assigned fragment's mean motion (dy, dx) at its fragment's centre
+        (:func:`motion_arrows`).
     strokes : sequence of array_like (n, 2), optional
         Flow strokes (row, col) to draw, with arrow heads.
     field : bool
@@ -904,7 +925,7 @@ def assignment_figure(
         p = a.params
         title = (
             f"σ = {p.sigma:g}, λ = {p.lam:g}, ρ = {p.rho:g}: E = {a.solution.energy:.4g}, "
-            f"coherence {motion_coherence(a):.2f}"
+            f"coherence {a.motion_coherence():.2f}"
         )
     ax.set_title(title, fontsize=9)
     return fig
@@ -933,7 +954,7 @@ def sweep_figure(assignments, *, reference=None, background="clips", zoom=True, 
     matplotlib.figure.Figure
         One panel per assignment titled with its label, the fraction of target
         fragments whose database fragment differs from ``reference``'s, and the
-        :func:`motion_coherence`; arrows drawn at one scale in all panels.
+        :meth:`Assignment.motion_coherence`; arrows drawn at one scale in all panels.
     """
     if not isinstance(assignments, dict) or not assignments:
         raise ValueError("assignments must be a non-empty dict of label -> Assignment")
@@ -948,7 +969,7 @@ def sweep_figure(assignments, *, reference=None, background="clips", zoom=True, 
             raise ValueError(f"assignments[{label!r}] is of another target than the reference")
     motion = np.concatenate([a.db.mean_motion[a.fragments] for _, a in items]).astype(np.float64)
     top = float(np.percentile(np.hypot(motion[:, 0], motion[:, 1]), 90))
-    gain = 1.8 * STRIDE / top if top > _STILL else 1.0
+    gain = 1.8 * STRIDE / top if top > MIN_MOTION else 1.0
     (r0, r1), (c0, c1) = (
         _view(ref) if zoom else ((0, ref.target.shape[0]), (0, ref.target.shape[1]))
     )
@@ -972,7 +993,7 @@ def sweep_figure(assignments, *, reference=None, background="clips", zoom=True, 
         )
         changed = float(np.mean(a.fragments != ref.fragments))
         ax.set_title(
-            f"{label}\nchanged {changed:.0%}, coherence {motion_coherence(a):.2f}", fontsize=9
+            f"{label}\nchanged {changed:.0%}, coherence {a.motion_coherence():.2f}", fontsize=9
         )
     return fig
 
@@ -1002,8 +1023,6 @@ def rendering_figure(animation, *, frame=None, figsize=(13, 7.6)):
         the final frame (matched cell by cell, composited through the matte); the
         matte :math:`B_i` used for it (static, or dynamic for ``tau > 0``).
     """
-    from ._animate import Animation
-
     if not isinstance(animation, Animation):
         raise ValueError(f"animation must be an Animation, got {type(animation).__name__}")
     st = animation.stages

@@ -37,7 +37,7 @@ the top :math:`K` is taken. A fragment is eligible when
 (Both within a relative 1e-12, so that motions exactly on a boundary count as inside.)
 When fewer than :math:`K` fragments are eligible, the row is padded by repeating the
 best of them (a repeated label is harmless to the MRF); when none is, the query falls
-back to the unfiltered top :math:`K`. :func:`reference_top_k` is the same search
+back to the unfiltered top :math:`K`. :func:`fluidnb.videodb.reference_top_k` is the same search
 written densely in numpy, for the tests.
 
 References
@@ -58,9 +58,9 @@ from numba import njit
 
 from .._validation import check_array, check_int, check_range
 from ._geometry import GRID
-from ._words import CELLS, HISTOGRAM_TOTAL, _check_words, pyramid_cells, pyramid_histograms
+from ._words import CELLS, HISTOGRAM_TOTAL, _check_words, pyramid_cells
 
-__all__ = ["MIN_MOTION", "HistogramIndex", "TopK", "reference_top_k"]
+__all__ = ["MIN_MOTION", "HistogramIndex", "TopK"]
 
 #: Below this speed (px/frame) a fragment's mean motion has no direction.
 MIN_MOTION = 1e-6
@@ -363,7 +363,7 @@ def _filter(motion, mag, uy, ux, s, cos_max, ratio, ok):
 
     The angle test is ``m . u >= (cos(max_angle) - slack) |m|`` (no division), the
     speed test ``max(|m|, s) <= ratio min(|m|, s) (1 + slack)``, exactly as
-    :func:`reference_top_k` writes them.
+    :func:`fluidnb.videodb.reference_top_k` writes them.
     """
     use_dir = not math.isnan(uy)
     use_speed = not math.isnan(s)
@@ -498,66 +498,3 @@ def _search(
         for i in range(m, n_top):
             out_ids[q, i] = out_ids[q, 0]
             out_scores[q, i] = out_scores[q, 0]
-
-
-def reference_top_k(
-    words,
-    n_words,
-    query_words,
-    k,
-    *,
-    mean_motion=None,
-    direction=None,
-    speed=None,
-    max_angle=45.0,
-    max_speed_ratio=2.0,
-):
-    """:meth:`HistogramIndex.top_k` written densely: every histogram, every score, a sort.
-
-    Memory (Q, F, 21 k): for the tests' small databases only.
-
-    Parameters
-    ----------
-    words : array_like of int, shape (F, 9, 9)
-    n_words : int
-        The codebook's size :math:`k`.
-    query_words : array_like of int, shape (Q, 9, 9)
-    k : int
-        Candidates per query.
-    mean_motion, direction, speed, max_angle, max_speed_ratio
-        As :class:`HistogramIndex` and :meth:`HistogramIndex.top_k`.
-
-    Returns
-    -------
-    TopK
-    """
-    he = pyramid_histograms(words, n_words).astype(np.int64)  # (F, 21 k)
-    k = check_int("k", k, 1, len(he))
-    ht = pyramid_histograms(query_words, n_words).astype(np.int64)  # (Q, 21 k)
-    n_frag, n_q = len(he), len(ht)
-    has_motion = mean_motion is not None
-    unit, s, cos_max, ratio = _check_filter(
-        n_q, direction, speed, max_angle, max_speed_ratio, has_motion
-    )
-    if has_motion:
-        m = np.asarray(mean_motion, dtype=np.float64)
-        mag = np.sqrt(m[:, 0] * m[:, 0] + m[:, 1] * m[:, 1])
-    ids = np.empty((n_q, k), np.int64)
-    scores = np.empty((n_q, k), np.int32)
-    n_eligible = np.empty(n_q, np.int64)
-    for q in range(n_q):
-        score = np.minimum(ht[q][None, :], he).sum(axis=1)  # Eq. (1)
-        ok = np.ones(n_frag, bool)
-        if not np.isnan(unit[q, 0]):
-            dot = m[:, 0] * unit[q, 0] + m[:, 1] * unit[q, 1]  # |m| cos(angle)
-            ok &= (mag >= MIN_MOTION) & (dot >= (cos_max - _SLACK) * mag)
-        if not np.isnan(s[q]):
-            hi, lo = np.maximum(mag, s[q]), np.minimum(mag, s[q])
-            ok &= hi <= ratio * lo * (1.0 + _SLACK)
-        filtered = not (np.isnan(unit[q, 0]) and np.isnan(s[q]))
-        n_eligible[q] = ok.sum() if filtered else n_frag
-        pool = np.flatnonzero(ok) if ok.any() else np.arange(n_frag)
-        order = pool[np.lexsort((pool, -score[pool]))][:k]  # score down, then id up
-        order = np.concatenate([order, np.repeat(order[:1], k - len(order))])
-        ids[q], scores[q] = order, score[order]
-    return TopK(ids, scores, n_eligible)

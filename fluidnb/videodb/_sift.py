@@ -39,8 +39,8 @@ the same operations in the same order wherever its fragment sits in the batch, s
 fragment's descriptors do not depend on the batch it came in: database and target
 agree bit for bit; no fastmath, so the compiler may not reorder sums). It computes
 ``atan2`` by octants and a polynomial (to a few ulp), pools
-separably, and normalises with reciprocals. :func:`reference_dense_sift` is the
-recipe above written out literally, one descriptor and one pixel at a time; the two
+separably, and normalises with reciprocals. :func:`fluidnb.videodb.reference_dense_sift`
+is the recipe above written out literally, one descriptor and one pixel at a time; the two
 agree to within one count of the uint8 values (a value differs only where
 :math:`512 v` lands within round-off of an integer), and on the tests' images
 exactly.
@@ -65,7 +65,7 @@ from numba import njit
 from .._validation import check_array
 from ._geometry import FRAGMENT, GRID
 
-__all__ = ["BINS", "ORIENTATIONS", "SIGMA", "dense_sift", "reference_dense_sift"]
+__all__ = ["BINS", "ORIENTATIONS", "SIGMA", "dense_sift"]
 
 #: Spatial bins per axis of a descriptor, and their width in pixels.
 BINS = 4
@@ -331,61 +331,3 @@ def _normalise_quantise(v, out):
     for i in range(v.shape[0]):
         q = v[i] * scale
         out[i] = np.uint8(q if q < 255.0 else 255.0)
-
-
-def reference_dense_sift(image):
-    """The recipe of the module notes, literally: one descriptor, one pixel at a time.
-
-    Slow on purpose (pure Python loops, ~0.1 s a fragment); the tests compare
-    :func:`dense_sift` with it. Results agree to within one count of the uint8
-    values (sums in a different order), almost always exactly.
-
-    Parameters
-    ----------
-    image : array_like, shape (48, 48)
-        A grey fragment, floats in [0, 1].
-
-    Returns
-    -------
-    ndarray, shape (9, 9, 128), uint8
-    """
-    img = _check_images(image)
-    if img.ndim != 2:
-        raise ValueError(f"image must have shape (48, 48), got {img.shape}")
-    img = img.astype(np.float32).astype(np.float64)
-    gy, gx = np.gradient(img)  # central differences, one-sided at the border
-    out = np.zeros((GRID, GRID, 128), np.uint8)
-    for ky in range(GRID):
-        for kx in range(GRID):
-            hist = np.zeros((BINS, BINS, ORIENTATIONS))
-            cy, cx = 4 * ky + 7.5, 4 * kx + 7.5  # the descriptor's centre
-            for y in range(4 * ky, 4 * ky + 16):
-                for x in range(4 * kx, 4 * kx + 16):
-                    mag = math.sqrt(gx[y, x] ** 2 + gy[y, x] ** 2)
-                    if mag == 0:
-                        continue
-                    theta = math.atan2(gy[y, x], gx[y, x])
-                    if theta < 0:
-                        theta += 2 * math.pi
-                    # Orientation: linear interpolation between the two nearest bins.
-                    u = theta / (2 * math.pi) * 8
-                    t = math.floor(u)
-                    orient = {t % 8: 1 - (u - t), (t + 1) % 8: u - t}
-                    # Space: the pixel's position in bin units, bin b's centre at b.
-                    ry = (y - 4 * ky + 0.5) / 4 - 0.5
-                    rx = (x - 4 * kx + 0.5) / 4 - 0.5
-                    window = math.exp(-((y - cy) ** 2 + (x - cx) ** 2) / (2 * 8.0**2))
-                    for by in (math.floor(ry), math.floor(ry) + 1):
-                        for bx in (math.floor(rx), math.floor(rx) + 1):
-                            if not (0 <= by < 4 and 0 <= bx < 4):
-                                continue
-                            wy = 1 - abs(ry - by)
-                            wx = 1 - abs(rx - bx)
-                            for o, wo in orient.items():
-                                hist[by, bx, o] += mag * window * wy * wx * wo
-            v = hist.ravel()
-            v = v / (np.linalg.norm(v) + _EPS)
-            v = np.minimum(v, 0.2)
-            v = v / (np.linalg.norm(v) + _EPS)
-            out[ky, kx] = np.minimum(255, np.floor(512 * v)).astype(np.uint8)
-    return out

@@ -500,13 +500,13 @@ class VideoDatabase:
 
 def fragment_grey(images):
     """Grey float32 (n, 48, 48) of fragments rounded to 8 bits (one path for all)."""
-    from .._image import _to_float01, to_uint8
+    from .._image import to_float01, to_uint8
     from ._features import grey
 
     arr = check_array("images", images, ndim=(3, 4))
     if arr.shape[1:3] != (FRAGMENT, FRAGMENT) or (arr.ndim == 4 and arr.shape[3] != 3):
         raise ValueError(f"images must have shape (n, 48, 48[, 3]), got {arr.shape}")
-    u8 = arr if arr.dtype == np.uint8 else to_uint8(_to_float01(arr, "images"))
+    u8 = arr if arr.dtype == np.uint8 else to_uint8(to_float01(arr, name="images"))
     if u8.ndim == 3:
         return u8.astype(np.float32) / np.float32(255)
     return grey(u8)

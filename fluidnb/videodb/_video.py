@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from .._clip import Clip
-from .._image import _read, _to_float01, to_uint8
+from .._image import as_image, to_float01, to_uint8
 from .._validation import check_int
 
 __all__ = ["VIDEO_EXTENSIONS", "Video", "read_video"]
@@ -147,7 +147,7 @@ def _array_frames(source):
         raise ValueError(f"source frames are empty: got shape {arr.shape}")
     if arr.dtype == np.uint8:
         return arr
-    return to_uint8(_to_float01(arr, "source"))
+    return to_uint8(to_float01(arr, name="source"))
 
 
 def _digest_frames(frames):
@@ -215,8 +215,7 @@ def _read_folder(folder):
     frames = []
     h = hashlib.sha256()
     for p in files:
-        arr = _read(p, "source")
-        frames.append(to_uint8(_to_float01(arr[..., :3] if arr.ndim == 3 else arr, "source")))
+        frames.append(to_uint8(as_image(p, name="source")))  # grey or RGB; alpha dropped
         h.update(p.name.encode())
         h.update(p.read_bytes())
     shapes = {f.shape for f in frames}

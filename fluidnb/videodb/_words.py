@@ -58,7 +58,6 @@ __all__ = [
     "pyramid_cells",
     "pyramid_histograms",
     "quantise",
-    "reference_quantise",
 ]
 
 #: Cells of the pyramid: 1 + 4 + 16.
@@ -196,7 +195,7 @@ def _squared_distances(x, c):
     """``sum_i (x_i - c_i)^2`` in float64: x (m, D), c (m, j, D) or (j, D) -> (m, j).
 
     The one place these are computed directly, so that :func:`quantise` and
-    :func:`reference_quantise` sum every value in the same order.
+    :func:`fluidnb.videodb.reference_quantise` sum every value in the same order.
     """
     diff = x[:, None, :] - c
     return (diff * diff).sum(axis=-1)
@@ -216,7 +215,7 @@ def quantise(descriptors, centres):
     -------
     ndarray, shape (...)
         ``argmin_c sum_i (x_i - c_i)^2`` in float64, ties to the lowest index (exactly
-        :func:`reference_quantise`). uint8 when ``k <= 256``, uint16 up to 65536,
+        :func:`fluidnb.videodb.reference_quantise`). uint8 when ``k <= 256``, uint16 up to 65536,
         else int64.
 
     Notes
@@ -269,29 +268,6 @@ def quantise(descriptors, centres):
             words[many] = cand[np.arange(len(many)), dist.argmin(axis=1)]
         out[lo : lo + len(xb)] = words
     return out.reshape(lead)
-
-
-def reference_quantise(descriptors, centres):
-    """Nearest centre by brute force: every distance computed directly (for the tests).
-
-    Parameters
-    ----------
-    descriptors : array_like, shape (..., D)
-    centres : array_like, shape (k, D)
-
-    Returns
-    -------
-    ndarray of int64, shape (...)
-        ``argmin`` over the centres of ``sum_i (x_i - c_i)^2`` in float64 (ties to
-        the lowest index, as ``numpy.argmin``).
-    """
-    x, c = _check_pair(descriptors, centres)
-    rows = np.asarray(x.reshape(-1, x.shape[-1]), dtype=np.float64)
-    words = [
-        _squared_distances(rows[i : i + 256], c).argmin(axis=1) for i in range(0, len(rows), 256)
-    ]
-    out = np.concatenate(words) if words else np.empty(0, np.int64)
-    return out.reshape(x.shape[:-1])
 
 
 def _check_words(words, k, *, name="words"):

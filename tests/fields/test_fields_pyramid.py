@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from fluidnb.fields import (
-    _pyramid,
     collapse,
+    downsample,
     expand,
     gaussian_pyramid,
     laplacian_pyramid,
@@ -196,15 +196,73 @@ def test_expand_without_blur_is_bilinear_resize(shape, target):
     )
 
 
-@pytest.mark.parametrize("shape", [(37, 53, 3), (48, 72, 130), (5, 9, 1)])
-def test_fast_pyramids_are_the_library_pyramids(shape):
-    """The OpenCV float32 pyramids equal the float64 ones to float32 rounding,
-    also beyond OpenCV's channel limit (chunks) and on tiny odd levels."""
+@pytest.mark.parametrize("shape", [(37, 53, 3), (48, 72, 130), (5, 9, 1), (37, 53)])
+@pytest.mark.parametrize("sigma", [1.0, 0.7, 0.0])
+def test_float32_pyramids_are_the_float64_pyramids(shape, sigma):
+    """precision="float32" (OpenCV) equals the float64 pyramids to float32 rounding,
+    also beyond OpenCV's channel limit (chunks), on tiny odd levels and without blur."""
     x = np.random.default_rng(5).random(shape).astype(np.float32)
     levels = 4
-    for fast, lib in zip(_pyramid._laplacian32(x, levels), laplacian_pyramid(x, levels)):
-        np.testing.assert_allclose(fast, lib, rtol=0, atol=2e-6)
-    for fast, lib in zip(_pyramid._gaussian32(x, levels), gaussian_pyramid(x, levels)):
-        np.testing.assert_allclose(fast, lib, rtol=0, atol=2e-6)
-    back = _pyramid._collapse32(_pyramid._laplacian32(x, levels))
-    np.testing.assert_allclose(back, x, rtol=0, atol=2e-6)
+    kw = {"sigma": sigma}
+    fast = laplacian_pyramid(x, levels, precision="float32", **kw)
+    for f, lib in zip(fast, laplacian_pyramid(x, levels, **kw), strict=True):
+        assert f.dtype == np.float32
+        assert f.shape == lib.shape
+        np.testing.assert_allclose(f, lib, rtol=0, atol=2e-6)
+    for f, lib in zip(
+        gaussian_pyramid(x, levels, precision="float32", **kw), gaussian_pyramid(x, levels, **kw)
+    ):
+        assert f.shape == lib.shape
+        np.testing.assert_allclose(f, lib, rtol=0, atol=2e-6)
+    np.testing.assert_allclose(collapse(fast, precision="float32", **kw), x, rtol=0, atol=2e-6)
+    coarse = fast[-1]
+    np.testing.assert_allclose(
+        expand(coarse, x.shape[:2], precision="float32", **kw),
+        expand(coarse, x.shape[:2], **kw),
+        rtol=0,
+        atol=2e-6,
+    )
+
+
+def test_float32_pyramids_hand_out_new_arrays():
+    """Like the float64 ones: the input is never a level, nor changed by editing one."""
+    x = np.random.default_rng(6).random((16, 20, 3)).astype(np.float32)
+    keep = x.copy()
+    for pyr in (
+        gaussian_pyramid(x, 1, precision="float32"),
+        laplacian_pyramid(x, 1, precision="float32"),
+        gaussian_pyramid(x, 3, precision="float32"),
+    ):
+        assert not np.shares_memory(pyr[0], x)
+        pyr[0] += 1.0
+    one = laplacian_pyramid(x, 1, precision="float32")
+    back = collapse(one, precision="float32")
+    assert not np.shares_memory(back, one[0])
+    same = expand(x, x.shape[:2], sigma=0, precision="float32")
+    np.testing.assert_array_equal(same, x)
+    assert not np.shares_memory(same, x)
+    np.testing.assert_array_equal(x, keep)
+
+
+def test_float32_precision_is_checked():
+    with pytest.raises(ValueError, match="precision must be one of"):
+        gaussian_pyramid(np.zeros((8, 8)), precision="float16")
+    with pytest.raises(ValueError, match="precision"):
+        collapse([np.zeros((8, 8))], precision="half")
+
+
+@pytest.mark.parametrize("shape", [(24, 36), (24, 36, 3), (12, 16, 200)])
+def test_float32_block_means_are_the_block_means(shape):
+    x = np.random.default_rng(8).random(shape).astype(np.float32)
+    fast = downsample(x, 4, precision="float32")
+    assert fast.dtype == np.float32
+    np.testing.assert_allclose(fast, downsample(x, 4), rtol=0, atol=1e-6)
+    v = np.random.default_rng(9).standard_normal((24, 36, 2)).astype(np.float32)
+    np.testing.assert_allclose(
+        downsample(v, 3, vector=True, precision="float32"),
+        downsample(v, 3, vector=True),
+        rtol=0,
+        atol=1e-6,
+    )
+    with pytest.raises(ValueError, match="factor must divide"):
+        downsample(x, 5, precision="float32")

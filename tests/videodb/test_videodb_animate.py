@@ -78,6 +78,67 @@ def test_a_database_fragment_as_target_finds_itself(db):
     assert (top.scores[:, 0] == 324).all()
 
 
+def test_fragment_at_and_fragment_info_say_what_each_place_got(db, photo):
+    a = assign(*photo, db, FEW)
+    pos = a.target.positions
+    for i in (0, len(pos) // 2, len(pos) - 1):
+        r, c = pos[i]
+        # Anywhere in a fragment's 24 x 24 centre cell: that fragment.
+        for dr, dc in ((12, 12), (35, 35), (24, 12)):
+            assert a.fragment_at(r + dr, c + dc) == i
+        info = a.fragment_info(i)
+        fid = int(a.fragments[i])
+        clip, _, first, row, col = (int(v) for v in db.source[fid])
+        assert info["index"] == i
+        assert info["position"] == [int(pos[i, 0]), int(pos[i, 1])]
+        assert info["fragment"] == fid
+        assert (info["clip"], info["clip_name"]) == (clip, db.clips[clip]["name"])
+        assert info["frames"] == [first, first + db.params.N - 1]
+        assert info["source_position"] == [row, col]
+        assert info["rank"] == int(a.labels[i])
+        assert info["score"] == a.scores[i, a.labels[i]] / 324
+        assert 0 <= info["score"] <= 1
+        np.testing.assert_allclose(info["mean_motion"], db.mean_motion[fid])
+        assert json.loads(json.dumps(info)) == info  # plain values
+    # Outside every taking-part fragment: nothing.
+    assert a.fragment_at(-30, -30) is None
+    with pytest.raises(ValueError, match="i must be"):
+        a.fragment_info(len(pos))
+
+
+def test_mean_image_mosaic_is_the_assigned_mean_images(db, photo):
+    img = photo[0]
+    matte = np.zeros(img.shape[:2], np.float32)
+    matte[30:40, 40:60] = 1.0  # a few fragments: the mosaic does not cover the photo
+    a = assign(img, matte, db, FEW)
+    mosaic = a.mean_image_mosaic()
+    assert mosaic.shape == img.shape
+    # Where only one fragment covers a pixel (the canvas's top-left corner is the
+    # first fragment's alone, if it takes part), the mosaic is its mean image.
+    covered = np.zeros(a.target.canvas.shape[:2], bool)
+    for r, c in a.target.positions:
+        covered[r : r + 48, c : c + 48] = True
+    r, c = a.target.positions[0]
+    first = db.mean_images(a.fragments[:1])[0]
+    np.testing.assert_allclose(mosaic[r : r + 8, c : c + 8], first[:8, :8], atol=1e-5)
+    # Outside every fragment, the photo itself.
+    outside = ~covered[: img.shape[0], : img.shape[1]]
+    assert outside.any()
+    np.testing.assert_array_equal(mosaic[outside], img[outside])
+
+
+def test_motion_coherence_counts_agreeing_neighbours(db, photo):
+    a = assign(*photo, db, FEW)
+    coh = a.motion_coherence()
+    m = a.db.mean_motion[a.fragments].astype(np.float64)
+    p, q = a.edges.T
+    cos = (m[p] * m[q]).sum(1) / (np.linalg.norm(m[p], axis=1) * np.linalg.norm(m[q], axis=1))
+    assert coh == pytest.approx(cos.mean())
+    # A drawn direction makes every fragment flow right: full agreement.
+    right = assign(*photo, db, FEW, direction=[np.array([[40.0, 10.0], [40.0, 100.0]])])
+    assert right.motion_coherence() == pytest.approx(1.0, abs=1e-4)
+
+
 def test_lambda_zero_takes_each_fragments_best_candidate(db, photo):
     a = assign(*photo, db, FEW.replace(lam=0.0))
     np.testing.assert_array_equal(a.labels, np.argmin(a.unary, axis=1))
@@ -187,7 +248,7 @@ def test_a_dynamic_matte_keeps_its_area(db, photo):
     assert (still.stages["matte"] == matte).all()
 
 
-def test_an_rgba_cutout_uses_its_alpha(db):
+def test_an_rgba_cutout_uses_its_alpha():
     rgba = np.zeros((60, 70, 4), np.float32)
     gen = np.random.default_rng(1)
     rgba[..., :3] = gen.random((60, 70, 3))  # junk colour under the transparency

@@ -5,10 +5,9 @@ import math
 import numpy as np
 import pytest
 
+from fluidnb.videodb import reference_sample_version, reference_transform_vectors
 from fluidnb.videodb._augment import (
     IDENTITY,
-    reference_sample_version,
-    reference_transform_vectors,
     sample_version,
     transform_flow,
     transform_vectors,

@@ -1,52 +1,12 @@
-"""The assignment MRF (Okabe et al., sec. 5, Eq. 2-6): smoothness tables and solvers."""
+"""The assignment MRF (Okabe et al., sec. 5, Eq. 4-5): the energy and its solvers."""
 
 import numpy as np
 import pytest
 
 from fluidnb import Cancelled, CancelToken
-from fluidnb.videodb import _mrf as mrf
-from fluidnb.videodb._mrf import (
-    alpha_expansion,
-    brute_force,
-    energy,
-    grid_edges,
-    icm,
-    pair_tables,
-    reference_pair_tables,
-    solve,
-)
+from fluidnb.videodb._mrf import alpha_expansion, brute_force, energy, grid_edges, icm, solve
 
 # ------------------------------------------------------------------------ helpers
-
-
-def random_database(seed, n_fragments=24, n_bins=3, levels=4):
-    """Float16 spectra (F, NB, 2, 12, 12) and textureness (F, L, 24, 24) in RAM."""
-    gen = np.random.default_rng(seed)
-    spectra = (gen.random((n_fragments, n_bins, 2, 12, 12)) * 4).astype(np.float16)
-    texture = (gen.random((n_fragments, levels, 24, 24)) * 2).astype(np.float16)
-    return spectra, texture
-
-
-def with_near_duplicates(spectra, texture, seed=0):
-    """Fragments 0-4 whose overlaps (nearly) coincide, the case float32 gets wrong.
-
-    Cut from one canvas at the stride: 1 is 0's right neighbour and 3 its lower one
-    (their overlaps equal exactly); 2 and 4 are 1 and 3 moved by one float16 step
-    in a few places (near-duplicate overlaps).
-    """
-    gen = np.random.default_rng(seed)
-    spectra, texture = spectra.copy(), texture.copy()
-    for arr, side in ((spectra, 12), (texture, 24)):
-        h = side // 2
-        canvas = (gen.random((*arr.shape[1:-2], side + h, side + h)) * 4).astype(arr.dtype)
-        arr[0] = canvas[..., :side, :side]
-        arr[1] = canvas[..., :side, h:]
-        arr[3] = canvas[..., h:, :side]
-        for near, exact in ((2, 1), (4, 3)):
-            arr[near] = arr[exact]
-            flat = arr[near].reshape(-1)
-            flat[::37] = np.nextafter(flat[::37], np.float16(np.inf))
-    return spectra, texture
 
 
 def random_problem(gen, shape, k, *, metric=None):
@@ -83,136 +43,6 @@ def test_grid_edges_full_grid_geometry():
     assert np.array_equal(step[horizontal], np.tile([0, 1], (horizontal.sum(), 1)))
     assert np.array_equal(step[~horizontal], np.tile([1, 0], ((~horizontal).sum(), 1)))
     assert np.array_equal(nodes, np.argwhere(np.ones((14, 26), bool)))
-
-
-# ------------------------------------------------------------------- pair tables
-
-
-def tables_setup(seed=0, k=7):
-    spectra, texture = with_near_duplicates(*random_database(seed))
-    active = np.array([[1, 1, 1], [1, 0, 1]], bool)
-    nodes, edges, horizontal = grid_edges(active)
-    gen = np.random.default_rng(seed + 1)
-    candidates = np.stack([gen.choice(np.arange(5, len(spectra)), k) for _ in nodes])
-    # Exact and near-duplicate overlaps across every edge (labels 0 of p and 1-4 of q).
-    candidates[:, :5] = [0, 1, 2, 3, 4]
-    return candidates, edges, horizontal, spectra, texture
-
-
-def test_bulk_tables_equal_the_pair_by_pair_definition():
-    candidates, edges, horizontal, spectra, texture = tables_setup()
-    assert horizontal.any()
-    assert (~horizontal).any()
-    fast = pair_tables(candidates, edges, horizontal, spectra, texture)
-    slow = reference_pair_tables(candidates, edges, horizontal, spectra, texture)
-    for name in ("dc", "rest", "tex"):
-        np.testing.assert_allclose(getattr(fast, name), getattr(slow, name), rtol=1e-9, atol=0)
-        table = getattr(slow, name)
-        assert np.all(table[horizontal, 0, 1] == 0)
-        assert np.all(table[~horizontal, 0, 3] == 0)
-        assert np.all(table[horizontal, 0, 2] > 0)
-        assert np.all(table[~horizontal, 0, 4] > 0)
-    # The near-duplicates were refined directly rather than left to cancellation.
-    assert fast.recomputed >= 4 * len(edges)
-    assert np.array_equal(fast.edges, edges)
-    assert np.array_equal(fast.horizontal, horizontal)
-
-
-def test_bulk_tables_do_not_depend_on_batches_or_threads(monkeypatch):
-    candidates, edges, horizontal, spectra, texture = tables_setup()
-    whole = pair_tables(candidates, edges, horizontal, spectra, texture)
-    # One edge per batch, two worker threads.
-    monkeypatch.setattr(mrf, "_BATCH_BYTES", 1)
-    monkeypatch.setattr(mrf, "_workers", lambda: 2)
-    split = pair_tables(candidates, edges, horizontal, spectra, texture)
-    for name in ("dc", "rest", "tex"):
-        assert np.array_equal(getattr(whole, name), getattr(split, name))
-    assert split.recomputed == whole.recomputed
-
-
-def test_near_duplicates_defeat_float32_so_the_check_is_real():
-    # Norms minus product in float32 misses the near-duplicate entries badly (the
-    # notes measured 300 %); the float64 tables above match to 1e-9.
-    _, _, _, spectra, _ = tables_setup()
-    a = spectra[0, 1:, :, :, 6:].astype(np.float32).ravel()  # right half of 0
-    b = spectra[2, 1:, :, :, :6].astype(np.float32).ravel()  # left half of 2
-    exact = np.sum((a.astype(np.float64) - b.astype(np.float64)) ** 2)
-    approx32 = np.float32(a @ a) + np.float32(b @ b) - np.float32(2) * np.float32(a @ b)
-    assert exact > 0
-    assert abs(float(approx32) - exact) / exact > 0.5
-
-
-def test_fragments_cut_from_one_canvas_join_at_zero_cost():
-    # Fragments cut at the stride from one canvas share their overlap exactly, so
-    # every table is 0 for that pair (and not for the wrong orientation).
-    gen = np.random.default_rng(3)
-    canvas_m = gen.random((3, 2, 18, 18)).astype(np.float16)  # spectra blocks, 1.5 fragments
-    canvas_t = gen.random((4, 36, 36)).astype(np.float16)  # textureness blocks
-    spectra = np.stack([canvas_m[..., :12, :12], canvas_m[..., :12, 6:], canvas_m[..., 6:, :12]])
-    texture = np.stack([canvas_t[..., :24, :24], canvas_t[..., :24, 12:], canvas_t[..., 12:, :24]])
-    candidates = np.array([[0], [1], [2]])
-    edges = np.array([[0, 1], [0, 2], [0, 2]])
-    horizontal = np.array([True, False, True])
-    tables = pair_tables(candidates, edges, horizontal, spectra, texture)
-    for table in (tables.dc, tables.rest, tables.tex):
-        assert table[0, 0, 0] == 0.0
-        assert table[1, 0, 0] == 0.0
-        assert table[2, 0, 0] > 0.0
-
-
-def test_smoothness_recombines_the_three_tables():
-    candidates, edges, horizontal, spectra, texture = tables_setup(k=5)
-    tables = pair_tables(candidates, edges, horizontal, spectra, texture)
-    w = tables.smoothness(100.0, 1e4)
-    np.testing.assert_allclose(w, tables.dc + 100.0 * tables.rest + 1e4 * tables.tex, rtol=1e-15)
-    assert np.array_equal(tables.smoothness(0, 0), tables.dc)
-    assert tables.dc.shape == (len(edges), 5, 5)
-    for table in (tables.dc, tables.rest, tables.tex):
-        assert np.all(table >= 0)
-    with pytest.raises(ValueError, match="sigma must be >= 0"):
-        tables.smoothness(-1.0, 1.0)
-    with pytest.raises(ValueError, match="read-only"):
-        tables.dc[0, 0, 0] = 1.0
-
-
-def test_pair_tables_without_edges_and_with_dc_only():
-    spectra, texture = random_database(0, n_bins=1)
-    empty = pair_tables([[0, 1]], np.zeros((0, 2), int), np.zeros(0, bool), spectra, texture)
-    assert empty.dc.shape == (0, 2, 2)
-    tables = pair_tables([[0, 1], [2, 3]], [[0, 1]], [True], spectra, texture)
-    assert np.array_equal(tables.rest, np.zeros((1, 2, 2)))  # one bin: DC only
-    assert np.all(tables.dc > 0)
-
-
-def test_pair_tables_reports_progress_and_can_be_cancelled():
-    candidates, edges, horizontal, spectra, texture = tables_setup(k=5)
-    seen = []
-    pair_tables(
-        candidates, edges, horizontal, spectra, texture, progress=lambda f, m: seen.append(f)
-    )
-    assert seen[-1] == 1.0
-    assert seen == sorted(seen)
-    token = CancelToken()
-    token.cancel()
-    with pytest.raises(Cancelled):
-        pair_tables(candidates, edges, horizontal, spectra, texture, progress=token)
-
-
-def test_pair_tables_bad_inputs():
-    candidates, edges, horizontal, spectra, texture = tables_setup(k=5)
-    with pytest.raises(ValueError, match="candidates must be fragment ids"):
-        pair_tables(candidates + 100, edges, horizontal, spectra, texture)
-    with pytest.raises(ValueError, match="spectra must have shape"):
-        pair_tables(candidates, edges, horizontal, spectra[..., :6], texture)
-    with pytest.raises(ValueError, match="horizontal must have shape"):
-        pair_tables(candidates, edges, horizontal[:-1], spectra, texture)
-    with pytest.raises(ValueError, match="edges must hold node indices"):
-        pair_tables(candidates, edges + 10, horizontal, spectra, texture)
-    bad = spectra.copy()
-    bad[candidates[0, 0], 1, 0, 0, -1] = np.nan
-    with pytest.raises(ValueError, match="NaN"):
-        pair_tables(candidates, edges, horizontal, bad, texture)
-    assert np.isnan(bad[candidates[0, 0], 1, 0, 0, -1])  # input untouched
 
 
 # ------------------------------------------------------------------------ energy

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from fluidnb.videodb._retrieval import HistogramIndex, reference_top_k
+from fluidnb.videodb import HistogramIndex, reference_top_k
 from fluidnb.videodb._words import intersection, pyramid_histograms
 
 

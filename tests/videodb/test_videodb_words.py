@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from fluidnb.videodb._reference import reference_quantise
 from fluidnb.videodb._words import (
     HISTOGRAM_TOTAL,
     _bisecting_kmeans,
@@ -11,7 +12,6 @@ from fluidnb.videodb._words import (
     pyramid_cells,
     pyramid_histograms,
     quantise,
-    reference_quantise,
 )
 
 

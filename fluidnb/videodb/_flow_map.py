@@ -1,0 +1,201 @@
+r"""Moving a texture along a flow for any time without stretching it: flow maps.
+
+A texture advected for a long time is stretched and torn by the flow. The flow-map
+technique (Neyret 2003; Vlachos 2010) keeps two phases of the texture, each advected
+from a fresh start every period, cross-faded so that the texture keeps moving with the
+flow and is never older than one period (:func:`flow_map_texture`). The starter water
+database's clips are made this way (:mod:`fluidnb.videodb._starter_clips`): water
+textures moved along known flows, a stand-in for filmed water.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._random import rng
+from .._validation import check_array, check_int
+from ..fields import backward_warp
+
+__all__ = ["flow_map_texture"]
+
+
+def flow_map_texture(
+    texture, velocity, n_frames=None, *, period=16, jitter=True, preserve_contrast=True, seed=None
+):
+    r"""Move a texture along a flow for any time without stretching it (flow maps).
+
+    A texture advected for a long time is stretched and torn by the flow. The
+    flow-map technique (Neyret 2003 [1]_; Vlachos 2010 [2]_) keeps two copies, or
+    phases, of the texture, each advected from a fresh start every ``period`` frames,
+    the second offset by half a period; each phase's weight falls to zero when it
+    restarts, and the two weights sum to one:
+
+    .. math::
+
+        w_a(t) = 1 - \left|\frac{2\,(t \bmod P)}{P} - 1\right|, \qquad
+        w_b(t) = 1 - w_a(t), \qquad
+        I_t = w_a A_t + w_b B_t,
+
+    so the texture keeps moving with the flow and is never older than one period.
+    A phase is advected through its flow map :math:`X` (where the content now at
+    :math:`x` started): :math:`X_{t+1}(x) = X_t(x - v_t(x))` and
+    :math:`A_t(x) = \text{texture}(X_t(x))`, so the texture is sampled once per frame,
+    never resampled frame after frame, and :math:`A_{t+1}(x) = A_t(x - v_t(x))`
+    exactly as semi-Lagrangian advection (the frames move with ``velocity``).
+
+    Parameters
+    ----------
+    texture : ndarray, shape (H, W) or (H, W, C)
+        The texture, in [0, 1], read as periodic (it wraps around), so it should tile
+        seamlessly; the frames have its height and width.
+    velocity : ndarray, shape (H, W, 2) or (T - 1, H, W, 2)
+        The flow, (dy, dx) in pixels per frame: one steady field, or one per frame
+        pair (``velocity[t]`` moves frame ``t`` to frame ``t + 1``, the convention of
+        flow sequences).
+    n_frames : int, optional
+        T, the number of frames; required for a steady ``velocity``, else ``T``.
+    period : int
+        :math:`P`, frames between two restarts of a phase (even, >= 2). Longer
+        periods stretch the texture more; shorter ones make the cross-fade faster.
+    jitter : bool
+        Restart each phase at a new random offset into the texture (Neyret's
+        regeneration), so that the texture does not visibly repeat every period.
+    preserve_contrast : bool
+        Blend about the texture's mean as
+        :math:`\mu + (w_a (A - \mu) + w_b (B - \mu)) / \sqrt{w_a^2 + w_b^2}`, which
+        keeps the contrast of two uncorrelated phases (as ``jitter`` makes them)
+        constant instead of dipping by up to :math:`1/\sqrt 2` at mid-fade (Yu et al.
+        2011 [3]_); the result is clipped to [0, 1]. ``False`` blends linearly.
+    seed : None, int or numpy.random.Generator
+        The offsets of ``jitter``.
+
+    Returns
+    -------
+    ndarray, shape (T, H, W) or (T, H, W, C), float32
+        The frames, in [0, 1].
+
+    Raises
+    ------
+    ValueError
+        For a texture that is not an (H, W[, C]) array in [0, 1], a velocity of the
+        wrong shape or with NaN, a missing or inconsistent ``n_frames``, or a bad
+        ``period``.
+
+    References
+    ----------
+    .. [1] F. Neyret, "Advected textures", Proc. ACM SIGGRAPH/Eurographics Symposium
+       on Computer Animation (SCA), pp. 147-153, 2003.
+    .. [2] A. Vlachos, "Water flow in Portal 2", SIGGRAPH 2010 course "Advances in
+       Real-Time Rendering in 3D Graphics and Games".
+    .. [3] Q. Yu, F. Neyret, E. Bruneton, N. Holzschuch, "Lagrangian texture
+       advection: preserving both spectrum and velocity field", IEEE Transactions on
+       Visualization and Computer Graphics 17(11), pp. 1612-1623, 2011.
+
+    Examples
+    --------
+    Stripes across the flow, moving one pixel a frame to the right, with a period
+    whose half moves them by one stripe period: both phases agree, so the frames are
+    exact shifts.
+
+    >>> stripes = np.tile(np.array([0.0, 0.0, 1.0, 1.0], np.float32), (2, 4))
+    >>> v = np.zeros((2, 16, 2))
+    >>> v[..., 1] = 1.0
+    >>> frames = flow_map_texture(stripes, v, 3, period=8, jitter=False, preserve_contrast=False)
+    >>> frames[:, 0]
+    array([[0., 0., 1., 1., 0., 0., 1., 1., 0., 0., 1., 1., 0., 0., 1., 1.],
+           [1., 0., 0., 1., 1., 0., 0., 1., 1., 0., 0., 1., 1., 0., 0., 1.],
+           [1., 1., 0., 0., 1., 1., 0., 0., 1., 1., 0., 0., 1., 1., 0., 0.]],
+          dtype=float32)
+    """
+    tex = check_array("texture", texture, ndim=(2, 3), dtype_kinds="iuf")
+    if tex.dtype.kind != "f" or tex.min() < 0 or tex.max() > 1:
+        raise ValueError(
+            f"texture must hold floats in [0, 1], got dtype {tex.dtype} "
+            f"and range [{tex.min():g}, {tex.max():g}]"
+        )
+    tex = tex.astype(np.float32)
+    h, w = tex.shape[:2]
+    v = check_array("velocity", velocity, ndim=(3, 4), dtype_kinds="iuf")
+    if v.shape[-3:] != (h, w, 2):
+        raise ValueError(
+            f"velocity must have shape (H, W, 2) or (T - 1, H, W, 2) with the texture's "
+            f"(H, W) = {(h, w)}, got {v.shape}"
+        )
+    if v.ndim == 3:
+        if n_frames is None:
+            raise ValueError("n_frames is required with a steady (H, W, 2) velocity")
+        n_frames = check_int("n_frames", n_frames, 1)
+    else:
+        expected = v.shape[0] + 1
+        if n_frames is not None and check_int("n_frames", n_frames, 1) != expected:
+            raise ValueError(
+                f"n_frames must be len(velocity) + 1 = {expected} for a velocity "
+                f"sequence, got {n_frames}"
+            )
+        n_frames = expected
+    period = check_int("period", period, 2)
+    if period % 2:
+        raise ValueError(f"period must be an even integer >= 2, got {period}")
+    gen = rng(seed)
+    v = v.astype(np.float32)
+    return _flow_map(tex, v, n_frames, period, bool(jitter), bool(preserve_contrast), gen)
+
+
+def _flow_map(tex, v, n_frames, period, jitter, preserve, gen, report=None):
+    h, w = tex.shape[:2]
+    half = period // 2
+    mean = tex.mean(axis=(0, 1), dtype=np.float64).astype(np.float32)
+    steady = v.ndim == 3
+    # Both phases' displacement maps D = X - x in one array: they ride the same flow,
+    # so one warp of four channels serves both. D is smooth, so clamping it at the
+    # border (where the backtrace leaves the frame) extrapolates it sensibly.
+    maps = np.zeros((h, w, 4), np.float32)
+    offset = np.zeros((2, 2), np.float32)
+    frames = np.empty((n_frames, *tex.shape), np.float32)
+
+    def restart(phase):
+        maps[..., 2 * phase : 2 * phase + 2] = 0.0
+        if jitter:
+            # Whole pixels: an offset adds no interpolation blur of its own.
+            offset[phase] = (gen.integers(0, h), gen.integers(0, w))
+
+    # Start half a period early (with the first frame's flow), so that at frame 0
+    # phase b is half-way through its cycle as it always is then; phase a restarts
+    # at frame 0 (and every P frames), phase b half a period later.
+    restart(1)
+    for t in range(-half, n_frames):
+        if t >= 0:
+            wa = 1.0 - abs(2.0 * (t % period) / period - 1.0)
+            b = backward_warp(tex, maps[..., 2:] + offset[1], mode="wrap")
+            if wa > 0:
+                a = backward_warp(tex, maps[..., :2] + offset[0], mode="wrap")
+                wb = 1.0 - wa
+                if preserve:
+                    # mean + (wa (A - mean) + wb (B - mean)) / sqrt(wa^2 + wb^2)
+                    norm = 1.0 / math.sqrt(wa * wa + wb * wb)
+                    a *= np.float32(wa * norm)
+                    b *= np.float32(wb * norm)
+                    b += a
+                    b += mean * np.float32(1.0 - norm)
+                else:
+                    # B + wa (A - B): identical phases give B exactly.
+                    a -= b
+                    a *= np.float32(wa)
+                    b += a
+            np.clip(b, 0.0, 1.0, out=frames[t])
+            if report is not None:
+                report((t + 1) / n_frames, f"frame {t + 1}/{n_frames}")
+        if t == n_frames - 1:
+            break
+        vt = v if steady else v[max(t, 0)]
+        # X_{t+1}(x) = X_t(x - v(x)), i.e. D_{t+1}(x) = D_t(x - v(x)) - v(x).
+        maps = backward_warp(maps, -vt)
+        maps[..., :2] -= vt
+        maps[..., 2:] -= vt
+        if (t + 1) % period == 0:
+            restart(0)
+        elif (t + 1) % period == half:
+            restart(1)
+    return frames

@@ -1,0 +1,533 @@
+r"""The video-database method's steps as one would first write them, in numpy (slow).
+
+Each fast path of :mod:`fluidnb.videodb` (numba kernels, sparse posting lists, matrix
+products in bulk, OpenCV pyramids over phase layers) has its plain version here, in
+the paper's notation, one pixel, one pair or one fragment at a time. They exist so
+that the tests can check every fast path against the method written out literally,
+the benchmarks can show what the optimisation buys, and a reader can find the maths
+in its most readable form. Use the functions of :mod:`fluidnb.videodb` for real work.
+
+=====================================  =============================================
+plain version                          fast path (tested against it)
+=====================================  =============================================
+:func:`reference_sample_version`       :func:`~fluidnb.videodb.sample_version`
+:func:`reference_transform_vectors`    :func:`~fluidnb.videodb.transform_vectors`
+:func:`reference_dense_sift`           :func:`~fluidnb.videodb.dense_sift`
+:func:`reference_quantise`             :func:`~fluidnb.videodb.quantise`
+:func:`reference_top_k`                :meth:`~fluidnb.videodb.HistogramIndex.top_k`
+:func:`reference_pair_tables`          :func:`~fluidnb.videodb.pair_tables`
+:func:`reference_blend_differences`    :func:`~fluidnb.videodb.blend_differences`
+:func:`reference_match_histograms_cells` :func:`~fluidnb.videodb.match_histograms_cells`
+=====================================  =============================================
+
+How closely each pair agrees, and why not bit for bit where it does not, is said in
+each function's docstring.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import ndimage as ndi
+
+from .._validation import check_int
+from ..fields import collapse, gaussian_pyramid, laplacian_pyramid
+from ._appearance import _QUANTILES, _SLOPE_RANGE, HISTOGRAM_BINS, _Cells
+from ._augment import _TRUNCATE, _window, prefilter_sigma, version_shape
+from ._blend import (
+    _TINY,
+    FEATHER,
+    _check_diffs,
+    _check_feather,
+    _check_levels,
+    _check_positions,
+    _raw_weights,
+)
+from ._geometry import (
+    FRAGMENT,
+    GRID,
+    SPECTRA_BLOCK,
+    SPECTRA_SIDE,
+    TEXTURE_BLOCK,
+    TEXTURE_SIDE,
+    VERSIONS,
+)
+from ._retrieval import _SLACK, MIN_MOTION, TopK, _check_filter
+from ._sift import _EPS, BINS, ORIENTATIONS, _check_images
+from ._smoothness import PairTables, _check_tables_input
+from ._words import _check_pair, _squared_distances, pyramid_histograms
+
+__all__ = [
+    "reference_blend_differences",
+    "reference_dense_sift",
+    "reference_match_histograms_cells",
+    "reference_pair_tables",
+    "reference_quantise",
+    "reference_sample_version",
+    "reference_top_k",
+    "reference_transform_vectors",
+]
+
+
+# ----------------------------------------------------------------- augmentation (sec. 4)
+
+
+def reference_sample_version(frames, version, *, origin=(0, 0), size=None):
+    r""":func:`sample_version` written out literally, frame by frame and pixel by pixel.
+
+    Each version pixel's coordinates come from the module's formula with explicit
+    matrices, each frame is prefiltered whole with :func:`scipy.ndimage.gaussian_filter`
+    and sampled with :func:`scipy.ndimage.map_coordinates` (order 1, edge clamped).
+    Agrees with the fast path to float32 round-off, not bit for bit.
+    """
+    arr = np.asarray(frames, dtype=np.float64)
+    h, w = arr.shape[1:3]
+    hv, wv = version_shape((h, w), version)
+    (r0, c0), (hh, ww) = _window(h, w, version, origin, size)
+    flip, s, _ = VERSIONS[version]
+    theta = math.radians(-VERSIONS[version][2])
+    rot = np.array([[math.cos(theta), -math.sin(theta)], [math.sin(theta), math.cos(theta)]])
+    mirror = np.diag([1.0, -1.0 if flip else 1.0])
+    centre_v = np.array([(hv - 1) / 2, (wv - 1) / 2])
+    centre_s = np.array([(h - 1) / 2, (w - 1) / 2])
+    coords = np.empty((2, hh, ww))
+    for i in range(hh):
+        for j in range(ww):
+            p = np.array([r0 + i, c0 + j]) - centre_v
+            coords[:, i, j] = mirror @ rot @ p / s + centre_s
+    sigma = prefilter_sigma(version)
+    out = np.empty((arr.shape[0], hh, ww, *arr.shape[3:]))
+    for t in range(arr.shape[0]):
+        for ch in np.ndindex(arr.shape[3:]):
+            plane = arr[(t, slice(None), slice(None), *ch)]
+            if sigma > 0:
+                plane = ndi.gaussian_filter(plane, sigma, mode="nearest", truncate=_TRUNCATE)
+            out[(t, slice(None), slice(None), *ch)] = ndi.map_coordinates(
+                plane, coords, order=1, mode="nearest"
+            )
+    return out.astype(np.float32)
+
+
+def reference_transform_vectors(vectors, version):
+    r""":math:`u_v = s R(\theta) F u_s`, one explicit matrix product per vector."""
+    flip, s, angle = VERSIONS[version]
+    theta = math.radians(angle)
+    rot = np.array([[math.cos(theta), -math.sin(theta)], [math.sin(theta), math.cos(theta)]])
+    mirror = np.diag([1.0, -1.0 if flip else 1.0])
+    u = np.asarray(vectors, dtype=np.float64)
+    out = np.empty_like(u)
+    for idx in np.ndindex(u.shape[:-1]):
+        out[idx] = s * rot @ mirror @ u[idx]
+    return out
+
+
+# ------------------------------------------------------------ appearance (secs. 4-5, Eq. 1)
+
+
+def reference_dense_sift(image):
+    """The recipe of the module notes, literally: one descriptor, one pixel at a time.
+
+    Slow on purpose (pure Python loops, ~0.1 s a fragment); the tests compare
+    :func:`dense_sift` with it. Results agree to within one count of the uint8
+    values (sums in a different order), almost always exactly.
+
+    Parameters
+    ----------
+    image : array_like, shape (48, 48)
+        A grey fragment, floats in [0, 1].
+
+    Returns
+    -------
+    ndarray, shape (9, 9, 128), uint8
+    """
+    img = _check_images(image)
+    if img.ndim != 2:
+        raise ValueError(f"image must have shape (48, 48), got {img.shape}")
+    img = img.astype(np.float32).astype(np.float64)
+    gy, gx = np.gradient(img)  # central differences, one-sided at the border
+    out = np.zeros((GRID, GRID, 128), np.uint8)
+    for ky in range(GRID):
+        for kx in range(GRID):
+            hist = np.zeros((BINS, BINS, ORIENTATIONS))
+            cy, cx = 4 * ky + 7.5, 4 * kx + 7.5  # the descriptor's centre
+            for y in range(4 * ky, 4 * ky + 16):
+                for x in range(4 * kx, 4 * kx + 16):
+                    mag = math.sqrt(gx[y, x] ** 2 + gy[y, x] ** 2)
+                    if mag == 0:
+                        continue
+                    theta = math.atan2(gy[y, x], gx[y, x])
+                    if theta < 0:
+                        theta += 2 * math.pi
+                    # Orientation: linear interpolation between the two nearest bins.
+                    u = theta / (2 * math.pi) * 8
+                    t = math.floor(u)
+                    orient = {t % 8: 1 - (u - t), (t + 1) % 8: u - t}
+                    # Space: the pixel's position in bin units, bin b's centre at b.
+                    ry = (y - 4 * ky + 0.5) / 4 - 0.5
+                    rx = (x - 4 * kx + 0.5) / 4 - 0.5
+                    window = math.exp(-((y - cy) ** 2 + (x - cx) ** 2) / (2 * 8.0**2))
+                    for by in (math.floor(ry), math.floor(ry) + 1):
+                        for bx in (math.floor(rx), math.floor(rx) + 1):
+                            if not (0 <= by < 4 and 0 <= bx < 4):
+                                continue
+                            wy = 1 - abs(ry - by)
+                            wx = 1 - abs(rx - bx)
+                            for o, wo in orient.items():
+                                hist[by, bx, o] += mag * window * wy * wx * wo
+            v = hist.ravel()
+            v = v / (np.linalg.norm(v) + _EPS)
+            v = np.minimum(v, 0.2)
+            v = v / (np.linalg.norm(v) + _EPS)
+            out[ky, kx] = np.minimum(255, np.floor(512 * v)).astype(np.uint8)
+    return out
+
+
+def reference_quantise(descriptors, centres):
+    """Nearest centre by brute force: every distance computed directly (for the tests).
+
+    Parameters
+    ----------
+    descriptors : array_like, shape (..., D)
+    centres : array_like, shape (k, D)
+
+    Returns
+    -------
+    ndarray of int64, shape (...)
+        ``argmin`` over the centres of ``sum_i (x_i - c_i)^2`` in float64 (ties to
+        the lowest index, as ``numpy.argmin``).
+    """
+    x, c = _check_pair(descriptors, centres)
+    rows = np.asarray(x.reshape(-1, x.shape[-1]), dtype=np.float64)
+    words = [
+        _squared_distances(rows[i : i + 256], c).argmin(axis=1) for i in range(0, len(rows), 256)
+    ]
+    out = np.concatenate(words) if words else np.empty(0, np.int64)
+    return out.reshape(x.shape[:-1])
+
+
+def reference_top_k(
+    words,
+    n_words,
+    query_words,
+    k,
+    *,
+    mean_motion=None,
+    direction=None,
+    speed=None,
+    max_angle=45.0,
+    max_speed_ratio=2.0,
+):
+    """:meth:`HistogramIndex.top_k` written densely: every histogram, every score, a sort.
+
+    Memory (Q, F, 21 k): for the tests' small databases only.
+
+    Parameters
+    ----------
+    words : array_like of int, shape (F, 9, 9)
+    n_words : int
+        The codebook's size :math:`k`.
+    query_words : array_like of int, shape (Q, 9, 9)
+    k : int
+        Candidates per query.
+    mean_motion, direction, speed, max_angle, max_speed_ratio
+        As :class:`HistogramIndex` and :meth:`HistogramIndex.top_k`.
+
+    Returns
+    -------
+    TopK
+    """
+    he = pyramid_histograms(words, n_words).astype(np.int64)  # (F, 21 k)
+    k = check_int("k", k, 1, len(he))
+    ht = pyramid_histograms(query_words, n_words).astype(np.int64)  # (Q, 21 k)
+    n_frag, n_q = len(he), len(ht)
+    has_motion = mean_motion is not None
+    unit, s, cos_max, ratio = _check_filter(
+        n_q, direction, speed, max_angle, max_speed_ratio, has_motion
+    )
+    if has_motion:
+        m = np.asarray(mean_motion, dtype=np.float64)
+        mag = np.sqrt(m[:, 0] * m[:, 0] + m[:, 1] * m[:, 1])
+    ids = np.empty((n_q, k), np.int64)
+    scores = np.empty((n_q, k), np.int32)
+    n_eligible = np.empty(n_q, np.int64)
+    for q in range(n_q):
+        score = np.minimum(ht[q][None, :], he).sum(axis=1)  # Eq. (1)
+        ok = np.ones(n_frag, bool)
+        if not np.isnan(unit[q, 0]):
+            dot = m[:, 0] * unit[q, 0] + m[:, 1] * unit[q, 1]  # |m| cos(angle)
+            ok &= (mag >= MIN_MOTION) & (dot >= (cos_max - _SLACK) * mag)
+        if not np.isnan(s[q]):
+            hi, lo = np.maximum(mag, s[q]), np.minimum(mag, s[q])
+            ok &= hi <= ratio * lo * (1.0 + _SLACK)
+        filtered = not (np.isnan(unit[q, 0]) and np.isnan(s[q]))
+        n_eligible[q] = ok.sum() if filtered else n_frag
+        pool = np.flatnonzero(ok) if ok.any() else np.arange(n_frag)
+        order = pool[np.lexsort((pool, -score[pool]))][:k]  # score down, then id up
+        order = np.concatenate([order, np.repeat(order[:1], k - len(order))])
+        ids[q], scores[q] = order, score[order]
+    return TopK(ids, scores, n_eligible)
+
+
+# ------------------------------------------------------------ smoothness tables (Eq. 2, 3, 6)
+
+
+def reference_pair_tables(candidates, edges, horizontal, spectra, texture):
+    r"""The smoothness tables written out pair by pair (Eq. 2, 3 and 6), slowly.
+
+    The literal definition that :func:`pair_tables` is tested against: for every edge,
+    every label of ``p`` and every label of ``q``, the squared differences over the
+    overlap :math:`\Omega` summed in float64, frequency bin by frequency bin.
+    Arguments and result as :func:`pair_tables`.
+    """
+    cand, edges, hor, spectra, texture = _check_tables_input(
+        candidates, edges, horizontal, spectra, texture
+    )
+    n_edges, k = len(edges), cand.shape[1]
+    n_bins = spectra.shape[1]
+    dc = np.zeros((n_edges, k, k))
+    rest = np.zeros((n_edges, k, k))
+    tex = np.zeros((n_edges, k, k))
+    hs, ht = SPECTRA_SIDE // 2, TEXTURE_SIDE // 2
+    for e in range(n_edges):
+        p, q = edges[e]
+        for i in range(k):
+            m_i = spectra[cand[p, i]].astype(np.float64)  # M^ of label i: (NB, 2, 12, 12)
+            t_i = texture[cand[p, i]].astype(np.float64)  # T of label i: (L, 24, 24)
+            for j in range(k):
+                m_j = spectra[cand[q, j]].astype(np.float64)
+                t_j = texture[cand[q, j]].astype(np.float64)
+                if hor[e]:  # Omega: right half of p, left half of q
+                    mp, mq = m_i[:, :, :, hs:], m_j[:, :, :, :hs]
+                    tp, tq = t_i[:, :, ht:], t_j[:, :, :ht]
+                else:  # Omega: bottom half of p, top half of q
+                    mp, mq = m_i[:, :, hs:, :], m_j[:, :, :hs, :]
+                    tp, tq = t_i[:, ht:, :], t_j[:, :ht, :]
+                # Eq. (3), with the block areas 4 x 4 (spectra) and 2 x 2 (texture).
+                dc[e, i, j] = SPECTRA_BLOCK**2 * np.sum((mp[0] - mq[0]) ** 2)
+                for f in range(1, n_bins):
+                    rest[e, i, j] += SPECTRA_BLOCK**2 * np.sum((mp[f] - mq[f]) ** 2)
+                tex[e, i, j] = TEXTURE_BLOCK**2 * np.sum((tp - tq) ** 2)
+    return PairTables(dc=dc, rest=rest, tex=tex, edges=edges.copy(), horizontal=hor.copy())
+
+
+# ------------------------------------------------------------------- rendering (sec. 6)
+
+
+def reference_blend_differences(
+    diffs, positions, canvas_shape, *, margin, levels=None, feather=FEATHER
+):
+    r"""Multi-band blending of the fragments' differences written per fragment (slow).
+
+    Burt & Adelson's multiresolution spline as one would first write it for many
+    overlapping pieces. For every fragment :math:`p`:
+
+    1. its difference frames on the whole canvas, :math:`D^p`: its own data on its
+       :math:`(48 + 2m)`-pixel window, and beyond the window the *fill*, the
+       tent-weighted average of all fragments' windows. A fragment's weight spreads
+       past its data at the coarse levels, so its frames need some extension there;
+       the fill is the one that gives identical inputs back exactly (it equals the
+       data wherever the fragments agree);
+    2. its weight :math:`W^p`: the flat-topped tent over its core of
+       :func:`~fluidnb.videodb.fragment_weights` before the normalisation, 0 off the
+       core;
+    3. the Laplacian pyramid :math:`L_l(D^p)` and the Gaussian pyramid
+       :math:`G_l(W^p)` (float64, :mod:`fluidnb.fields`; frames as channels);
+
+    then per level :math:`L_l = \sum_p G_l(W^p) L_l(D^p) / \sum_p G_l(W^p)` (0 where
+    no weight reaches), collapsed, and 0 off the cores.
+
+    How :func:`~fluidnb.videodb.blend_differences` differs: it builds the same sums
+    from 9 *phase layers* (fragments whose grid positions are equal modulo 3 share one
+    canvas and one pyramid), so in a layer the neighbourhood of a fragment's 72 x 72
+    tile holds its phase-mates' frames (72 px away) rather than the fill, and it keeps
+    at most 12 px of a fragment's margin (the tile). Everything else is the same. So
+    where no two fragments share a phase (grids of up to 3 x 3 fragments) and
+    ``margin <= 12`` the two agree to float32 round-off (the fast path's arithmetic),
+    and with up to 3 levels also on larger grids: a fragment's weights at levels 0-2
+    hardly reach past its tile. At the fourth level (the default) they do, and the
+    blends differ there: by at most 4.6e-3 of luminance at one pixel of the quick
+    starter render of the stream (49 fragments of 32 frames; 1e-4 rms), by at most
+    5e-4 on independent unit-variance textures. (Extending each fragment by its
+    phase layer instead of the fill gives back the fast path to float32 round-off.)
+
+    Arguments and result as :func:`~fluidnb.videodb.blend_differences`.
+    """
+    pos, shape = _check_positions(positions, canvas_shape)
+    m = int(margin)
+    d = _check_diffs(diffs, len(pos)).astype(np.float64)
+    if d.shape[2] != FRAGMENT + 2 * m:
+        raise ValueError(f"diffs must be {FRAGMENT + 2 * m} pixels wide, got shape {d.shape}")
+    levels = _check_levels(levels)
+    weight = _raw_weights(_check_feather(feather))  # W^p on the 48 x 48 core
+    n = d.shape[1]
+    if len(pos) == 0:
+        return np.zeros((n,) + shape, dtype=np.float32)
+    size = FRAGMENT + 2 * m
+
+    def window(r, c):
+        """Canvas slices of a fragment's window, and the same pixels in its data."""
+        r0, r1 = max(r - m, 0), min(r + FRAGMENT + m, shape[0])
+        c0, c1 = max(c - m, 0), min(c + FRAGMENT + m, shape[1])
+        data = (slice(r0 - (r - m), r1 - (r - m)), slice(c0 - (c - m), c1 - (c - m)))
+        return (slice(r0, r1), slice(c0, c1)), data
+
+    # The fill: every fragment's window weighted by a tent (its distance to the
+    # window's nearer edge, on each axis), averaged.
+    u = np.arange(size) + 0.5
+    tent = np.outer(np.minimum(u, size - u), np.minimum(u, size - u))
+    fill = np.zeros(shape + (n,))
+    den = np.zeros(shape)
+    for k, (r, c) in enumerate(pos):
+        on_canvas, data = window(r, c)
+        fill[on_canvas] += np.moveaxis(d[k][(slice(None), *data)], 0, -1) * tent[data][..., None]
+        den[on_canvas] += tent[data]
+    fill = np.divide(fill, den[..., None], out=np.zeros_like(fill), where=den[..., None] > 0)
+
+    num = wsum = None
+    for k, (r, c) in enumerate(pos):
+        frames = fill.copy()  # D^p on the canvas
+        on_canvas, data = window(r, c)
+        frames[on_canvas] = np.moveaxis(d[k][(slice(None), *data)], 0, -1)
+        w = np.zeros(shape)  # W^p on the canvas
+        w[r : r + FRAGMENT, c : c + FRAGMENT] = weight
+        bands = laplacian_pyramid(frames, levels)
+        gw = gaussian_pyramid(w, levels)
+        terms = [g[..., None] * b for g, b in zip(gw, bands)]
+        num = terms if num is None else [a + t for a, t in zip(num, terms)]
+        wsum = gw if wsum is None else [a + g for a, g in zip(wsum, gw)]
+    blended = [
+        np.where(s[..., None] > _TINY, a / np.where(s > _TINY, s, 1.0)[..., None], 0.0)
+        for a, s in zip(num, wsum)
+    ]
+    covered = np.zeros(shape, bool)
+    for r, c in pos:
+        covered[r : r + FRAGMENT, c : c + FRAGMENT] = True
+    out = collapse(blended) * covered[..., None]
+    return np.ascontiguousarray(np.moveaxis(out, -1, 0)).astype(np.float32)
+
+
+def reference_match_histograms_cells(frames, reference, weight, *, cell):
+    """:func:`match_histograms_cells` in plain numpy, for tests and teaching.
+
+    ``np.bincount`` histograms, quantiles by (vectorised) binary search, and, for every
+    pixel, the four neighbouring cells' maps gathered and blended. The compiled
+    kernels of :func:`match_histograms_cells` are checked against it.
+    """
+    cells = _Cells(frames, reference, weight, cell)
+    f = cells.frames
+    n_ch, n_cells, bins = f.shape[3], cells.n_cells, HISTOGRAM_BINS
+    lo = np.repeat(cells.lo, n_cells)[:, None]
+    step = np.repeat(cells.step, n_cells)[:, None]
+    edges = lo + step * np.arange(bins + 1)
+
+    def bin_of(img):
+        z = (img.astype(np.float64) - cells.lo) * cells.inv_step
+        return z, np.minimum(np.where(z > 0, z, 0).astype(np.intp), bins - 1)
+
+    def histograms(img):  # (H, W, C) -> (C * cells, bins)
+        idx = (np.arange(n_ch) * n_cells + cells.cid[..., None]) * bins + bin_of(img)[1]
+        wt = np.broadcast_to(cells.weight[..., None], idx.shape)
+        counts = np.bincount(idx.ravel(), weights=wt.ravel(), minlength=n_ch * n_cells * bins)
+        return counts.reshape(n_ch * n_cells, bins)
+
+    q_ref = _quantiles_np(histograms(cells.reference), lo, step)
+    (y0, y1, fy), (x0, x1, fx) = cells.rows, cells.cols
+    roles = []
+    for ys, wy in ((y0, 1 - fy), (y1, fy)):
+        for xs, wx in ((x0, 1 - fx), (x1, fx)):
+            c = ys[:, None] * cells.nx + xs[None, :]
+            roles.append((c, wy[:, None] * wx[None, :] * cells.mass[c]))
+    total = sum(wt for _, wt in roles)[..., None]
+    inv_total = np.divide(1.0, total, out=np.zeros(total.shape), where=total > 0)
+    ch = np.arange(n_ch)
+    out = np.empty_like(f)
+    for t in range(f.shape[0]):
+        q_f = _quantiles_np(histograms(f[t]), lo, step)
+        lut = _maps_np(edges, q_f, q_ref).reshape(n_ch, n_cells, bins + 1)
+        z, j = bin_of(f[t])
+        frac = z - j
+        acc = np.zeros(z.shape)
+        for c, w_c in roles:
+            v0 = lut[ch, c[..., None], j]
+            v1 = lut[ch, c[..., None], j + 1]
+            acc += w_c[..., None] * (v0 + frac * (v1 - v0))
+        out[t] = np.where(total > 0, acc * inv_total, f[t])
+    return cells.result(out)
+
+
+def _searchsorted_rows(a, v, side):
+    """Row-wise ``np.searchsorted``: ``a`` (R, K) non-decreasing rows, ``v`` (R, M).
+
+    A vectorised binary search (exact, ``log2 K`` gathers) instead of one call per row.
+    """
+    k = a.shape[1]
+    lo = np.zeros(v.shape, dtype=np.intp)
+    hi = np.full(v.shape, k, dtype=np.intp)
+    for _ in range(max(1, math.ceil(math.log2(k + 1)))):
+        mid = (lo + hi) >> 1
+        am = np.take_along_axis(a, np.minimum(mid, k - 1), axis=1)
+        go = (am < v) if side == "left" else (am <= v)
+        go &= lo < hi
+        lo = np.where(go, mid + 1, lo)
+        hi = np.where(go | (lo >= hi), hi, mid)
+    return lo
+
+
+def _quantiles_np(counts, lo, step):
+    """Quantiles at p = 0, 1/K, ..., 1 of piecewise-uniform histograms (R, B) -> (R, K+1).
+
+    The distribution is uniform within each bin (the CDF piecewise linear through the
+    bin edges), so the quantile function is continuous and strictly increasing, from
+    the lower edge of the first non-empty bin to the upper edge of the last, and a
+    histogram matched to itself maps every value to itself.
+    """
+    n_rows, bins = counts.shape
+    mass = counts.sum(axis=1, keepdims=True)
+    cdf = np.zeros((n_rows, bins + 1))
+    np.cumsum(counts, axis=1, out=cdf[:, 1:])
+    cdf /= np.where(mass > 0, mass, 1.0)
+    p = np.broadcast_to(np.arange(_QUANTILES + 1) / _QUANTILES, (n_rows, _QUANTILES + 1))
+    i = np.clip(_searchsorted_rows(cdf, p, "left"), 1, bins)
+    c0 = np.take_along_axis(cdf, i - 1, axis=1)
+    c1 = np.take_along_axis(cdf, i, axis=1)
+    frac = np.divide(p - c0, c1 - c0, out=np.ones(c0.shape), where=c1 > c0)
+    q = lo + step * (i - 1 + np.clip(frac, 0.0, 1.0))
+    filled = counts > 0
+    first = np.argmax(filled, axis=1)
+    last = bins - np.argmax(filled[:, ::-1], axis=1)
+    q[:, :1] = lo + step * first[:, None]
+    q[:, -1:] = lo + step * last[:, None]
+    return np.where(mass > 0, q, lo + step * bins)
+
+
+def _interp_rows(x, xp, fp):
+    """Row-wise ``np.interp(x, xp, fp)``, clamped; a zero-width segment gives its start.
+
+    ``x``, ``xp``, ``fp``: (R, M), (R, K), (R, K).
+    """
+    i = np.clip(_searchsorted_rows(xp, x, "right"), 1, xp.shape[1] - 1)
+    x0 = np.take_along_axis(xp, i - 1, axis=1)
+    x1 = np.take_along_axis(xp, i, axis=1)
+    f0 = np.take_along_axis(fp, i - 1, axis=1)
+    f1 = np.take_along_axis(fp, i, axis=1)
+    width = x1 - x0
+    frac = np.divide(x - x0, width, out=np.zeros(x.shape), where=width > 0)
+    return f0 + np.clip(frac, 0.0, 1.0) * (f1 - f0)
+
+
+def _maps_np(edges, q_f, q_r):
+    """Each cell's map from frame values to reference values, sampled at the bin edges.
+
+    Between the quantiles it interpolates them; beyond the frame's range in the cell
+    (values met only through the blending with neighbouring cells) it continues
+    linearly with the slope of the whole range (clipped to [1/4, 4]) rather than
+    clamping, so a frame matched to itself maps every value to itself.
+    """
+    lut = _interp_rows(edges, q_f, q_r)
+    span_f = q_f[:, -1:] - q_f[:, :1]
+    span_r = q_r[:, -1:] - q_r[:, :1]
+    slope = np.divide(span_r, span_f, out=np.ones(span_f.shape), where=span_f > 0)
+    np.clip(slope, *_SLOPE_RANGE, out=slope)
+    lut = np.where(edges < q_f[:, :1], q_r[:, :1] + slope * (edges - q_f[:, :1]), lut)
+    return np.where(edges > q_f[:, -1:], q_r[:, -1:] + slope * (edges - q_f[:, -1:]), lut)

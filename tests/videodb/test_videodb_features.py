@@ -1,0 +1,155 @@
+"""What a database keeps of each fragment, checked against known answers (Fig. 5-7, Eq. 2).
+
+The motion spectra and the textureness feed the smoothness term of Eq. (2) and (6);
+here each is computed on inputs whose answer is known in closed form.
+"""
+
+import numpy as np
+import pytest
+
+from fluidnb.videodb import motion_spectra, textureness, window_features
+
+N = 32  # frames per fragment: n = N - 1 flows
+H, W = 48, 72
+
+
+def flow_of(dx_series, dy_series=None, shape=(H, W)):
+    """A flow (n, H, W, 2) uniform in space, (dy, dx) per frame pair from the series."""
+    n = len(dx_series)
+    dy_series = np.zeros(n) if dy_series is None else dy_series
+    flow = np.empty((n, *shape, 2), np.float32)
+    flow[..., 0] = np.asarray(dy_series, np.float32)[:, None, None]
+    flow[..., 1] = np.asarray(dx_series, np.float32)[:, None, None]
+    return flow
+
+
+# ------------------------------------------------------------------ motion spectra
+
+
+@pytest.mark.parametrize(("k", "amplitude", "mean"), [(3, 1.5, 0.0), (1, 0.4, 0.7), (7, 2.0, -1.2)])
+def test_a_sinusoidal_motion_puts_its_power_in_its_bin(k, amplitude, mean):
+    """M_t = m + A cos(2 pi k t / n): bin 0 holds m, bin k the power (A / 2)^2, others 0.
+
+    The one-sided spectrum |sum_t M_t e^(-2 pi i f t / n)|^2 / n^2 of a cosine of k
+    cycles over the n flows is (A n / 2)^2 / n^2 = A^2 / 4 at f = k, in (px/frame)^2
+    whatever n; the other component, which does not move, has none.
+    """
+    n = N - 1
+    t = np.arange(n)
+    dx = mean + amplitude * np.cos(2 * np.pi * k * t / n + 0.3)
+    spec = motion_spectra(flow_of(dx), n_bins=N // 2)
+    assert spec.shape == (N // 2, 2, H // 4, W // 4)
+    np.testing.assert_allclose(spec[0, 1], mean, atol=1e-5)  # DC: the signed mean motion
+    np.testing.assert_allclose(spec[k, 1], amplitude**2 / 4, rtol=1e-4)
+    others = np.delete(spec[1:, 1], k - 1, axis=0)
+    assert np.abs(others).max() < 1e-8
+    assert np.abs(spec[:, 0]).max() < 1e-8  # dy never moves
+
+
+def test_a_pure_translation_has_only_dc():
+    """A steady flow (dy, dx): bin 0 is (dy, dx), signed; every other bin is 0."""
+    n = N - 1
+    spec = motion_spectra(flow_of(np.full(n, -1.25), np.full(n, 0.5)), n_bins=N // 2)
+    np.testing.assert_allclose(spec[0, 0], 0.5, rtol=1e-6)
+    np.testing.assert_allclose(spec[0, 1], -1.25, rtol=1e-6)  # to the left: negative
+    assert np.abs(spec[1:]).max() < 1e-10
+
+
+def test_opposite_flows_differ_at_dc_and_agree_elsewhere():
+    """Our decision for bin 0: the mean itself, so opposite flows do not look alike."""
+    n = N - 1
+    wobble = 0.3 * np.sin(2 * np.pi * 2 * np.arange(n) / n)
+    right = motion_spectra(flow_of(1.0 + wobble), n_bins=4)
+    left = motion_spectra(flow_of(-1.0 - wobble), n_bins=4)
+    np.testing.assert_allclose(right[0], -left[0], atol=1e-6)
+    np.testing.assert_allclose(right[1:], left[1:], rtol=1e-5, atol=1e-9)
+
+
+def test_spectra_are_per_block_of_the_motion():
+    """Each stored value is the spectrum of the mean motion over its 4 x 4 pixels."""
+    n = N - 1
+    k, amplitude = 2, 1.0
+    dx = amplitude * np.cos(2 * np.pi * k * np.arange(n) / n)
+    flow = flow_of(dx)
+    flow[:, :, :34] = 0.0  # still up to column 34: block 8 (columns 32-35) half moves
+    spec = motion_spectra(flow, n_bins=4)
+    np.testing.assert_allclose(spec[k, 1, :, 9:], amplitude**2 / 4, rtol=1e-4)
+    assert np.abs(spec[k, 1, :, :8]).max() < 1e-12
+    # Block 8 moves at half the speed on average: a quarter of the power.
+    np.testing.assert_allclose(spec[k, 1, :, 8], (amplitude / 2) ** 2 / 4, rtol=1e-4)
+
+
+# ---------------------------------------------------------------------- textureness
+
+
+def test_a_constant_image_has_zero_textureness():
+    """Every band of a constant's Laplacian pyramid is 0; the residual is the constant,
+    summed over the frames (level 3 is the brightness, as the paper's Fig. 7)."""
+    c = 0.6
+    frames = np.full((N, H, W), c, np.float32)
+    t = textureness(frames)
+    assert t.shape == (4, H // 2, W // 2)
+    assert np.abs(t[:3]).max() < 1e-4 * N * c  # float32 round-off of the blurs
+    np.testing.assert_allclose(t[3], N * c, rtol=1e-5)
+
+
+def test_a_fine_checkerboard_is_all_level_zero():
+    """(-1)^(x + y) is the finest detail there is: a Gaussian of sigma 1 removes it
+    (by exp(-pi^2) per axis), so it lies in band 0 alone, |L0| = a; the rest is the
+    mean c, in the residual."""
+    c, a = 0.5, 0.2
+    y, x = np.mgrid[:H, :W]
+    frame = (c + a * (-1.0) ** (x + y)).astype(np.float32)
+    t = textureness(np.repeat(frame[None], N, axis=0))
+    inner = (slice(4, -4), slice(4, -4))  # away from the border's reflection
+    np.testing.assert_allclose(t[0][inner], N * a, rtol=2e-3)
+    assert t[1][inner].max() < 2e-3 * N * a
+    assert t[2][inner].max() < 2e-3 * N * a
+    np.testing.assert_allclose(t[3][inner], N * c, rtol=2e-3)
+
+
+def test_textureness_sums_over_frames():
+    """Magnitudes summed over the window's frames: a frame and its negative about the
+    mean (a flickering texture) count twice the magnitude of one."""
+    gen = np.random.default_rng(0)
+    frame = (0.5 + 0.2 * gen.standard_normal((H, W))).astype(np.float32)
+    flicker = np.stack([frame, 1.0 - frame] * (N // 2))
+    one = textureness(frame[None])
+    np.testing.assert_allclose(textureness(flicker)[:3], N * one[:3], rtol=1e-4, atol=1e-4)
+
+
+# ------------------------------------------------------------------- window features
+
+
+def test_window_features_of_a_translation_keep_its_motion_and_drop_the_still_part():
+    """A window whose right part translates at (0.5, -1.25) px/frame and whose left
+    fragment is still: the still fragment is dropped, the moving one keeps the motion
+    as its mean motion, per frame pair, and as its DC spectrum, with nothing else."""
+    n = N - 1
+    flow = flow_of(np.full(n, -1.25), np.full(n, 0.5))
+    flow[:, :, :24] = 0.0  # the first fragment's left half is still
+    gen = np.random.default_rng(1)
+    frames = gen.random((N, H, W)).astype(np.float32)
+    colour = np.stack([frames.mean(axis=0)] * 3, axis=-1)
+    positions = np.array([[0, 0], [0, 24]])
+    keep, feats = window_features(frames, colour, flow, positions, threshold=0.2, n_bins=N // 2)
+    assert keep.tolist() == [True, True]
+    np.testing.assert_allclose(feats["mean_motion"][1], [0.5, -1.25], rtol=1e-6)
+    np.testing.assert_allclose(feats["motion"][1], np.tile([0.5, -1.25], (n, 1)), rtol=1e-6)
+    spectra = feats["spectra"].astype(np.float32)
+    np.testing.assert_allclose(spectra[1, 0, 0], 0.5, rtol=1e-3)  # float16
+    np.testing.assert_allclose(spectra[1, 0, 1], -1.25, rtol=1e-3)
+    assert np.abs(spectra[1, 1:]).max() == 0
+    # Fragment 0: its moving half counts, its still half does not (Fig. 5-d).
+    np.testing.assert_allclose(feats["moving"], [0.5, 1.0])
+    np.testing.assert_allclose(feats["mean_motion"][0], [0.5, -1.25], rtol=1e-6)
+    # Nothing moves at all: no fragment is kept.
+    keep, feats = window_features(
+        frames, colour, np.zeros_like(flow), positions, threshold=0.2, n_bins=N // 2
+    )
+    assert not keep.any()
+    assert feats is None
+    # The mean image is the colour mean rounded to 8 bits.
+    keep, feats = window_features(frames, colour, flow, positions, threshold=0.2, n_bins=4)
+    expected = (np.clip(colour[:48, 24:72], 0, 1) * 255 + 0.5).astype(np.uint8)
+    np.testing.assert_array_equal(feats["mean"][1], expected)
