@@ -21,7 +21,8 @@ One idea per module, in the order of the method:
   ``_video`` (reading clips), ``_flow`` (optical flow), ``_augment`` (the versions'
   pixels and motion), ``_features`` (mean image, motion spectra, textureness),
   ``_sift`` (dense SIFT), ``_words`` (codebook, visual words, pyramid histograms,
-  Eq. 1), ``_build`` and ``_store`` (building and reading the zarr store),
+  Eq. 1), ``_build`` and ``_store`` (building and reading the zarr store), ``_frames``
+  (rebuilding fragments' frames for rendering, the frame cache),
   ``_starter_clips``, ``_flow_map`` and ``_starter`` (the starter databases' clips and
   their cache);
 - the assignment (sec. 5): ``_target`` (the target cut into fragments, the user's
@@ -66,6 +67,7 @@ from ._figures import (
 )
 from ._flow import optical_flow
 from ._flow_map import flow_map_texture
+from ._frames import FrameCache
 from ._geometry import ANGLES, FRAGMENT, SCALES, STRIDE, VERSIONS
 from ._lock import DatabaseBusy
 from ._mrf import MRFSolution, alpha_expansion, brute_force, energy, grid_edges, icm, solve
@@ -73,6 +75,7 @@ from ._params import AUGMENTATIONS, FLOW_BACKENDS, AnimateParams, DatabaseParams
 from ._reference import (
     reference_blend_differences,
     reference_dense_sift,
+    reference_fragment_frames,
     reference_match_histograms_cells,
     reference_pair_tables,
     reference_quantise,
@@ -106,6 +109,7 @@ __all__ = [
     "Assignment",
     "DatabaseBusy",
     "DatabaseParams",
+    "FrameCache",
     "HistogramIndex",
     "MRFSolution",
     "PairTables",
@@ -151,6 +155,7 @@ __all__ = [
     "read_video",
     "reference_blend_differences",
     "reference_dense_sift",
+    "reference_fragment_frames",
     "reference_match_histograms_cells",
     "reference_pair_tables",
     "reference_quantise",

@@ -12,6 +12,7 @@ plain version                          fast path (tested against it)
 =====================================  =============================================
 :func:`reference_sample_version`       :func:`~fluidnb.videodb.sample_version`
 :func:`reference_transform_vectors`    :func:`~fluidnb.videodb.transform_vectors`
+:func:`reference_fragment_frames`      :meth:`~fluidnb.videodb.VideoDatabase.fragment_frames`
 :func:`reference_dense_sift`           :func:`~fluidnb.videodb.dense_sift`
 :func:`reference_quantise`             :func:`~fluidnb.videodb.quantise`
 :func:`reference_top_k`                :meth:`~fluidnb.videodb.HistogramIndex.top_k`
@@ -61,6 +62,7 @@ from ._words import _check_pair, _squared_distances, pyramid_histograms
 __all__ = [
     "reference_blend_differences",
     "reference_dense_sift",
+    "reference_fragment_frames",
     "reference_match_histograms_cells",
     "reference_pair_tables",
     "reference_quantise",
@@ -120,6 +122,35 @@ def reference_transform_vectors(vectors, version):
     for idx in np.ndindex(u.shape[:-1]):
         out[idx] = s * rot @ mirror @ u[idx]
     return out
+
+
+def reference_fragment_frames(db, ids, *, margin=0, grey=False):
+    r""":meth:`~fluidnb.videodb.VideoDatabase.fragment_frames` written out, one fragment at a time.
+
+    Each fragment's :math:`N` frames are read from its source clip (its own window,
+    every time), divided by 255 and, for ``grey``, made grey with the Rec. 709 weights
+    :math:`0.2125 R + 0.7154 G + 0.0721 B`, all in float64; then its version's pixels
+    with ``margin`` pixels of context are sampled by :func:`reference_sample_version`
+    and clipped to [0, 1]. No cache, no shared reads. Agrees with the fast path to
+    float32 round-off (its luminance and sampling are float32).
+
+    Returns
+    -------
+    ndarray, shape (n, N, 48 + 2 margin, 48 + 2 margin[, 3]), float32
+    """
+    n, side = db.params.N, FRAGMENT + 2 * margin
+    out = []
+    for fid in np.asarray(ids, np.int64).ravel().tolist():
+        clip, version, start, row, col = (int(v) for v in db.source[fid])
+        frames = db.clip_frames(clip, start, start + n).astype(np.float64) / 255.0
+        if grey:
+            frames = frames @ np.array([0.2125, 0.7154, 0.0721])
+        rebuilt = reference_sample_version(
+            frames, version, origin=(row - margin, col - margin), size=(side, side)
+        )
+        out.append(np.clip(rebuilt, 0.0, 1.0))
+    shape = (0, n, side, side) + (() if grey else (3,))
+    return np.stack(out).astype(np.float32) if out else np.zeros(shape, np.float32)
 
 
 # ------------------------------------------------------------ appearance (secs. 4-5, Eq. 1)

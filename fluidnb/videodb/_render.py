@@ -23,6 +23,7 @@ from ._appearance import match_histograms_cells, motion_blur
 from ._assign import Assignment, _check_params
 from ._blend import MARGIN, blend_differences, blend_values
 from ._composite import composite, dynamic_matte, inpaint_background, loop_crossfade
+from ._frames import rebuild_fragments
 from ._geometry import FRAGMENT
 
 __all__ = ["Animation", "render"]
@@ -110,12 +111,13 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     t = time.perf_counter()
     rebuild(0.0, f"rebuilding {len(target)} fragments from their source clips")
     ids = assignment.fragments
+    # Each fragment rebuilt once, kept in the database's cache for the next render.
+    rebuilt = rebuild_fragments(db, ids, margin=MARGIN, grey=True, progress=rebuild)
     diffs = np.empty((len(ids), n, FRAGMENT + 2 * MARGIN, FRAGMENT + 2 * MARGIN), np.float32)
-    step = 32
-    for lo in range(0, len(ids), step):
-        frames = db.fragment_frames(ids[lo : lo + step], margin=MARGIN, grey=True)
-        diffs[lo : lo + step] = frames - frames.mean(axis=1, keepdims=True)  # D_i = F_i - A
-        rebuild(min(1.0, (lo + step) / len(ids)), "rebuilding fragments")
+    for i, fid in enumerate(ids.tolist()):
+        frames = rebuilt[fid]
+        np.subtract(frames, frames.mean(axis=0), out=diffs[i])  # D_i = F_i - A
+    del rebuilt
     clock["rebuild"] = time.perf_counter() - t
 
     t = time.perf_counter()
