@@ -382,12 +382,84 @@ def _clip_frames(db, clip, wanted):
         runs = np.split(np.asarray(missing), np.flatnonzero(np.diff(missing) != 1) + 1)
         for run in runs:
             a, b = int(run[0]), int(run[-1]) + 1
-            block = db.clip_frames(clip, a, b)
+            block = _read_frames(db, clip, a, b)
             for i in range(b - a):
                 frame = block[i].copy()  # the cache owns its own (a view would pin the block)
                 cache.put_frame(clip, a + i, frame)
                 got[a + i] = frame
     return got
+
+
+def _read_frames(db, clip, a, b):
+    """Frames ``a:b`` of a clip, uint8: decoded here, or by zarr at the least doubt.
+
+    The frames arrays are chunked one frame per chunk, blosc then (format 2) CRC-32C.
+    Each chunk is decoded as zarr would -- the checksum checked by the same
+    ``google_crc32c``, blosc by the same ``numcodecs`` -- without zarr's asynchronous
+    machinery, which cost as much again per frame (0.54-0.75 ms a frame against
+    0.32-0.52 ms, measured on the starter water clips under load 5.7). A chunk that is
+    missing, fails its checksum or does not decode to one frame, or an array with any
+    other codecs, is read by :meth:`~fluidnb.videodb.VideoDatabase.clip_frames`
+    instead, which fills or refuses it and names it as the store does.
+    """
+    from ._store import _chunk_file
+
+    arr = db._array(db._group(), clip, "frames")
+    crc = _direct_codecs(arr)
+    if crc is not None:
+        out = np.empty((b - a, *arr.shape[1:]), np.uint8)
+        if all(_decode(_chunk_file(arr, db.path, i), out[i - a], crc) for i in range(a, b)):
+            return out
+    return db.clip_frames(clip, a, b)
+
+
+def _direct_codecs(arr):
+    """Whether ``arr``'s chunks end in a CRC-32C (True), do not (False), or None: use zarr.
+
+    Decoded here: uint8 arrays of one frame per chunk whose codecs are bytes, blosc and
+    optionally crc32c, nothing else.
+    """
+    from zarr.codecs import BloscCodec, BytesCodec, Crc32cCodec
+
+    meta = getattr(arr, "metadata", None)
+    codecs = tuple(getattr(meta, "codecs", ()))
+    if (
+        arr.dtype != np.uint8
+        or tuple(arr.chunks) != (1, *arr.shape[1:])
+        or len(codecs) not in (2, 3)
+        or not isinstance(codecs[0], BytesCodec)
+        or not isinstance(codecs[1], BloscCodec)
+        or (len(codecs) == 3 and not isinstance(codecs[2], Crc32cCodec))
+    ):
+        return None
+    return len(codecs) == 3
+
+
+def _decode(path, out, crc):
+    """Decode one chunk file into ``out``; False if it is missing or anything is wrong."""
+    import google_crc32c
+    from numcodecs import blosc
+
+    try:
+        data = np.frombuffer(path.read_bytes(), np.uint8)
+    except OSError:
+        return False
+    if crc:
+        if len(data) < 4:
+            return False
+        body = data[:-4]
+        if google_crc32c.value(body) != int.from_bytes(data[-4:].tobytes(), "little"):
+            return False
+    else:
+        body = data
+    # Blosc's header: bytes 4-7 hold the decompressed size.
+    if len(body) < 16 or int.from_bytes(body[4:8].tobytes(), "little") != out.nbytes:
+        return False
+    try:
+        blosc.decompress(body, out)
+    except Exception:
+        return False
+    return True
 
 
 def _plan(shape, version, r0, c0, side):

@@ -90,13 +90,13 @@ def test_luminance_is_the_rec709_weights_element_by_element():
 
 def test_each_fragment_is_rebuilt_once_from_the_frames_it_needs(db, monkeypatch):
     reads = []
-    real = type(db).clip_frames
+    real = frames_module._read_frames
 
-    def counting(self, clip, start=0, stop=None):
+    def counting(db, clip, start, stop):
         reads.append((clip, start, stop))
-        return real(self, clip, start, stop)
+        return real(db, clip, start, stop)
 
-    monkeypatch.setattr(type(db), "clip_frames", counting)
+    monkeypatch.setattr(frames_module, "_read_frames", counting)
     n = db.params.N
     src = db.source
     # Fragments of one clip's first window, some asked for twice.
@@ -241,3 +241,25 @@ def test_a_render_from_the_reference_frames_differs_only_by_round_off(built, mon
     assert np.abs(d_slow).max() > 0.01  # it moves
     np.testing.assert_allclose(d_fast, d_slow, rtol=0, atol=2e-6)
     np.testing.assert_allclose(fast.clip.frames, slow.clip.frames, rtol=0, atol=1e-3)
+
+
+def test_frames_decoded_directly_equal_zarrs_and_bad_chunks_go_to_zarr(db, tmp_path):
+    n = db.params.N
+    arr = db._array(db._group(), 0, "frames")
+    assert frames_module._direct_codecs(arr) is True  # bytes, blosc, crc32c
+    direct = frames_module._read_frames(db, 0, 3, 3 + n)
+    np.testing.assert_array_equal(direct, arr[3 : 3 + n])
+    # A chunk that fails its checksum, or is not one frame, is not decoded here.
+    file = sorted((db.path / "clips/00000/frames/c").rglob("*"))
+    file = next(p for p in file if p.is_file())
+    data = bytearray(file.read_bytes())
+    frame = np.empty(arr.shape[1:], np.uint8)
+    assert frames_module._decode(file, frame, True)
+    bad = tmp_path / "bad"
+    bad.write_bytes(bytes(data[:-5]) + bytes(data[-4:]))  # truncated, checksum kept
+    assert not frames_module._decode(bad, frame, True)
+    data[100] ^= 0xFF
+    bad.write_bytes(bytes(data))
+    assert not frames_module._decode(bad, frame, True)
+    assert not frames_module._decode(tmp_path / "missing", frame, True)
+    assert not frames_module._decode(file, np.empty(7, np.uint8), True)  # another size
