@@ -19,7 +19,13 @@ from .._clip import Clip
 from .._image import as_image
 from .._progress import Progress
 from .._validation import check_shape_match
-from ._appearance import match_histograms_cells, motion_blur
+from ._appearance import (
+    colour_axes,
+    frames_from_axes,
+    frames_in_axes,
+    match_histograms_cells,
+    motion_blur,
+)
 from ._assign import Assignment, _check_params
 from ._blend import MARGIN, blend_differences, blend_values
 from ._composite import composite, dynamic_matte, inpaint_background, loop_crossfade
@@ -132,7 +138,6 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     mean(0.0, "approximate mean image (pseudo motion blur)")
     velocity = blend_values(db.mean_motion[ids], target.positions, (hc, wc))
     approx = motion_blur(target.canvas, velocity, shutter=params.shutter, denoise=params.denoise)
-    frames = approx[None] + d[..., None]
     clock["mean"] = time.perf_counter() - t
 
     t = time.perf_counter()
@@ -140,14 +145,15 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     # In the target's principal colour axes (Heeger & Bergen 1995 decorrelate colour by
     # PCA): matching R, G and B independently can mix hues the photo does not have (a
     # white-hot flame turned lilac); matching decorrelated axes keeps its colours.
-    centre, axes = _colour_axes(target.canvas, target.canvas_matte)
+    # The frames are approx + D_i, made in the axes in one pass.
+    centre, axes = colour_axes(target.canvas, target.canvas_matte)
     matched = match_histograms_cells(
-        (frames - centre) @ axes,
+        frames_in_axes(approx, d, centre, axes),
         (target.canvas - centre) @ axes,
         target.canvas_matte,
         cell=params.cell,
     )
-    matched = matched @ axes.T + centre
+    matched = frames_from_axes(matched, centre, axes)
     clock["match"] = time.perf_counter() - t
 
     t = time.perf_counter()
@@ -187,19 +193,10 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     stages = {
         "differences": d[:, :h, :w],
         "mean": np.clip(approx[:h, :w], 0, 1),
-        "unmatched": np.clip(frames[:, :h, :w], 0, 1),
+        "unmatched": np.clip(approx[None, :h, :w] + d[:, :h, :w, None], 0, 1),
         "matte": (matte if matte.ndim == 3 else np.broadcast_to(matte, (len(out), hc, wc)))[
             :, :h, :w
         ],
         "background": back[:h, :w],
     }
     return Animation(clip=clip, assignment=assignment, stages=stages, timings=timings)
-
-
-def _colour_axes(image, matte):
-    """Mean colour and principal axes (3, 3) of the image's pixels inside the matte."""
-    pix = image[matte > 0.5] if (matte > 0.5).any() else image.reshape(-1, 3)
-    centre = pix.mean(axis=0)
-    cov = np.cov((pix - centre).T.astype(np.float64)) + 1e-9 * np.eye(3)
-    _, vecs = np.linalg.eigh(cov)
-    return centre.astype(np.float32), vecs[:, ::-1].astype(np.float32)
