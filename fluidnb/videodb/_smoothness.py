@@ -51,7 +51,9 @@ from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.extending import intrinsic
 from threadpoolctl import threadpool_limits
 
 from .._progress import Progress
@@ -223,17 +225,57 @@ def _half_to_double():
     return table
 
 
+@functools.cache
+def _hardware_half():
+    """Whether this processor converts float16 in hardware (x86's F16C; every AArch64).
+
+    Then :func:`_as_double` compiles to that instruction (twice as fast as the table:
+    measured 0.08 s against 0.15 s per 18-edge batch under load); elsewhere LLVM would
+    call a runtime helper that numba may not provide, so the table is used.
+    """
+    try:
+        import llvmlite.binding as llvm
+
+        triple = llvm.get_process_triple()
+        if triple.startswith(("aarch64", "arm64")):
+            return True
+        return triple.startswith(("x86_64", "amd64")) and bool(
+            llvm.get_host_cpu_features().get("f16c", False)
+        )
+    except Exception:  # pragma: no cover - a platform llvmlite does not describe
+        return False
+
+
+@intrinsic
+def _as_double(typingctx, value):
+    """float64 of a float32 / float64, or of float16 bits held in a uint16 (exact)."""
+    if value == types.uint16:
+
+        def codegen(context, builder, signature, args):
+            return builder.fpext(builder.bitcast(args[0], ir.HalfType()), ir.DoubleType())
+
+    elif isinstance(value, types.Float):
+
+        def codegen(context, builder, signature, args):
+            return context.cast(builder, args[0], signature.args[0], types.float64)
+
+    else:
+        return None
+    return types.float64(value), codegen
+
+
 def _as_maps(array):
     """A database array as (F, A, S, S) maps to gather from, and its conversion table.
 
-    float16 (the database's) is read as its bit patterns through
-    :func:`_half_to_double` (numba has no float16); float32 / float64 are read as they
-    are (table None); other floats are converted to float64 first.
+    float16 (the database's) is read as its bit patterns (numba has no float16),
+    converted by the processor (:func:`_hardware_half`) or through
+    :func:`_half_to_double`; float32 / float64 are read as they are (table None);
+    other floats are converted to float64 first.
     """
     arr = np.ascontiguousarray(array)
     arr = arr.reshape(arr.shape[0], -1, *arr.shape[-2:])
     if arr.dtype == np.float16:
-        return arr.view(np.uint16), _half_to_double()
+        return arr.view(np.uint16), None if _hardware_half() else _half_to_double()
     if arr.dtype not in (np.float32, np.float64):
         arr = arr.astype(np.float64)
     return arr, None
@@ -244,12 +286,12 @@ def _gather_centred(maps, table, ids_p, ids_q, a0, a1, box_p, box_q, out_p, out_
     """Gather both sides' overlap features in float64 and centre them, per edge.
 
     ``out_p[e, i]`` = maps[ids_p[e, i], a0:a1, box_p rows, box_p cols] flattened
-    (through ``table`` for float16 bit patterns), likewise ``out_q``; then both are
-    moved by the edge's mean candidate ``(sum_i out_p[e, i] + sum_j out_q[e, j]) / (Kp +
-    Kq)``, summed in candidate order. The same values, bit for bit, as numpy's
-    ``np.take``, a cast to float64, ``a.sum(axis=1)`` (sequential over that axis) and
-    the subtraction, in one pass instead of four over large temporaries (the cast
-    from float16 alone was half of the tables' time).
+    (float16 bit patterns through ``table``, or :func:`_as_double`), likewise
+    ``out_q``; then both are moved by the edge's mean candidate ``(sum_i out_p[e, i] +
+    sum_j out_q[e, j]) / (Kp + Kq)``, summed in candidate order. The same values, bit
+    for bit, as numpy's ``np.take``, a cast to float64, ``a.sum(axis=1)`` (sequential
+    over that axis) and the subtraction, in one pass instead of four over large
+    temporaries (the cast from float16 alone was half of the tables' time).
     """
     n_e = ids_p.shape[0]
     dim = out_p.shape[2]
@@ -269,7 +311,7 @@ def _gather_centred(maps, table, ids_p, ids_q, a0, a1, box_p, box_q, out_p, out_
                         src = maps[f, a, r]
                         for c in range(box[2], box[3]):
                             if table is None:
-                                row[j] = np.float64(src[c])
+                                row[j] = _as_double(src[c])
                             else:
                                 row[j] = table[src[c]]
                             j += 1
