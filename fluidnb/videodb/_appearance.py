@@ -323,22 +323,33 @@ def colour_axes(image, matte):
     return centre.astype(np.float32), vecs[:, ::-1].astype(np.float32)
 
 
-def frames_in_axes(mean, differences, centre, axes):
+def frames_in_axes(mean, differences, centre, axes, *, unmatched=None):
     """The frames ``mean + D_i`` in the colour axes: ``((A + D_i) - centre) @ axes``.
 
     One compiled pass over (T, H, W) differences and an (H, W, 3) mean image, float32,
     each coordinate summed as ``(g_0 a_0 + g_1 a_1) + g_2 a_2``; it differs from
     numpy's matrix product (BLAS) by float32 rounding (measured 2.4e-7).
 
+    Parameters
+    ----------
+    unmatched : tuple of int, optional
+        ``(h, w)``: also return the frames themselves, ``clip(A + D_i, 0, 1)`` on
+        their top-left ``h x w`` pixels (the rendering's "before matching" picture),
+        made in the same pass.
+
     Returns
     -------
     ndarray, shape (T, H, W, 3), float32
+        And, with ``unmatched``, the frames (T, h, w, 3).
     """
     d = np.ascontiguousarray(differences, dtype=np.float32)
     a = np.ascontiguousarray(mean, dtype=np.float32)
     out = np.empty(d.shape + (3,), np.float32)
-    _in_axes(a, d, centre.astype(np.float32), np.ascontiguousarray(axes, np.float32), out)
-    return out
+    h, w = (0, 0) if unmatched is None else unmatched
+    frames = np.empty((d.shape[0], h, w, 3), np.float32)
+    axes = np.ascontiguousarray(axes, np.float32)
+    _in_axes(a, d, centre.astype(np.float32), axes, out, frames)
+    return out if unmatched is None else (out, frames)
 
 
 def frames_from_axes(coordinates, centre, axes):
@@ -349,15 +360,23 @@ def frames_from_axes(coordinates, centre, axes):
 
 
 @njit(cache=True, nogil=True)
-def _in_axes(mean, d, centre, axes, out):
+def _in_axes(mean, d, centre, axes, out, frames):
     n_t, h, w = d.shape
+    fh, fw = frames.shape[1:3]
     for t in range(n_t):
         for r in range(h):
             for c in range(w):
                 delta = d[t, r, c]
-                g0 = (mean[r, c, 0] + delta) - centre[0]
-                g1 = (mean[r, c, 1] + delta) - centre[1]
-                g2 = (mean[r, c, 2] + delta) - centre[2]
+                f0 = mean[r, c, 0] + delta
+                f1 = mean[r, c, 1] + delta
+                f2 = mean[r, c, 2] + delta
+                if r < fh and c < fw:
+                    frames[t, r, c, 0] = min(max(f0, np.float32(0.0)), np.float32(1.0))
+                    frames[t, r, c, 1] = min(max(f1, np.float32(0.0)), np.float32(1.0))
+                    frames[t, r, c, 2] = min(max(f2, np.float32(0.0)), np.float32(1.0))
+                g0 = f0 - centre[0]
+                g1 = f1 - centre[1]
+                g2 = f2 - centre[2]
                 for k in range(3):
                     out[t, r, c, k] = (g0 * axes[0, k] + g1 * axes[1, k]) + g2 * axes[2, k]
 

@@ -27,6 +27,7 @@ per fragment, as one would first write it, with the float64 pyramids.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from .._validation import check_array, check_int, check_range
 from ..fields import collapse, gaussian_pyramid, laplacian_pyramid
@@ -259,13 +260,33 @@ def _fill(d, pos, m, shape):
     n = d.shape[1]
     acc = np.zeros(shape + (n,), dtype=np.float32)
     den = np.zeros(shape, dtype=np.float32)
-    for k, (r, c) in enumerate(pos):
-        (rs, cs), (wr, wc) = _window(r, c, m, s, shape)
-        t = tau[wr, wc]
-        acc[rs, cs] += d[k][:, wr, wc].transpose(1, 2, 0) * t[..., None]
-        den[rs, cs] += t
+    _accumulate_windows(d, np.ascontiguousarray(pos, np.int64), m, tau, acc, den)
     np.divide(acc, den[..., None], out=acc, where=den[..., None] > 0)
     return acc
+
+
+@njit(cache=True, nogil=True)
+def _accumulate_windows(d, pos, m, tau, acc, den):
+    """``acc += tau * D_k`` and ``den += tau`` over every fragment's window (in order).
+
+    The window of :func:`_window` (the core and ``m`` pixels of context, cut to the
+    canvas), transposed to the canvas's (row, col, frame) layout on the way: float32
+    products and sums in the order of the fragments, as the numpy loop
+    ``acc[rs, cs] += D_k[:, wr, wc].T * tau`` gives them.
+    """
+    n = d.shape[1]
+    s = d.shape[2]
+    h, w = den.shape
+    for k in range(pos.shape[0]):
+        r0 = pos[k, 0] - m
+        c0 = pos[k, 1] - m
+        for i in range(max(0, -r0), min(s, h - r0)):
+            for j in range(max(0, -c0), min(s, w - c0)):
+                t = tau[i, j]
+                cell = acc[r0 + i, c0 + j]
+                for f in range(n):
+                    cell[f] += d[k, f, i, j] * t
+                den[r0 + i, c0 + j] += t
 
 
 def _layers(pos):
@@ -364,12 +385,16 @@ def blend_differences(diffs, positions, canvas_shape, *, margin, levels=None, fe
             f"diffs must be {FRAGMENT} + 2 * margin = {FRAGMENT + 2 * m} pixels wide, "
             f"got shape {d.shape}"
         )
-    levels = _check_levels(levels)
-    raw = _raw_weights(_check_feather(feather)).astype(np.float32)
+    return _blend(d, pos, shape, m, _check_levels(levels), _check_feather(feather))
+
+
+def _blend(d, pos, shape, m, levels, feather):
+    """:func:`blend_differences` on checked inputs (the renderer's own differences)."""
+    raw = _raw_weights(feather).astype(np.float32)
     n = d.shape[1]
     if len(pos) == 0:
         return np.zeros((n,) + shape, dtype=np.float32)
-    d = d.astype(np.float32, copy=False)
+    d = np.ascontiguousarray(d, dtype=np.float32)
 
     fill = _fill(d, pos, m, shape)
     tile = FRAGMENT + 2 * min(m, MARGIN)

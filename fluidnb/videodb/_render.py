@@ -18,7 +18,7 @@ import numpy as np
 from .._clip import Clip
 from .._image import as_image
 from .._progress import Progress
-from .._validation import check_shape_match
+from .._validation import check_fps, check_shape_match
 from ._appearance import (
     colour_axes,
     frames_from_axes,
@@ -27,7 +27,7 @@ from ._appearance import (
     motion_blur,
 )
 from ._assign import Assignment, _check_params
-from ._blend import MARGIN, blend_differences, blend_values
+from ._blend import BLEND_LEVELS, FEATHER, MARGIN, _blend, blend_values
 from ._composite import composite, dynamic_matte, inpaint_background, loop_crossfade
 from ._frames import rebuild_fragments
 from ._geometry import FRAGMENT
@@ -99,6 +99,7 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     if not isinstance(assignment, Assignment):
         raise ValueError(f"assignment must be an Assignment, got {type(assignment).__name__}")
     params = assignment.params if params is None else _check_params(params, assignment.db)
+    fps = check_fps(fps)
     db, target = assignment.db, assignment.target
     n = db.params.N
     if params.loop > n // 2:
@@ -128,7 +129,8 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
 
     t = time.perf_counter()
     blend(0.0, "blending the difference frames (Laplacian pyramids)")
-    d = blend_differences(diffs, target.positions, (hc, wc), margin=MARGIN)
+    # The private entry: these differences were made just above (finite, checked shape).
+    d = _blend(diffs, target.positions, (hc, wc), MARGIN, BLEND_LEVELS, FEATHER)
     del diffs
     if params.loop:
         d = loop_crossfade(d, overlap=params.loop)
@@ -147,12 +149,11 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     # white-hot flame turned lilac); matching decorrelated axes keeps its colours.
     # The frames are approx + D_i, made in the axes in one pass.
     centre, axes = colour_axes(target.canvas, target.canvas_matte)
+    rotated, unmatched = frames_in_axes(approx, d, centre, axes, unmatched=(h, w))
     matched = match_histograms_cells(
-        frames_in_axes(approx, d, centre, axes),
-        (target.canvas - centre) @ axes,
-        target.canvas_matte,
-        cell=params.cell,
+        rotated, (target.canvas - centre) @ axes, target.canvas_matte, cell=params.cell
     )
+    del rotated
     matched = frames_from_axes(matched, centre, axes)
     clock["match"] = time.perf_counter() - t
 
@@ -170,7 +171,7 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     else:
         matte = target.canvas_matte
         back = target.canvas
-    out = composite(matched, back, matte)[:, :h, :w]
+    out = np.ascontiguousarray(composite(matched, back, matte)[:, :h, :w])
     np.clip(out, 0.0, 1.0, out=out)
     clock["composite"] = time.perf_counter() - t
     comp(1.0, "done")
@@ -189,11 +190,12 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
         },
         "energy": float(assignment.solution.energy),
     }
-    clip = Clip(out, fps=fps, metadata=meta)
+    # Trusted: a fresh contiguous float32 array in [0, 1] (Clip() would copy and check it).
+    clip = Clip._trusted(out, fps, {}).with_metadata(**meta)
     stages = {
         "differences": d[:, :h, :w],
         "mean": np.clip(approx[:h, :w], 0, 1),
-        "unmatched": np.clip(approx[None, :h, :w] + d[:, :h, :w, None], 0, 1),
+        "unmatched": unmatched,
         "matte": (matte if matte.ndim == 3 else np.broadcast_to(matte, (len(out), hc, wc)))[
             :, :h, :w
         ],

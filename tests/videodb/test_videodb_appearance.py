@@ -229,6 +229,9 @@ def test_frames_go_into_the_colour_axes_and_back_as_numpy_computes_it():
     frames = mean[None] + d[..., None]
     rotated = frames_in_axes(mean, d, centre, axes)
     np.testing.assert_allclose(rotated, (frames - centre) @ axes, rtol=0, atol=1e-6)
+    again, shown = frames_in_axes(mean, d, centre, axes, unmatched=(10, 12))
+    assert np.array_equal(again, rotated)
+    assert np.array_equal(shown, np.clip(frames[:, :10, :12], 0, 1))  # the same pass, exact
     back = frames_from_axes(rotated.copy(), centre, axes)
     np.testing.assert_allclose(back, rotated @ axes.T + centre, rtol=0, atol=1e-6)
     np.testing.assert_allclose(back, frames, rtol=0, atol=2e-6)  # and back again
