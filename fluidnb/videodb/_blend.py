@@ -26,11 +26,14 @@ per fragment, as one would first write it, with the float64 pyramids.
 
 from __future__ import annotations
 
+from collections import deque
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 from numba import njit
 
 from .._validation import check_array, check_int, check_range
-from ..fields import collapse, gaussian_pyramid, laplacian_pyramid
+from ..fields._pyramid import _collapse32, _gaussian32, _laplacian32
 from ._geometry import FRAGMENT, STRIDE
 
 __all__ = [
@@ -59,6 +62,8 @@ FEATHER = 8
 #: fragments bring (their margin) and lean on the fill.
 BLEND_LEVELS = 4
 
+# Threads building the phase layers' pyramids.
+_THREADS = 2
 # Same-phase fragments of the stride-24 grid are _PHASES * STRIDE = 72 pixels apart.
 _PHASES = 3
 #: The context (pixels) around a fragment's 48 x 48 core that the blend uses: with it,
@@ -398,9 +403,9 @@ def _blend(d, pos, shape, m, levels, feather):
 
     fill = _fill(d, pos, m, shape)
     tile = FRAGMENT + 2 * min(m, MARGIN)
-    acc = None
-    wsum = None
-    for members in _layers(pos):
+
+    def pyramids(members):
+        """One phase layer's Laplacian pyramid and its weight's Gaussian pyramid."""
         layer = fill.copy()
         weight = np.zeros(shape + (1,), dtype=np.float32)
         for k in members:
@@ -408,11 +413,17 @@ def _blend(d, pos, shape, m, levels, feather):
             (rs, cs), (wr, wc) = _window(r, c, m, tile, shape)
             layer[rs, cs] = d[k][:, wr, wc].transpose(1, 2, 0)
             weight[r : r + FRAGMENT, c : c + FRAGMENT, 0] = raw
-        bands = laplacian_pyramid(layer, levels, precision="float32")
-        gw = gaussian_pyramid(weight, levels, precision="float32")
+        # The pyramids' float32 kernels themselves: the inputs are this function's.
+        return _laplacian32(layer, levels), _gaussian32(weight, levels)
+
+    acc = None
+    wsum = None
+    # The layers' pyramids on threads (OpenCV releases the GIL; a few layers in
+    # flight), summed here in layer order: the same sums as one thread's.
+    for bands, gw in _in_order(pyramids, _layers(pos)):
         if acc is None:
             acc = [g * b for g, b in zip(gw, bands)]
-            wsum = gw
+            wsum = [g.copy() for g in gw]
         else:
             for a, g, b, s in zip(acc, gw, bands, wsum):
                 b *= g
@@ -421,10 +432,35 @@ def _blend(d, pos, shape, m, levels, feather):
     for a, s in zip(acc, wsum):
         np.divide(a, s, out=a, where=s > _TINY)
         a[np.broadcast_to(s <= _TINY, a.shape)] = 0.0
-    out = collapse(acc, precision="float32")
+    out = _collapse32(acc)
     covered = _weight_sum(pos, shape, np.ones((FRAGMENT, FRAGMENT))) > 0
     out *= covered[..., None]
     return np.ascontiguousarray(out.transpose(2, 0, 1))
+
+
+def _in_order(fn, items):
+    """``fn(item)`` for every item, computed on threads, yielded in the items' order.
+
+    At most one more call than there are threads is in flight (each holds a layer's
+    pyramids).
+    """
+    items = list(items)
+    workers = min(_THREADS, len(items))
+    if workers <= 1:
+        yield from map(fn, items)
+        return
+    with ThreadPoolExecutor(workers) as pool:
+        pending = deque()
+        try:
+            for item in items:
+                pending.append(pool.submit(fn, item))
+                if len(pending) > workers:
+                    yield pending.popleft().result()
+            while pending:
+                yield pending.popleft().result()
+        finally:
+            for future in pending:
+                future.cancel()
 
 
 def blend_values(values, positions, canvas_shape):

@@ -259,3 +259,19 @@ def test_blend_values_spreads_each_fragments_value_over_its_cell():
     # A constant value stays constant wherever the cores reach.
     same = blend_values(np.ones((len(pos), 2)), pos, shape)
     np.testing.assert_allclose(same[covered(pos, shape)], 1.0, atol=1e-6)
+
+
+def test_blend_on_threads_is_the_blend_on_one(monkeypatch):
+    # The phase layers' pyramids are made on threads and summed in layer order: the
+    # result is the one-thread result bit for bit.
+    from fluidnb.videodb import _blend
+
+    gen = np.random.default_rng(8)
+    shape = (168, 192)
+    pos = grid(shape)[::2]
+    diffs = np.stack([smooth_texture(gen, (3, 72, 72), 1.5) for _ in pos])
+    threads = blend_differences(diffs, pos, shape, margin=12)
+    monkeypatch.setattr(_blend, "_THREADS", 1)
+    assert np.array_equal(blend_differences(diffs, pos, shape, margin=12), threads)
+    monkeypatch.setattr(_blend, "_THREADS", 4)
+    assert np.array_equal(blend_differences(diffs, pos, shape, margin=12), threads)
