@@ -66,9 +66,9 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
 
     1. Rebuild every assigned fragment's frames from its source clip (with 12 px of
        context) and its difference frames :math:`D_i = F_i - A` (luminance);
-    2. blend them with Laplacian pyramids over the overlaps
-       (:func:`blend_differences`) and, with ``loop``, cross-fade the end into the
-       start (:func:`loop_crossfade`);
+    2. with ``loop``, cross-fade their ends into their starts
+       (:func:`loop_crossfade`), and blend them with Laplacian pyramids over the
+       overlaps (:func:`blend_differences`);
     3. add them to the approximate mean image: the target blurred along the assigned
        motion (:func:`motion_blur`);
     4. match each frame's histograms to the target's cell by cell
@@ -129,11 +129,15 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
 
     t = time.perf_counter()
     blend(0.0, "blending the difference frames (Laplacian pyramids)")
+    if params.loop:
+        # The cross-fade and the blend are both linear maps, one over time, the other
+        # over space for each frame alike, so they commute: fading every fragment's
+        # differences first blends T - loop frames instead of T (a quarter less work
+        # for the default 8 of 32; the same clip to float32 rounding).
+        diffs = np.moveaxis(loop_crossfade(np.moveaxis(diffs, 1, 0), overlap=params.loop), 0, 1)
     # The private entry: these differences were made just above (finite, checked shape).
     d = _blend(diffs, target.positions, (hc, wc), MARGIN, BLEND_LEVELS, FEATHER)
     del diffs
-    if params.loop:
-        d = loop_crossfade(d, overlap=params.loop)
     clock["blend"] = time.perf_counter() - t
 
     t = time.perf_counter()

@@ -263,3 +263,21 @@ def test_frames_decoded_directly_equal_zarrs_and_bad_chunks_go_to_zarr(db, tmp_p
     assert not frames_module._decode(bad, frame, True)
     assert not frames_module._decode(tmp_path / "missing", frame, True)
     assert not frames_module._decode(file, np.empty(7, np.uint8), True)  # another size
+
+
+def test_the_loop_fades_the_fragments_before_the_blend_as_after_it(built):
+    """Cross-fade and blend commute (both linear): fading first blends fewer frames."""
+    from fluidnb.videodb import AnimateParams, assign, blend_differences, loop_crossfade, render
+
+    db = open_database(built.path)
+    photo = moving_texture(8, shape=(96, 120), frames=1)[0]
+    a = assign(photo, None, db, AnimateParams(candidates=10, loop=3))
+    anim = render(a)
+    frames = db.fragment_frames(a.fragments, margin=12, grey=True)
+    diffs = frames - frames.mean(axis=1, keepdims=True)
+    canvas = a.target.canvas.shape[:2]
+    blended = blend_differences(diffs, a.target.positions, canvas, margin=12)
+    after = loop_crossfade(blended, overlap=3)
+    h, w = a.target.shape
+    assert anim.stages["differences"].shape == (db.params.N - 3, h, w)
+    np.testing.assert_allclose(anim.stages["differences"], after[:, :h, :w], rtol=0, atol=1e-6)
