@@ -438,6 +438,62 @@ def _blend(d, pos, shape, m, levels, feather):
     return np.ascontiguousarray(out.transpose(2, 0, 1))
 
 
+def difference_frames(frames, loop=0, *, out=None):
+    r"""A fragment's difference frames :math:`D_i = F_i - A`, cross-faded to loop.
+
+    :math:`A = \frac{1}{N} \sum_i F_i` in float32 (summed in frame order, as
+    ``frames.mean(axis=0)``), then, with ``loop`` > 0, :func:`loop_crossfade`'s
+    equal-power fade of the last ``loop`` frames into the first, in one pass (in
+    float64, as it does).
+
+    Parameters
+    ----------
+    frames : ndarray, shape (N, h, w), float32
+        A fragment's frames :math:`F_i`.
+    loop : int
+        Frames to cross-fade, in [0, N // 2].
+    out : ndarray, shape (N - loop, h, w), float32, optional
+
+    Returns
+    -------
+    ndarray, shape (N - loop, h, w), float32
+    """
+    f = np.ascontiguousarray(frames, dtype=np.float32)
+    loop = check_int("loop", loop, 0, f.shape[0] // 2)
+    if out is None:
+        out = np.empty((f.shape[0] - loop, *f.shape[1:]), np.float32)
+    theta = 0.5 * np.pi * np.arange(1, loop + 1) / (loop + 1)
+    _difference_frames(f, np.sin(theta), np.cos(theta), out)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _difference_frames(f, sin, cos, out):
+    n = f.shape[0]
+    loop = sin.shape[0]
+    length = n - loop
+    h, w = f.shape[1:]
+    for r in range(h):
+        for c in range(w):
+            a = f[0, r, c]
+            for i in range(1, n):
+                a += f[i, r, c]
+            a = a / np.float32(n)  # A, as numpy's float32 mean
+            for i in range(loop, length):
+                out[i, r, c] = f[i, r, c] - a
+            if loop == 0:
+                continue
+            # The fade's mean of D (zero but for rounding), in float64 as loop_crossfade.
+            m = np.float64(0.0)
+            for i in range(n):
+                m += np.float64(f[i, r, c] - a)
+            m /= n
+            for j in range(loop):
+                head = np.float64(f[j, r, c] - a) - m
+                tail = np.float64(f[length + j, r, c] - a) - m
+                out[j, r, c] = np.float32(m + sin[j] * head + cos[j] * tail)
+
+
 def _in_order(fn, items):
     """``fn(item)`` for every item, computed on threads, yielded in the items' order.
 

@@ -27,8 +27,8 @@ from ._appearance import (
     motion_blur,
 )
 from ._assign import Assignment, _check_params
-from ._blend import BLEND_LEVELS, FEATHER, MARGIN, _blend, blend_values
-from ._composite import composite, dynamic_matte, inpaint_background, loop_crossfade
+from ._blend import BLEND_LEVELS, FEATHER, MARGIN, _blend, blend_values, difference_frames
+from ._composite import composite, dynamic_matte, inpaint_background
 from ._frames import rebuild_fragments
 from ._geometry import FRAGMENT
 
@@ -120,21 +120,20 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     ids = assignment.fragments
     # Each fragment rebuilt once, kept in the database's cache for the next render.
     rebuilt = rebuild_fragments(db, ids, margin=MARGIN, grey=True, progress=rebuild)
-    diffs = np.empty((len(ids), n, FRAGMENT + 2 * MARGIN, FRAGMENT + 2 * MARGIN), np.float32)
+    # D_i = F_i - A, and with ``loop`` already cross-faded: the cross-fade and the blend
+    # are both linear maps, one over time, the other over space for each frame alike,
+    # so they commute, and fading every fragment's differences first blends T - loop
+    # frames instead of T (a quarter less work for the default 8 of 32; the same clip
+    # to float32 rounding).
+    side = FRAGMENT + 2 * MARGIN
+    diffs = np.empty((len(ids), n - params.loop, side, side), np.float32)
     for i, fid in enumerate(ids.tolist()):
-        frames = rebuilt[fid]
-        np.subtract(frames, frames.mean(axis=0), out=diffs[i])  # D_i = F_i - A
+        difference_frames(rebuilt[fid], params.loop, out=diffs[i])
     del rebuilt
     clock["rebuild"] = time.perf_counter() - t
 
     t = time.perf_counter()
     blend(0.0, "blending the difference frames (Laplacian pyramids)")
-    if params.loop:
-        # The cross-fade and the blend are both linear maps, one over time, the other
-        # over space for each frame alike, so they commute: fading every fragment's
-        # differences first blends T - loop frames instead of T (a quarter less work
-        # for the default 8 of 32; the same clip to float32 rounding).
-        diffs = np.moveaxis(loop_crossfade(np.moveaxis(diffs, 1, 0), overlap=params.loop), 0, 1)
     # The private entry: these differences were made just above (finite, checked shape).
     d = _blend(diffs, target.positions, (hc, wc), MARGIN, BLEND_LEVELS, FEATHER)
     del diffs

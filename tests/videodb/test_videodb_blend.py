@@ -275,3 +275,20 @@ def test_blend_on_threads_is_the_blend_on_one(monkeypatch):
     assert np.array_equal(blend_differences(diffs, pos, shape, margin=12), threads)
     monkeypatch.setattr(_blend, "_THREADS", 4)
     assert np.array_equal(blend_differences(diffs, pos, shape, margin=12), threads)
+
+
+def test_difference_frames_are_the_frames_minus_their_mean_cross_faded():
+    from fluidnb.videodb import loop_crossfade
+    from fluidnb.videodb._blend import difference_frames
+
+    gen = np.random.default_rng(3)
+    frames = gen.random((12, 9, 11)).astype(np.float32)
+    d = frames - frames.mean(axis=0)
+    assert np.array_equal(difference_frames(frames), d)  # D_i = F_i - A, as numpy
+    for loop in (1, 3, 6):
+        got = difference_frames(frames, loop)
+        assert got.shape == (12 - loop, 9, 11)
+        np.testing.assert_allclose(got, loop_crossfade(d, overlap=loop), rtol=0, atol=1e-7)
+        assert np.array_equal(got[loop:], d[loop : 12 - loop])
+    with pytest.raises(ValueError, match="loop must be"):
+        difference_frames(frames, 7)
