@@ -14,6 +14,7 @@ is the same in plain numpy.
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from numba import njit
@@ -453,19 +454,43 @@ def match_histograms_cells(frames, reference, weight, *, cell):
     counts = np.zeros((f.shape[0] + 1, n_ch, cells.n_cells, bins))
     args = (cells.cid, cells.weight, cells.lo, cells.inv_step)
     _histogram_kernel(cells.reference, *args, counts[0])
-    for t in range(f.shape[0]):
-        _histogram_kernel(f[t], *args, counts[t + 1])
+    # Frames are independent: their histograms, and then their mapping, on the
+    # cores (the kernels release the GIL; each frame writes its own rows).
+    _each_frame(lambda t: _histogram_kernel(f[t], *args, counts[t + 1]), f.shape[0])
     q = np.empty(counts.shape[:3] + (_QUANTILES + 1,))
     _quantiles_kernel(counts, cells.lo, cells.step, q)
     luts = np.empty(counts.shape[:3] + (bins + 1,))
     _maps_kernel(q[1:], q[0], cells.lo, cells.step, np.array(_SLOPE_RANGE), luts[1:])
     out = np.empty_like(f)
-    for t in range(f.shape[0]):
-        _apply_kernel(
+    _each_frame(
+        lambda t: _apply_kernel(
             f[t], luts[t + 1], cells.lo, cells.inv_step, *cells.rows, *cells.cols, cells.mass,
             cells.nx, out[t],
-        )  # fmt: skip
+        ),
+        f.shape[0],
+    )  # fmt: skip
     return cells.result(out)
+
+
+#: Threads over the frames in :func:`match_histograms_cells`.
+_THREADS = 2
+
+
+def _each_frame(fn, n):
+    """``fn(t)`` for t in range(n), on up to :data:`_THREADS` threads (contiguous runs)."""
+    workers = min(_THREADS, n)
+    if workers <= 1:
+        for t in range(n):
+            fn(t)
+        return
+    bounds = np.linspace(0, n, workers + 1).astype(int)
+
+    def run(k):
+        for t in range(bounds[k], bounds[k + 1]):
+            fn(t)
+
+    with ThreadPoolExecutor(workers) as pool:
+        list(pool.map(run, range(workers)))
 
 
 # The compiled kernels below follow the numpy functions of

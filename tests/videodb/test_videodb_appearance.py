@@ -235,3 +235,15 @@ def test_frames_go_into_the_colour_axes_and_back_as_numpy_computes_it():
     back = frames_from_axes(rotated.copy(), centre, axes)
     np.testing.assert_allclose(back, rotated @ axes.T + centre, rtol=0, atol=1e-6)
     np.testing.assert_allclose(back, frames, rtol=0, atol=2e-6)  # and back again
+
+
+def test_matching_on_threads_is_matching_on_one(monkeypatch):
+    from fluidnb.videodb import _appearance
+
+    gen = np.random.default_rng(6)
+    frames = smooth_texture(gen, (5, 40, 56), 2.0)[..., None] * [1.0, 0.8, 0.6]
+    ref = smooth_texture(gen, (1, 40, 56), 3.0)[0, ..., None] * [0.9, 1.0, 0.7]
+    weight = gen.random((40, 56))
+    threads = match_histograms_cells(frames, ref, weight, cell=16)
+    monkeypatch.setattr(_appearance, "_THREADS", 1)
+    assert np.array_equal(match_histograms_cells(frames, ref, weight, cell=16), threads)
