@@ -174,7 +174,7 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     else:
         matte = target.canvas_matte
         back = target.canvas
-    out = np.ascontiguousarray(composite(matched, back, matte)[:, :h, :w])
+    out = composite(matched[:, :h, :w], back[:h, :w], matte[..., :h, :w])
     np.clip(out, 0.0, 1.0, out=out)
     clock["composite"] = time.perf_counter() - t
     comp(1.0, "done")
