@@ -137,7 +137,11 @@ def motion_blur(image, velocity, *, shutter, denoise):
     if len(times):
         flat = img.reshape(*img.shape[:2], -1)
         blurred = np.empty_like(flat)
-        _line_average(flat, v, times, weights, blurred)
+        bounds = np.linspace(0, flat.shape[0], _THREADS + 1).astype(int)
+        _each_frame(
+            lambda k: _line_average(flat, v, times, weights, bounds[k], bounds[k + 1], blurred),
+            _THREADS,
+        )  # bands of rows on the cores
         out = blurred.reshape(img.shape)
     if denoise > 0:
         out = _variable_blur(out, denoise * speed)
@@ -163,10 +167,11 @@ def _shutter_samples(shutter, top_speed):
 
 
 @njit(cache=True, nogil=True)
-def _line_average(img, v, times, weights, out):
+def _line_average(img, v, times, weights, row0, row1, out):
     """The pseudo motion blur, one pixel at a time: all samples along its line at once.
 
-    ``out(x) = sum_j w_j img(x + t_j v(x)) / (n - 1)``: each sample is
+    ``out(x) = sum_j w_j img(x + t_j v(x)) / (n - 1)`` for the rows ``row0:row1``
+    (the samples may read any row): each sample is
     :func:`fluidnb.fields.backward_warp`'s bilinear value (the displacement
     ``t_j v`` in float32, positions in float64 clamped at the border, the weights in
     float32, ``top + fy (bottom - top)``), summed in float64 in the order of ``j``,
@@ -178,7 +183,7 @@ def _line_average(img, v, times, weights, out):
     last_r = np.float64(h - 1)
     last_c = np.float64(w - 1)
     count = np.float64(times.shape[0] - 1)
-    for r in range(h):
+    for r in range(row0, row1):
         for c in range(w):
             acc[:] = 0.0
             for j in range(times.shape[0]):

@@ -255,14 +255,15 @@ def _window(r, c, m, size, shape):
 def _fill(d, pos, m, shape):
     """Feathered average of all fragments' data windows, (Hc, Wc, N) float32.
 
-    It stands in wherever a phase layer has no fragment of its own; it is the data
-    itself where the fragments agree, so identical inputs blend back exactly.
+    ``d`` is pixel-major, (P, 48 + 2m, 48 + 2m, N). It stands in wherever a phase
+    layer has no fragment of its own; it is the data itself where the fragments agree,
+    so identical inputs blend back exactly.
     """
     s = FRAGMENT + 2 * m
     u = np.arange(s, dtype=np.float64) + 0.5
     tau = np.minimum(u, s - u)
     tau = np.outer(tau, tau).astype(np.float32)
-    n = d.shape[1]
+    n = d.shape[3]
     acc = np.zeros(shape + (n,), dtype=np.float32)
     den = np.zeros(shape, dtype=np.float32)
     _accumulate_windows(d, np.ascontiguousarray(pos, np.int64), m, tau, acc, den)
@@ -275,12 +276,11 @@ def _accumulate_windows(d, pos, m, tau, acc, den):
     """``acc += tau * D_k`` and ``den += tau`` over every fragment's window (in order).
 
     The window of :func:`_window` (the core and ``m`` pixels of context, cut to the
-    canvas), transposed to the canvas's (row, col, frame) layout on the way: float32
-    products and sums in the order of the fragments, as the numpy loop
-    ``acc[rs, cs] += D_k[:, wr, wc].T * tau`` gives them.
+    canvas): float32 products and sums in the order of the fragments, as the numpy
+    loop ``acc[rs, cs] += D_k[wr, wc] * tau`` gives them.
     """
-    n = d.shape[1]
-    s = d.shape[2]
+    n = d.shape[3]
+    s = d.shape[1]
     h, w = den.shape
     for k in range(pos.shape[0]):
         r0 = pos[k, 0] - m
@@ -289,8 +289,9 @@ def _accumulate_windows(d, pos, m, tau, acc, den):
             for j in range(max(0, -c0), min(s, w - c0)):
                 t = tau[i, j]
                 cell = acc[r0 + i, c0 + j]
+                src = d[k, i, j]
                 for f in range(n):
-                    cell[f] += d[k, f, i, j] * t
+                    cell[f] += src[f] * t
                 den[r0 + i, c0 + j] += t
 
 
@@ -390,31 +391,39 @@ def blend_differences(diffs, positions, canvas_shape, *, margin, levels=None, fe
             f"diffs must be {FRAGMENT} + 2 * margin = {FRAGMENT + 2 * m} pixels wide, "
             f"got shape {d.shape}"
         )
-    return _blend(d, pos, shape, m, _check_levels(levels), _check_feather(feather))
+    pixel_major = np.ascontiguousarray(np.moveaxis(d, 1, 3), dtype=np.float32)
+    return _blend(pixel_major, pos, shape, m, _check_levels(levels), _check_feather(feather))
 
 
 def _blend(d, pos, shape, m, levels, feather):
-    """:func:`blend_differences` on checked inputs (the renderer's own differences)."""
+    """:func:`blend_differences` on checked, pixel-major differences (P, s, s, N) float32.
+
+    The renderer's own differences come this way (:func:`difference_frames` writes
+    them so): each fragment's window is then pasted into its layer and the fill as
+    contiguous blocks.
+    """
     raw = _raw_weights(feather).astype(np.float32)
-    n = d.shape[1]
+    n = d.shape[3]
     if len(pos) == 0:
         return np.zeros((n,) + shape, dtype=np.float32)
-    d = np.ascontiguousarray(d, dtype=np.float32)
 
     fill = _fill(d, pos, m, shape)
     tile = FRAGMENT + 2 * min(m, MARGIN)
 
     def pyramids(members):
-        """One phase layer's Laplacian pyramid and its weight's Gaussian pyramid."""
+        """One phase layer's weighted bands G_l(W) L_l(X) and its weight's G_l(W)."""
         layer = fill.copy()
         weight = np.zeros(shape + (1,), dtype=np.float32)
         for k in members:
             r, c = pos[k]
             (rs, cs), (wr, wc) = _window(r, c, m, tile, shape)
-            layer[rs, cs] = d[k][:, wr, wc].transpose(1, 2, 0)
+            layer[rs, cs] = d[k, wr, wc]
             weight[r : r + FRAGMENT, c : c + FRAGMENT, 0] = raw
         # The pyramids' float32 kernels themselves: the inputs are this function's.
-        return _laplacian32(layer, levels), _gaussian32(weight, levels)
+        bands, gw = _laplacian32(layer, levels), _gaussian32(weight, levels)
+        for b, g in zip(bands, gw):
+            b *= g
+        return bands, gw
 
     acc = None
     wsum = None
@@ -422,11 +431,9 @@ def _blend(d, pos, shape, m, levels, feather):
     # flight), summed here in layer order: the same sums as one thread's.
     for bands, gw in _in_order(pyramids, _layers(pos)):
         if acc is None:
-            acc = [g * b for g, b in zip(gw, bands)]
-            wsum = [g.copy() for g in gw]
+            acc, wsum = bands, [g.copy() for g in gw]
         else:
             for a, g, b, s in zip(acc, gw, bands, wsum):
-                b *= g
                 a += b
                 s += g
     for a, s in zip(acc, wsum):
@@ -439,12 +446,12 @@ def _blend(d, pos, shape, m, levels, feather):
 
 
 def difference_frames(frames, loop=0, *, out=None):
-    r"""A fragment's difference frames :math:`D_i = F_i - A`, cross-faded to loop.
+    r"""A fragment's difference frames :math:`D_i = F_i - A`, cross-faded to loop, pixel-major.
 
     :math:`A = \frac{1}{N} \sum_i F_i` in float32 (summed in frame order, as
     ``frames.mean(axis=0)``), then, with ``loop`` > 0, :func:`loop_crossfade`'s
     equal-power fade of the last ``loop`` frames into the first, in one pass (in
-    float64, as it does).
+    float64, as it does). Written pixel-major, as the blend reads them.
 
     Parameters
     ----------
@@ -452,16 +459,16 @@ def difference_frames(frames, loop=0, *, out=None):
         A fragment's frames :math:`F_i`.
     loop : int
         Frames to cross-fade, in [0, N // 2].
-    out : ndarray, shape (N - loop, h, w), float32, optional
+    out : ndarray, shape (h, w, N - loop), float32, optional
 
     Returns
     -------
-    ndarray, shape (N - loop, h, w), float32
+    ndarray, shape (h, w, N - loop), float32
     """
     f = np.ascontiguousarray(frames, dtype=np.float32)
     loop = check_int("loop", loop, 0, f.shape[0] // 2)
     if out is None:
-        out = np.empty((f.shape[0] - loop, *f.shape[1:]), np.float32)
+        out = np.empty((*f.shape[1:], f.shape[0] - loop), np.float32)
     theta = 0.5 * np.pi * np.arange(1, loop + 1) / (loop + 1)
     _difference_frames(f, np.sin(theta), np.cos(theta), out)
     return out
@@ -473,25 +480,31 @@ def _difference_frames(f, sin, cos, out):
     loop = sin.shape[0]
     length = n - loop
     h, w = f.shape[1:]
+    # A: the frames summed in order, whole frames at a time (numpy's float32 mean).
+    a = f[0].copy()
+    for i in range(1, n):
+        a += f[i]
+    a /= np.float32(n)
+    d = np.empty(n, np.float32)
     for r in range(h):
         for c in range(w):
-            a = f[0, r, c]
-            for i in range(1, n):
-                a += f[i, r, c]
-            a = a / np.float32(n)  # A, as numpy's float32 mean
+            ar = a[r, c]
+            for i in range(n):
+                d[i] = f[i, r, c] - ar
+            o = out[r, c]
             for i in range(loop, length):
-                out[i, r, c] = f[i, r, c] - a
+                o[i] = d[i]
             if loop == 0:
                 continue
             # The fade's mean of D (zero but for rounding), in float64 as loop_crossfade.
             m = np.float64(0.0)
             for i in range(n):
-                m += np.float64(f[i, r, c] - a)
+                m += np.float64(d[i])
             m /= n
             for j in range(loop):
-                head = np.float64(f[j, r, c] - a) - m
-                tail = np.float64(f[length + j, r, c] - a) - m
-                out[j, r, c] = np.float32(m + sin[j] * head + cos[j] * tail)
+                head = np.float64(d[j]) - m
+                tail = np.float64(d[length + j]) - m
+                o[j] = np.float32(m + sin[j] * head + cos[j] * tail)
 
 
 def _in_order(fn, items):

@@ -126,7 +126,7 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     # frames instead of T (a quarter less work for the default 8 of 32; the same clip
     # to float32 rounding).
     side = FRAGMENT + 2 * MARGIN
-    diffs = np.empty((len(ids), n - params.loop, side, side), np.float32)
+    diffs = np.empty((len(ids), side, side, n - params.loop), np.float32)  # pixel-major
     for i, fid in enumerate(ids.tolist()):
         difference_frames(rebuilt[fid], params.loop, out=diffs[i])
     del rebuilt

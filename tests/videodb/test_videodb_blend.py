@@ -284,9 +284,10 @@ def test_difference_frames_are_the_frames_minus_their_mean_cross_faded():
     gen = np.random.default_rng(3)
     frames = gen.random((12, 9, 11)).astype(np.float32)
     d = frames - frames.mean(axis=0)
-    assert np.array_equal(difference_frames(frames), d)  # D_i = F_i - A, as numpy
+    # D_i = F_i - A as numpy computes it, pixel-major (as the blend reads them).
+    assert np.array_equal(difference_frames(frames), np.moveaxis(d, 0, 2))
     for loop in (1, 3, 6):
-        got = difference_frames(frames, loop)
+        got = np.moveaxis(difference_frames(frames, loop), 2, 0)
         assert got.shape == (12 - loop, 9, 11)
         np.testing.assert_allclose(got, loop_crossfade(d, overlap=loop), rtol=0, atol=1e-7)
         assert np.array_equal(got[loop:], d[loop : 12 - loop])
