@@ -280,7 +280,7 @@ class FrameCache:
 # ------------------------------------------------------------------------------- rebuild
 
 
-def rebuild_fragments(db, ids, *, margin, grey, progress=None):
+def rebuild_fragments(db, ids, *, margin, grey, differences=None, progress=None):
     """Every fragment's frames, rebuilt from its source clip or taken from the cache.
 
     Parameters
@@ -292,6 +292,11 @@ def rebuild_fragments(db, ids, *, margin, grey, progress=None):
         Context pixels around the 48 x 48 fragment.
     grey : bool
         Luminance (:func:`luminance`) instead of RGB.
+    differences : int, optional
+        Instead of the frames, the rendering's difference frames :math:`D_i = F_i -
+        A` cross-faded over this many frames, pixel-major (grey only): made on the
+        rebuild's threads and kept in the cache as they are (a render of the same
+        fragments then does nothing with them but blend).
     progress : callable, optional
         ``progress(fraction, message)`` after each clip, from the calling thread;
         raising (:class:`fluidnb.Cancelled`) stops the rebuild.
@@ -300,14 +305,19 @@ def rebuild_fragments(db, ids, *, margin, grey, progress=None):
     -------
     dict
         Fragment id -> read-only float32 (N, 48 + 2 margin, 48 + 2 margin[, 3]) in
-        [0, 1], as :meth:`~fluidnb.videodb.VideoDatabase.fragment_frames` documents.
+        [0, 1], as :meth:`~fluidnb.videodb.VideoDatabase.fragment_frames` documents;
+        with ``differences``, (48 + 2 margin, 48 + 2 margin, N - differences)
+        (:func:`fluidnb.videodb._blend.difference_frames`).
     """
+    if differences is not None and not grey:
+        raise ValueError("differences are made of grey frames: pass grey=True")
+    kind = (margin, grey) if differences is None else (margin, grey, "differences", differences)
     report = Progress(progress)
     cache = db.cache
     cache.check()
     out, todo = {}, []
     for fid in np.unique(ids).tolist():
-        got = cache.fragment((fid, margin, grey))
+        got = cache.fragment((fid, *kind))
         if got is None:
             todo.append(fid)
         else:
@@ -320,7 +330,7 @@ def rebuild_fragments(db, ids, *, margin, grey, progress=None):
     clips = db.source[todo, 0]
     jobs = [todo[clips == c] for c in np.unique(clips)]
     with ThreadPoolExecutor(min(_WORKERS, len(jobs))) as pool:
-        futures = [pool.submit(_rebuild_clip, db, job, margin, grey) for job in jobs]
+        futures = [pool.submit(_rebuild_clip, db, job, kind) for job in jobs]
         try:
             for future in as_completed(futures):
                 out.update(future.result())
@@ -331,8 +341,15 @@ def rebuild_fragments(db, ids, *, margin, grey, progress=None):
     return out
 
 
-def _rebuild_clip(db, ids, margin, grey):
-    """The fragments ``ids`` of one clip: its frames read once, each window sampled."""
+def _rebuild_clip(db, ids, kind):
+    """The fragments ``ids`` of one clip: its frames read once, each window sampled.
+
+    ``kind`` is the cache key's tail: ``(margin, grey)``, or ``(margin, True,
+    "differences", loop)`` for the rendering's difference frames.
+    """
+    from ._blend import difference_frames
+
+    margin, grey = kind[:2]
     n, side = db.params.N, FRAGMENT + 2 * margin
     src = db.source[ids]
     clip = int(src[0, 0])
@@ -357,7 +374,9 @@ def _rebuild_clip(db, ids, margin, grey):
         planes = _pixel_major(part, grey)  # (rows, cols, P) float32 on the box
         for s, plan in zip(sel, plans):
             frag = _sample_planned(planes, box, plan, n, side, grey)
-            key = (int(ids[s]), margin, grey)
+            if len(kind) > 2:
+                frag = difference_frames(frag, kind[3])
+            key = (int(ids[s]), *kind)
             db.cache.put_fragment(key, frag)
             out[key[0]] = frag
     return out

@@ -27,7 +27,7 @@ from ._appearance import (
     motion_blur,
 )
 from ._assign import Assignment, _check_params
-from ._blend import BLEND_LEVELS, FEATHER, MARGIN, _blend, blend_values, difference_frames
+from ._blend import BLEND_LEVELS, FEATHER, MARGIN, _blend, blend_values
 from ._composite import composite, dynamic_matte, inpaint_background
 from ._frames import rebuild_fragments
 from ._geometry import FRAGMENT
@@ -119,16 +119,19 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     rebuild(0.0, f"rebuilding {len(target)} fragments from their source clips")
     ids = assignment.fragments
     # Each fragment rebuilt once, kept in the database's cache for the next render.
-    rebuilt = rebuild_fragments(db, ids, margin=MARGIN, grey=True, progress=rebuild)
-    # D_i = F_i - A, and with ``loop`` already cross-faded: the cross-fade and the blend
-    # are both linear maps, one over time, the other over space for each frame alike,
-    # so they commute, and fading every fragment's differences first blends T - loop
-    # frames instead of T (a quarter less work for the default 8 of 32; the same clip
-    # to float32 rounding).
+    # D_i = F_i - A (difference_frames), and with ``loop`` already cross-faded: the
+    # cross-fade and the blend are both linear maps, one over time, the other over
+    # space for each frame alike, so they commute, and fading every fragment's
+    # differences first blends T - loop frames instead of T (a quarter less work for
+    # the default 8 of 32; the same clip to float32 rounding). Made on the rebuild's
+    # threads and kept in the database's cache for the next render.
+    rebuilt = rebuild_fragments(
+        db, ids, margin=MARGIN, grey=True, differences=params.loop, progress=rebuild
+    )
     side = FRAGMENT + 2 * MARGIN
     diffs = np.empty((len(ids), side, side, n - params.loop), np.float32)  # pixel-major
     for i, fid in enumerate(ids.tolist()):
-        difference_frames(rebuilt[fid], params.loop, out=diffs[i])
+        diffs[i] = rebuilt[fid]
     del rebuilt
     clock["rebuild"] = time.perf_counter() - t
 

@@ -231,8 +231,12 @@ def test_a_render_from_the_reference_frames_differs_only_by_round_off(built, mon
     a = assign(photo, None, db, AnimateParams(candidates=10, loop=2))
     fast = render(a)
 
-    def plain(db, ids, *, margin, grey, progress=None):
+    def plain(db, ids, *, margin, grey, differences=None, progress=None):
+        from fluidnb.videodb._blend import difference_frames
+
         frames = reference_fragment_frames(db, np.unique(ids), margin=margin, grey=grey)
+        if differences is not None:
+            frames = [difference_frames(f, differences) for f in frames]
         return dict(zip(np.unique(ids).tolist(), frames))
 
     monkeypatch.setattr(render_module, "rebuild_fragments", plain)
@@ -281,3 +285,21 @@ def test_the_loop_fades_the_fragments_before_the_blend_as_after_it(built):
     h, w = a.target.shape
     assert anim.stages["differences"].shape == (db.params.N - 3, h, w)
     np.testing.assert_allclose(anim.stages["differences"], after[:, :h, :w], rtol=0, atol=1e-6)
+
+
+def test_a_render_keeps_the_fragments_differences_for_the_next(built):
+    from fluidnb.videodb import AnimateParams, assign, render
+
+    db = open_database(built.path)
+    photo = moving_texture(9, shape=(96, 120), frames=1)[0]
+    a = assign(photo, None, db, AnimateParams(candidates=10, loop=2))
+    first = render(a)
+    n = len(np.unique(a.fragments))
+    assert db.cache.misses == n
+    keys = list(db.cache._fragments)
+    assert all(k[2:] == (True, "differences", 2) for k in keys)  # what the blend reads
+    again = render(a)
+    assert db.cache.hits == n  # nothing rebuilt
+    assert np.array_equal(again.clip.frames, first.clip.frames)
+    with pytest.raises(ValueError, match="grey"):
+        frames_module.rebuild_fragments(db, a.fragments, margin=12, grey=False, differences=2)
