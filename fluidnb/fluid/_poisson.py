@@ -127,12 +127,13 @@ class _FastPoisson:
     def _solve_ordered(self, r):
         """The pressure (in ``pos`` order) for a right-hand side in ``pos`` order."""
         w = self.shape[1]
-        # The transforms use as many threads as the kernels (one for a small grid).
-        workers = numba.get_num_threads()
-        z = scipy.fft.rfft(r, axis=1, workers=workers)
+        # The FFTs run on one thread: a second worker measured slower at 128 x 128
+        # on a busy machine (its thread pool wakes for 30 microseconds of work), and
+        # how the rows are shared out then cannot change a bit on any CPU.
+        z = scipy.fft.rfft(r, axis=1)
         _thomas(z.view(np.float64), self.cos, self.sin, self.inv_a, self.up_a,
-                self.inv_b, self.up_b, self.pin, workers)  # fmt: skip
-        return scipy.fft.irfft(z, n=w, axis=1, workers=workers, overwrite_x=True)
+                self.inv_b, self.up_b, self.pin, numba.get_num_threads())  # fmt: skip
+        return scipy.fft.irfft(z, n=w, axis=1, overwrite_x=True)
 
     def solve(self, div):
         """Pressure p with ``A p = -div``; ``p[0, 0] = 0`` for a closed box."""
