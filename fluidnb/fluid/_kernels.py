@@ -107,6 +107,12 @@ def _pad_row(v, i, qy, qx):
 
 
 @njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def _before(k):
+    """The index before ``k``, or 0 at 0: row / column 0's faces take their own cell's."""
+    return k - U1 if k > U0 else U0
+
+
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _split(t, hi):
     """Clamp ``t`` to [0, hi]; return its integer part (unsigned) and the fraction.
 
@@ -210,11 +216,11 @@ def advect_velocity(v, dt, qy, qx, ay, ax):
     qy_flat, qx_flat = qy.ravel(), qx.ravel()
     for r in prange(h):
         i = np.uint64(r)
-        im = i - U1 if i > U0 else U0
         for jj in range(w):
             j = np.uint64(jj)
-            jm = j - U1 if j > U0 else U0
-            ay[i, j], ax[i, j] = _advected_faces(qy, qx, qy_flat, qx_flat, i, im, j, jm, -dt)
+            ay[i, j], ax[i, j] = _advected_faces(
+                qy, qx, qy_flat, qx_flat, i, _before(i), j, _before(j), -dt
+            )
         ax[i, np.uint64(w)] = 0.0
         if i + U1 == np.uint64(h):
             for jj in range(w):
@@ -348,11 +354,10 @@ def face_forces(t, fy, fx, kappa_b, t_amb, wind, out):
     nk = -kappa_b
     for r in prange(h):
         i = np.uint64(r)
-        im = i - U1 if i > U0 else U0
         for jj in range(w):
             j = np.uint64(jj)
-            jm = j - U1 if j > U0 else U0
-            out[i, j, 0], out[i, j, 1] = _face_forces(t, fy, fx, i, im, j, jm, t_amb, nk, wind)
+            f = _face_forces(t, fy, fx, i, _before(i), j, _before(j), t_amb, nk, wind)
+            out[i, j, 0], out[i, j, 1] = f
 
 
 # ------------------------------------------------------------------------ cooling
@@ -470,9 +475,7 @@ def _forced(ay, ax, t, fy, fx, i, j, dt, t_amb, nk, wind, closed):
     ``ay``, ``ax``: the advected velocity's padded planes; the force as
     :func:`_face_forces`. The left wall's dx, and a closed top's dy, are zero.
     """
-    im = i - U1 if i > U0 else U0
-    jm = j - U1 if j > U0 else U0
-    f_y, f_x = _face_forces(t, fy, fx, i, im, j, jm, t_amb, nk, wind)
+    f_y, f_x = _face_forces(t, fy, fx, i, _before(i), j, _before(j), t_amb, nk, wind)
     b_y = ay[i, j] + dt * f_y
     b_x = ax[i, j] + dt * f_x
     if closed and i == U0:
