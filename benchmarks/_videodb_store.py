@@ -38,8 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
-#: Bump when the synthesis changes what the store holds.
-RECIPE = 1
+#: Bump when the synthesis changes what the store holds (2: format version 2's codecs).
+RECIPE = 2
 WORD_NOISE = 0.15
 SPEED_RANGE = (0.5, 2.0)
 TEXTURE_NOISE = 0.1
@@ -118,7 +118,6 @@ def synthetic_store(base, path, n_fragments, *, seed=0, log=print):
         Time taken to write it, or None if the cached store was reused.
     """
     import zarr
-    from zarr.codecs import BloscCodec
 
     from fluidnb.videodb._store import (
         CHUNK,
@@ -126,6 +125,7 @@ def synthetic_store(base, path, n_fragments, *, seed=0, log=print):
         RAM_ARRAYS,
         checksum,
         clip_group,
+        create_array,
         fragment_layout,
         write_json_atomically,
     )
@@ -162,15 +162,8 @@ def synthetic_store(base, path, n_fragments, *, seed=0, log=print):
             group = root.require_group(clip_group(j))
             for name in RAM_ARRAYS:
                 shape, dtype = layout[name]
-                arr = group.create_array(
-                    name,
-                    shape=(count, *shape),
-                    chunks=(CHUNK, *shape),
-                    dtype=dtype,
-                    compressors=BloscCodec(cname="lz4", clevel=5, shuffle="shuffle"),
-                    fill_value=0,
-                    overwrite=True,
-                )
+                # The database's own codecs (blosc-lz4 + CRC-32C), every chunk written.
+                arr = create_array(group, name, (count, *shape), (CHUNK, *shape), dtype)
                 arr[...] = arrays[name]
             for name in ("frames", "mean"):
                 target = (base.path / clip_group(i) / name).resolve()

@@ -76,11 +76,23 @@ def register(sub):
     i = actions.add_parser(
         "info",
         help="what a database holds",
-        description="List a database's clips, fragments and parameters.",
-        epilog="Examples: fluidnb videodb info mydb | fluidnb videodb info water --quick",
+        description=(
+            "List a database's clips, fragments and parameters; with --verify, check "
+            "every chunk of it too."
+        ),
+        epilog=(
+            "Examples: fluidnb videodb info mydb | fluidnb videodb info water --quick | "
+            "fluidnb videodb info mydb --verify"
+        ),
     )
     i.add_argument("db", metavar="DB", help="a database folder, or water / smoke / fire")
     i.add_argument("--quick", action="store_true", help="the quick starter database")
+    i.add_argument(
+        "--verify",
+        action="store_true",
+        help="read every chunk of every array and check its checksum; list each damaged "
+        "or missing one (exit status 2 if any)",
+    )
     i.set_defaults(func=_info)
 
 
@@ -96,6 +108,10 @@ def _add_parallel_options(parser):
     )
 
 
+#: Seconds to reach a --scheduler before giving up (dask's default is 30 s).
+_CONNECT_TIMEOUT = 5
+
+
 @contextlib.contextmanager
 def _client(args):
     """The dask.distributed Client of ``--scheduler`` (closed afterwards), or None."""
@@ -106,8 +122,33 @@ def _client(args):
         from distributed import Client
     except ImportError:
         raise ValueError("--scheduler needs dask.distributed: pip install distributed") from None
-    with Client(args.scheduler) as client:
+    try:
+        client = Client(args.scheduler, timeout=_CONNECT_TIMEOUT)
+    except (OSError, ValueError, TypeError) as exc:  # refused, timed out, malformed
+        raise ValueError(
+            f"--scheduler: cannot reach a dask scheduler at {args.scheduler!r} within "
+            f"{_CONNECT_TIMEOUT} s ({exc}); check the address, or leave --scheduler out to "
+            "build on this machine"
+        ) from None
+    with client:
         yield client
+
+
+def _run(args, write, *positional, **options):
+    """Build or add (``write``) with the parallel options, then print the database."""
+    from .._progress import TextProgress
+
+    with _client(args) as client:
+        db = write(
+            *positional,
+            client=client,
+            workers=args.workers,
+            resume=args.resume,
+            progress=TextProgress(),
+            **options,
+        )
+    print(db.summary())
+    return 0
 
 
 def _build(args):
@@ -130,41 +171,28 @@ def _build(args):
     if not args.kind:
         raise ValueError("--kind is required: water, smoke, fire or your own label")
     params = params_from_args(DatabaseParams, args)
-    with _client(args) as client:
-        db = build_database(
-            args.sources,
-            args.out,
-            kind=args.kind,
-            params=params,
-            seed=args.seed,
-            client=client,
-            workers=args.workers,
-            resume=args.resume,
-            progress=TextProgress(),
-        )
-    print(db.summary())
-    return 0
+    return _run(
+        args,
+        build_database,
+        args.sources,
+        args.out,
+        kind=args.kind,
+        params=params,
+        seed=args.seed,
+    )
 
 
 def _add(args):
-    from .._progress import TextProgress
     from ..videodb import add_clips
 
-    with _client(args) as client:
-        db = add_clips(
-            args.db,
-            args.sources,
-            client=client,
-            workers=args.workers,
-            resume=args.resume,
-            progress=TextProgress(),
-        )
-    print(db.summary())
-    return 0
+    return _run(args, add_clips, args.db, args.sources)
 
 
 def _info(args):
-    from ..videodb import open_database, starter_path
+    import sys
+
+    from .._progress import TextProgress
+    from ..videodb import open_database, starter_path, verify_database
 
     path = args.db
     if args.db in _STARTERS:
@@ -175,5 +203,23 @@ def _info(args):
                 f"the starter {args.db} database is not built yet: run "
                 f"`fluidnb videodb build --starter {args.db}{quick}`"
             )
-    print(open_database(path).summary())
+    if args.verify:
+        problems = verify_database(path, progress=TextProgress())
+        if problems:
+            for line in problems:
+                print(line)
+            print(
+                f"fluidnb videodb: error: {path}: {len(problems)} damaged or missing parts "
+                "(listed above)",
+                file=sys.stderr,
+            )
+            return 2
+    db = open_database(path)
+    print(db.summary())
+    if args.verify:
+        print(
+            "  verified: every chunk is present and its checksum matches"
+            if db.checked
+            else "  verified: every chunk decodes and the in-memory arrays match the manifest"
+        )
     return 0

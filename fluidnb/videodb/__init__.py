@@ -53,6 +53,7 @@ from ._figures import (
 )
 from ._flow import optical_flow
 from ._geometry import ANGLES, FRAGMENT, SCALES, STRIDE, VERSIONS
+from ._lock import DatabaseBusy
 from ._mrf import (
     MRFSolution,
     PairTables,
@@ -82,7 +83,7 @@ from ._retrieval import HistogramIndex, reference_top_k
 from ._sift import dense_sift, reference_dense_sift
 from ._starter import starter_database, starter_params, starter_path
 from ._starter_clips import STARTER_KINDS, flow_map_texture, starter_clips
-from ._store import VideoDatabase, open_database
+from ._store import VideoDatabase, open_database, verify_database
 from ._video import Video, read_video
 from ._words import fit_codebook, intersection, pyramid_histograms, quantise, reference_quantise
 
@@ -99,6 +100,7 @@ __all__ = [
     "AnimateParams",
     "Animation",
     "Assignment",
+    "DatabaseBusy",
     "DatabaseParams",
     "HistogramIndex",
     "MRFSolution",
@@ -165,6 +167,7 @@ __all__ = [
     "transform_flow",
     "transform_vectors",
     "valid_positions",
+    "verify_database",
     "version_coordinates",
     "version_label",
     "version_shape",

@@ -16,13 +16,32 @@ The build runs in four stages, each of which can be interrupted and resumed:
 Every stage's result depends only on the sources, the parameters and the seed, never
 on which worker finished first, so a resumed build ends byte-identical to an
 uninterrupted one, and a cluster build equals a local one.
+
+Failures (our decision, so that ``info``, ``build``, ``build --resume`` and ``add``
+agree on what a folder holds, see :func:`~fluidnb.videodb._store.folder_state`):
+
+- an interruption (a kill, a cancel, a worker that died, a full disk) leaves a
+  resumable state: ``build/state.json`` records the settings and the clips stored so
+  far; ``resume=True`` continues it, a plain build refuses the folder and says so;
+- a ``ValueError`` -- the sources or settings are wrong (a missing file, a NaN clip,
+  the same clip twice, no fragment at all) -- rolls the folder back to what it was:
+  nothing (the folder this build made is removed) or, for :func:`add_clips`, the
+  database as it was. Retrying cannot help until the input changes. Except on a
+  resume, whose state is kept when a source does not match or cannot be read: the
+  right sources can still continue it;
+- a build or an addition holds the folder's lock (``_lock.py``): a second writer gets
+  a :class:`~fluidnb.videodb._lock.DatabaseBusy` error naming the holder at once.
 """
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import json
 import os
 import shutil
+import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -31,17 +50,23 @@ from .._progress import Progress
 from .._validation import check_int
 from ._features import grey, window_features
 from ._geometry import FRAGMENT
+from ._lock import database_lock, lock_files
 from ._params import DatabaseParams
 from ._store import (
+    BUILD,
     CHUNK,
     FORMAT,
     FORMAT_VERSION,
     FRAGMENT_ARRAYS,
     MANIFEST,
+    STATE,
     checksum,
     clip_group,
+    create_array,
+    folder_state,
     fragment_layout,
     open_database,
+    pending_addition,
     read_manifest,
     versions_used,
     write_json_atomically,
@@ -50,8 +75,27 @@ from ._video import read_video
 
 __all__ = ["add_clips", "build_database", "clip_fragments"]
 
-_BUILD = "build"  # the folder of an unfinished build's state and descriptors
-_STATE = "state.json"
+_BUILD = BUILD  # the folder of an unfinished build's state and descriptors
+_STATE = STATE
+
+#: Fault injection for the tests (tests/faults/): when this environment variable names
+#: a point of a build or an addition ("locked", "ingested", "fragments", "codebook",
+#: "manifest"), the process stops there the first time -- prints a line to stderr and
+#: waits -- so that a test can kill it at exactly that point, or race another process
+#: against it. It waits until the file named by ``FLUIDNB_TEST_PAUSE_UNTIL`` exists
+#: (if that is set), at most an hour.
+PAUSE_ENV = "FLUIDNB_TEST_PAUSE_AT"
+
+
+def _pause(point):
+    if os.environ.get(PAUSE_ENV) != point:
+        return
+    os.environ.pop(PAUSE_ENV)  # the first time only
+    print(f"fluidnb: paused at {point} (pid {os.getpid()})", file=sys.stderr, flush=True)
+    until = os.environ.get("FLUIDNB_TEST_PAUSE_UNTIL")
+    deadline = time.monotonic() + 3600
+    while time.monotonic() < deadline and not (until and os.path.exists(until)):
+        time.sleep(0.05)
 
 
 def clip_fragments(frames, params=None, *, clip=0, versions=None):
@@ -121,19 +165,9 @@ class _ChunkWriter:
     """Append rows to zarr arrays one whole chunk at a time (each chunk written once)."""
 
     def __init__(self, group, layout):
-        from zarr.codecs import BloscCodec
-
         self.arrays = {}
         for name, (shape, dtype) in layout.items():
-            self.arrays[name] = group.create_array(
-                name,
-                shape=(0, *shape),
-                chunks=(CHUNK, *shape),
-                dtype=dtype,
-                compressors=BloscCodec(cname="lz4", clevel=5, shuffle="shuffle"),
-                fill_value=0,
-                overwrite=True,
-            )
+            self.arrays[name] = create_array(group, name, (0, *shape), (CHUNK, *shape), dtype)
         self.pending = {name: [] for name in layout}
         self.n_pending = 0
         self.written = 0
@@ -258,9 +292,13 @@ def build_database(
     Raises
     ------
     ValueError
-        For bad arguments, unreadable sources, a folder that is not empty (or, with
-        ``resume``, holds another build), the same clip given twice, or no fragment at
-        all (every clip too short, too small or still): then nothing is left behind.
+        For bad arguments, unreadable sources, a folder that is not empty (or holds an
+        unfinished build, without ``resume``; or, with ``resume``, another build), the
+        same clip given twice, or no fragment at all (every clip too short, too small
+        or still): then the folder is left as it was (a resumed build's state is kept
+        when a source does not match it). A
+        :class:`~fluidnb.videodb._lock.DatabaseBusy` (a ValueError) if another process
+        is building into or adding to the folder.
     """
     params = _check_params(params)
     kind = _check_kind(kind)
@@ -268,29 +306,54 @@ def build_database(
     workers = _check_workers(workers)
     sources = _check_sources(sources)
     root = Path(path)
-    created = _prepare_folder(root, resume)
-    report = Progress(progress)
-    stage = report.split(0.15, 0.85, 0.95)
-    state = {"mode": "build", "kind": kind, "params": params.to_dict(), "seed": seed, "base": 0}
+    if root.exists() and not root.is_dir():
+        raise ValueError(f"path {str(root)!r} exists and is not a folder")
     try:
-        records = _ingest(root, sources, state, resume, stage[0], params.max_side, base=0)
-        counts = _run_clips(root, records, params, None, client, workers, stage[1])
-        if sum(counts.values()) == 0:
-            raise _NoFragment(f"no fragment: {_why(records)}")
-        codebook = _train_codebook(root, counts, params, seed, stage[2])
-        stage[3](0.0, "visual words")
-        for i, count in counts.items():
-            _quantise_clip(root, i, count, codebook)
-        manifest = _manifest(root, kind, params, seed, codebook, records, counts)
-        _finish(root, manifest)
-    except BaseException as exc:
-        if created and isinstance(exc, _NoFragment):
-            shutil.rmtree(root, ignore_errors=True)
-        if isinstance(exc, _NoFragment):
-            raise ValueError(str(exc)) from None
+        root.mkdir(parents=True)
+        created = True
+    except FileExistsError:
+        created = False
+    state = {"mode": "build", "kind": kind, "params": params.to_dict(), "seed": seed, "base": 0}
+    with database_lock(root, "building it"):
+        _pause("locked")
+        resuming = _prepare_folder(root, resume)
+        report = Progress(progress)
+        stage = report.split(0.15, 0.85, 0.95)
+        undo = functools.partial(_roll_back_build, root, created)
+        with _failing_input(undo, kept="build" if resuming else None, root=root):
+            records = _ingest(root, sources, state, resuming, stage[0], params.max_side, base=0)
+        with _failing_input(undo):
+            counts = _run_clips(root, records, params, None, client, workers, stage[1])
+            if sum(counts.values()) == 0:
+                raise ValueError(f"no fragment: {_why(records)}")
+            codebook = _train_codebook(root, counts, params, seed, stage[2])
+            _pause("codebook")
+            stage[3](0.0, "visual words")
+            for i, count in counts.items():
+                _quantise_clip(root, i, count, codebook)
+            manifest = _manifest(root, kind, params, seed, codebook, records, counts)
+            _finish(root, manifest)
+        stage[3](1.0, "database ready")
+        return open_database(root)
+
+
+@contextlib.contextmanager
+def _failing_input(undo, *, kept=None, root=None):
+    """On a ValueError (the input's fault: retrying cannot help) call ``undo``.
+
+    With ``kept`` (a resume checking its sources against the state) the state stays
+    and the message says so: the right sources can still continue it.
+    """
+    try:
+        yield
+    except ValueError as exc:
+        if kept:
+            raise ValueError(
+                f"{exc} (the unfinished {kept} in {str(root)!r} is kept: continue it with "
+                "--resume (resume=True) and the right clips)"
+            ) from None
+        undo()
         raise
-    stage[3](1.0, "database ready")
-    return open_database(root)
 
 
 def add_clips(db, sources, *, client=None, workers=None, resume=False, progress=None):
@@ -311,71 +374,78 @@ def add_clips(db, sources, *, client=None, workers=None, resume=False, progress=
     -------
     VideoDatabase
         The grown database, opened. Until the addition finishes, the folder keeps
-        opening as the database it was.
+        opening as the database it was; if it fails for its input, it stays so.
 
     Raises
     ------
     ValueError
         For unreadable sources, a clip already in the database, an unfinished
-        addition (without ``resume``), or clips that give no fragment at all.
+        addition (without ``resume``), clips that give no fragment at all, or a
+        database of format version 1 (rebuild it first). A
+        :class:`~fluidnb.videodb._lock.DatabaseBusy` if another process is writing it.
     """
     root = Path(getattr(db, "path", db))
-    manifest, params, codebook = read_manifest(root)
     workers = _check_workers(workers)
     sources = _check_sources(sources)
-    pending = (root / _BUILD / _STATE).is_file()
-    if pending and not resume:
-        raise ValueError(
-            f"db: {str(root)!r} has an unfinished addition of clips; pass resume=True to "
-            "continue it"
-        )
-    if not pending:
-        shutil.rmtree(root / _BUILD, ignore_errors=True)
-    report = Progress(progress)
-    stage = report.split(0.2, 0.95)
-    base = len(manifest["clips"])
-    known = {c["sha256"]: c["name"] for c in manifest["clips"]}
-    state = {
-        "mode": "add",
-        "kind": manifest["kind"],
-        "params": params.to_dict(),
-        "seed": manifest["seed"],
-        "base": base,
-    }
-    records = _ingest(root, sources, state, pending, stage[0], params.max_side, base, known)
-    counts = _run_clips(root, records, params, codebook, client, workers, stage[1])
-    if sum(counts.values()) == 0:
-        names = ", ".join(repr(r["name"]) for r in records)
-        _discard_clips(root, records)
-        raise ValueError(
-            f"no fragment: none of the clips {names} gives a fragment ({_why(records)})"
-        )
-    new = _manifest(
-        root,
-        manifest["kind"],
-        params,
-        manifest["seed"],
-        codebook,
-        records,
-        counts,
-        old_clips=manifest["clips"],
-    )
-    _finish(root, new)
-    stage[2](1.0, "database ready")
-    return open_database(root)
+    read_manifest(root)  # a clear error before a lock file is made in a folder that is no database
+    with database_lock(root, "adding clips to it"):
+        _pause("locked")
+        manifest, params, codebook = read_manifest(root)  # as it is now that we hold the lock
+        if manifest["version"] != FORMAT_VERSION:
+            raise ValueError(
+                f"db: {str(root)!r} has format version {manifest['version']} (no chunk "
+                f"checksums); clips can be added to version {FORMAT_VERSION} only: rebuild it"
+            )
+        base = len(manifest["clips"])
+        pending = pending_addition(root, manifest) is not None
+        if pending and not resume:
+            raise ValueError(
+                f"db: {str(root)!r} has an unfinished addition of clips: continue it with "
+                "--resume (resume=True) and the same clips"
+            )
+        if not pending:
+            _roll_back_addition(root, base)  # what a finished or failed one left behind
+        report = Progress(progress)
+        stage = report.split(0.2, 0.95)
+        known = {c["sha256"]: c["name"] for c in manifest["clips"]}
+        state = {
+            "mode": "add",
+            "kind": manifest["kind"],
+            "params": params.to_dict(),
+            "seed": manifest["seed"],
+            "base": base,
+        }
+        undo = functools.partial(_roll_back_addition, root, base)
+        with _failing_input(undo, kept="addition" if pending else None, root=root):
+            records = _ingest(root, sources, state, pending, stage[0], params.max_side, base, known)
+        with _failing_input(undo):
+            counts = _run_clips(root, records, params, codebook, client, workers, stage[1])
+            if sum(counts.values()) == 0:
+                names = ", ".join(repr(r["name"]) for r in records)
+                raise ValueError(
+                    f"no fragment: none of the clips {names} gives a fragment ({_why(records)})"
+                )
+            new = _manifest(
+                root,
+                manifest["kind"],
+                params,
+                manifest["seed"],
+                codebook,
+                records,
+                counts,
+                old_clips=manifest["clips"],
+            )
+            _finish(root, new)
+        stage[2](1.0, "database ready")
+        return open_database(root)
 
 
 # ---------------------------------------------------------------------- stages
 
 
-class _NoFragment(Exception):
-    pass
-
-
 def _ingest(root, sources, state, resume, report, max_side, base, known=None):
     """Store each source's frames as clips/<i>/frames; returns the clips' records."""
     import zarr
-    from zarr.codecs import BloscCodec
 
     state_file = root / _BUILD / _STATE
     old = None
@@ -390,11 +460,15 @@ def _ingest(root, sources, state, resume, report, max_side, base, known=None):
     (root / _BUILD).mkdir(parents=True, exist_ok=True)
     group = zarr.open_group(str(root), mode="a", zarr_format=3)
     records, seen = [], dict(known or {})
-    done_before = {r["sha256"]: r for r in (old or {}).get("clips", [])}
+    # The clips the interrupted run had stored, in order; the ones after may be new.
+    done_before = (old or {}).get("clips", [])
     for k, src in enumerate(sources):
         report(k / len(sources), f"reading clip {k + 1}/{len(sources)}")
         index = base + k
-        video = read_video(src, max_side=max_side)
+        try:
+            video = read_video(src, max_side=max_side)
+        except ValueError as exc:
+            raise ValueError(f"sources[{k}]: {exc}") from None
         if video.sha256 in seen:
             raise ValueError(
                 f"sources[{k}] ({video.name!r}) is the same clip as {seen[video.sha256]!r}: "
@@ -412,8 +486,8 @@ def _ingest(root, sources, state, resume, report, max_side, base, known=None):
             "width": int(video.frames.shape[2]),
             "scaled": video.scaled,
         }
-        prev = done_before.get(video.sha256)
-        if old is not None and (prev is None or prev["index"] != index):
+        prev = done_before[k] if k < len(done_before) else None
+        if prev is not None and (prev["sha256"] != video.sha256 or prev["index"] != index):
             raise ValueError(
                 f"db: {str(root)!r}: sources[{k}] ({video.name!r}) is not the clip the "
                 "interrupted build had in that place; resume with the same sources in the "
@@ -421,21 +495,15 @@ def _ingest(root, sources, state, resume, report, max_side, base, known=None):
             )
         if prev is None or not _frames_complete(root, group, index, video.frames.shape):
             g = group.require_group(clip_group(index))
-            arr = g.create_array(
-                "frames",
-                shape=video.frames.shape,
-                chunks=(1, *video.frames.shape[1:]),
-                dtype="uint8",
-                compressors=BloscCodec(cname="lz4", clevel=5, shuffle="bitshuffle"),
-                fill_value=0,
-                overwrite=True,
-            )
+            shape = video.frames.shape
+            arr = create_array(g, "frames", shape, (1, *shape[1:]), "uint8", shuffle="bitshuffle")
             arr[...] = video.frames
             # The record goes into the state after the frames are on disk.
             _mark_ingested(root, index)
         records.append(rec)
         state["clips"] = records
         write_json_atomically(state_file, state)
+        _pause("ingested")
     if old is not None and len(old.get("clips", [])) > len(records):
         raise ValueError(
             f"db: {str(root)!r}: the interrupted build had {len(old['clips'])} clips, "
@@ -485,6 +553,7 @@ def _run_clips(root, records, params, codebook, client, workers, report):
         nonlocal finished
         finished += 1
         report(finished / total, f"fragments: {finished}/{total} clips done ({names[index]})")
+        _pause("fragments")
 
     if tasks and client is not None:
         from distributed import as_completed
@@ -541,7 +610,7 @@ def _train_codebook(root, counts, params, seed, report):
         report(len(parts) / len(counts) * 0.3, "sampling descriptors")
     sample = np.concatenate(parts)
     if len(sample) < params.words:
-        raise _NoFragment(
+        raise ValueError(
             f"too few fragments: {len(sample)} descriptors cannot train a codebook of "
             f"k = {params.words} words; add clips or lower DatabaseParams.words"
         )
@@ -596,13 +665,39 @@ def _manifest(root, kind, params, seed, codebook, records, counts, old_clips=())
 
 def _finish(root, manifest):
     write_json_atomically(Path(root) / MANIFEST, manifest)
+    _pause("manifest")
     shutil.rmtree(Path(root) / _BUILD, ignore_errors=True)
 
 
-def _discard_clips(root, records):
-    for rec in records:
-        shutil.rmtree(Path(root) / clip_group(rec["index"]), ignore_errors=True)
-    shutil.rmtree(Path(root) / _BUILD, ignore_errors=True)
+def _roll_back_build(root, created):
+    """Undo a build that failed for its input: the folder as it was (gone, or empty).
+
+    The state file goes first, so that a process killed half-way leaves "debris" (see
+    :func:`folder_state`) that the next build clears, never a state without its data.
+    """
+    root = Path(root)
+    (root / _BUILD / _STATE).unlink(missing_ok=True)
+    for name in ("clips", _BUILD):
+        shutil.rmtree(root / name, ignore_errors=True)
+    (root / "zarr.json").unlink(missing_ok=True)
+    if created:
+        # Lock files too (we hold the lock: a process that opened the old lock file
+        # finds it unlinked and takes a new one, see _lock.locked), then the folder.
+        for name in lock_files():
+            (root / name).unlink(missing_ok=True)
+        with contextlib.suppress(OSError):  # something else appeared in it: leave it
+            root.rmdir()
+
+
+def _roll_back_addition(root, base):
+    """Undo an addition that failed (or clear what an old one left): clips ``>= base`` go."""
+    root = Path(root)
+    (root / _BUILD / _STATE).unlink(missing_ok=True)
+    clips = root / "clips"
+    for folder in clips.iterdir() if clips.is_dir() else ():
+        if folder.name.isdigit() and int(folder.name) >= base:
+            shutil.rmtree(folder, ignore_errors=True)
+    shutil.rmtree(root / _BUILD, ignore_errors=True)
 
 
 def _why(records):
@@ -657,29 +752,26 @@ def _check_sources(sources):
 
 
 def _prepare_folder(root, resume):
-    """Check the destination; returns True if this build creates the folder."""
-    if root.exists() and not root.is_dir():
-        raise ValueError(f"path {str(root)!r} exists and is not a folder")
-    if (root / MANIFEST).is_file():
-        raise ValueError(
-            f"path {str(root)!r} already holds a video database; add clips to it with "
-            "add_clips(), or choose a new folder"
-        )
-    if root.is_dir() and any(root.iterdir()):
-        if not (root / _BUILD / _STATE).is_file():
-            raise ValueError(
-                f"path {str(root)!r} is not empty and holds no unfinished build: choose an "
-                "empty or new folder"
-            )
-        if not resume:
-            raise ValueError(
-                f"path {str(root)!r} holds an unfinished build; pass resume=True to continue "
-                "it, or remove the folder"
-            )
-        return False
-    created = not root.exists()
-    root.mkdir(parents=True, exist_ok=True)
+    """Check the destination (locked by us); returns True if an unfinished build resumes."""
     import zarr
 
-    zarr.open_group(str(root), mode="w", zarr_format=3, attributes={"fluidnb": FORMAT})
-    return created
+    state = folder_state(root)
+    if state == "database":
+        raise ValueError(
+            f"path {str(root)!r} already holds a video database; add clips to it with "
+            "add_clips() (`fluidnb videodb add`), or choose a new folder"
+        )
+    if state == "foreign":
+        raise ValueError(
+            f"path {str(root)!r} is not empty and holds no unfinished build: choose an "
+            "empty or new folder"
+        )
+    if state == "unfinished" and not resume:
+        raise ValueError(
+            f"path {str(root)!r} holds an unfinished build: continue it with --resume "
+            "(resume=True) and the same clips, or delete the folder"
+        )
+    if state == "debris":
+        _roll_back_build(root, created=False)
+    zarr.open_group(str(root), mode="a", zarr_format=3, attributes={"fluidnb": FORMAT})
+    return state == "unfinished"

@@ -20,15 +20,16 @@ from .._cache import cache_dir
 from .._progress import Progress
 from .._validation import check_choice
 from ._build import build_database
+from ._lock import locked
 from ._params import DatabaseParams
 from ._starter_clips import STARTER_KINDS
-from ._store import open_database
+from ._store import folder_state, open_database
 
 __all__ = ["STARTER_KINDS", "starter_database", "starter_params", "starter_path"]
 
 
 # Bump when the clips or the build change what a starter database holds.
-_VERSION = 3
+_VERSION = 4  # 4: format version 2 (chunk checksums)
 
 
 def _quick(quick):
@@ -76,8 +77,6 @@ def starter_database(kind="water", *, quick=None, rebuild=False, progress=None):
     -------
     VideoDatabase
     """
-    from ._starter_clips import starter_clips
-
     quick = _quick(quick)
     path = starter_path(kind, quick=quick)
     report = Progress(progress)
@@ -86,50 +85,67 @@ def starter_database(kind="water", *, quick=None, rebuild=False, progress=None):
             db = open_database(path)
             report(1.0, f"starter {kind} database (cached)")
             return db
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        (path.parent / f"{path.name}.lock").touch()
-        lock = _lock(path.parent / f"{path.name}.lock")
-    except OSError:
-        # An unwritable cache only costs time: build in a temporary folder instead.
-        path = Path(tempfile.mkdtemp(prefix=f"fluidnb-{kind}-")) / "db"
-        lock = contextlib.nullcontext()
-    with lock:
+    with contextlib.ExitStack() as stack:
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            # Two notebooks asking for the same starter database: the second waits for
+            # the first to build it, then opens it.
+            stack.enter_context(
+                locked(
+                    path.parent / f"{path.name}.lock",
+                    "building it",
+                    wait=True,
+                    on_wait=lambda who: report(0.0, f"starter {kind} database: waiting for {who}"),
+                )
+            )
+        except OSError:
+            # An unwritable cache only costs time: build in a temporary folder instead.
+            path = Path(tempfile.mkdtemp(prefix=f"fluidnb-{kind}-")) / "db"
         if not rebuild:  # another process may have built it while we waited
             with contextlib.suppress(ValueError):
-                return open_database(path)
-        make, build = report.split(0.3)
-        clips = starter_clips(kind, quick=quick, seed=0, progress=make)
-        partial = path.parent / f"{path.name}.partial"
-        resume = (partial / "build" / "state.json").is_file()
-        if partial.exists() and not resume:
-            shutil.rmtree(partial)
-        build_database(
-            clips,
-            partial,
-            kind=kind,
-            params=starter_params(),
-            seed=0,
-            resume=resume,
-            progress=build,
-        )
-        if path.exists():
-            shutil.rmtree(path)
-        os.replace(partial, path)
+                db = open_database(path)
+                report(1.0, f"starter {kind} database (built by another process)")
+                return db
+        _build_starter(kind, quick, path, report)
     return open_database(path)
 
 
-@contextlib.contextmanager
-def _lock(file):
-    """An exclusive lock on ``file`` for the duration (POSIX; elsewhere no lock)."""
-    try:
-        import fcntl
-    except ImportError:  # pragma: no cover - Windows
-        yield
-        return
-    with open(file, "a+") as f:
-        fcntl.flock(f, fcntl.LOCK_EX)
+def _build_starter(kind, quick, path, report):
+    """Build into ``<path>.partial`` (resuming what a killed process left), then move it."""
+    from ._starter_clips import starter_clips
+
+    partial = path.parent / f"{path.name}.partial"
+    if folder_state(partial) != "database":  # else: built, then killed before the move
+        if folder_state(partial) in ("file", "foreign"):
+            _remove(partial)
+        make, build = report.split(0.3)
+        clips = starter_clips(kind, quick=quick, seed=0, progress=make)
+
+        def run(resume):
+            build_database(
+                clips,
+                partial,
+                kind=kind,
+                params=starter_params(),
+                seed=0,
+                resume=resume,
+                progress=build,
+            )
+
         try:
-            yield
-        finally:
-            fcntl.flock(f, fcntl.LOCK_UN)
+            run(resume=True)  # an unfinished build of the same clips, or a fresh one
+        except ValueError:
+            if folder_state(partial) != "unfinished":
+                raise
+            _remove(partial)  # an unfinished build of other clips: start afresh
+            run(resume=False)
+    if path.exists():
+        _remove(path)
+    os.replace(partial, path)
+
+
+def _remove(path):
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path)
+    else:
+        path.unlink()

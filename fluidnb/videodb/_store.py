@@ -18,6 +18,17 @@ A database is complete when ``manifest.json`` exists: it is written last, atomic
 so an interrupted build never leaves a folder that opens. Fragment ``i`` of the whole
 database is fragment ``i - first`` of the clip whose range holds it (clips in order).
 
+Every chunk of every array carries a CRC-32C checksum (zarr's ``crc32c`` codec, after
+blosc-lz4), and every chunk is written, even an all-zero one: so a chunk that was
+changed, truncated or deleted is found when it is read -- a clear error naming the
+array, the chunk and its file, never zeros or garbage in its place.
+:func:`verify_database` reads every chunk. Format version 1 (before 2026-11-25) had
+neither; such a database still opens, without those checks (its summary says so).
+
+A build, an addition of clips or a resume locks the folder (``.fluidnb-lock``, see
+``_lock.py``); readers take no lock: a complete database only grows by new clip groups
+and a new manifest, so a reader sees the database as it was or as it is.
+
 :func:`open_database` reads the word maps, motions, spectra and textureness of every
 clip sequentially into memory once (the paper's bottleneck was random disk access for
 the smoothness terms); mean images and source frames are read on demand.
@@ -28,7 +39,6 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
-import math
 import os
 import tempfile
 from dataclasses import dataclass
@@ -41,13 +51,19 @@ from .._validation import check_array, check_int
 from ._geometry import FRAGMENT, GRID, SPECTRA_SIDE, TEXTURE_LEVELS, TEXTURE_SIDE, VERSIONS
 from ._params import DatabaseParams
 
-__all__ = ["FORMAT", "FORMAT_VERSION", "VideoDatabase", "open_database"]
+__all__ = ["FORMAT", "FORMAT_VERSION", "VideoDatabase", "open_database", "verify_database"]
 
-#: The manifest's ``format`` and the version of the layout this fluidnb reads and writes.
+#: The manifest's ``format`` and the version of the layout this fluidnb writes.
 FORMAT = "fluidnb.videodb"
-FORMAT_VERSION = 1
+#: 2: every chunk with a CRC-32C checksum, and written even when it is all zeros.
+FORMAT_VERSION = 2
+#: The versions this fluidnb opens (1: no chunk checksums, read without those checks).
+READABLE_VERSIONS = (1, 2)
 
 MANIFEST = "manifest.json"
+#: The folder of an unfinished build's or addition's state (and its descriptors).
+BUILD = "build"
+STATE = "state.json"
 #: Fragments per chunk along the first axis (the spec: 256-1024; blosc-lz4).
 CHUNK = 512
 #: Arrays loaded into memory when a database opens, in this order.
@@ -84,6 +100,31 @@ def checksum(arrays):
     return "sha256:" + h.hexdigest()
 
 
+def array_codecs(shuffle="shuffle"):
+    """The bytes-to-bytes codecs of every array: blosc-lz4, then a CRC-32C checksum."""
+    from zarr.codecs import BloscCodec, Crc32cCodec
+
+    return [BloscCodec(cname="lz4", clevel=5, shuffle=shuffle), Crc32cCodec()]
+
+
+def create_array(group, name, shape, chunks, dtype, *, shuffle="shuffle"):
+    """A new array of the store (replacing any of that name), every chunk to be written.
+
+    zarr skips chunks equal to the fill value by default; here every chunk is written,
+    so that a missing chunk file always means a damaged store.
+    """
+    return group.create_array(
+        name,
+        shape=shape,
+        chunks=chunks,
+        dtype=dtype,
+        compressors=array_codecs(shuffle),
+        fill_value=0,
+        overwrite=True,
+        config={"write_empty_chunks": True},
+    )
+
+
 def write_json_atomically(path, data):
     """Write ``data`` as JSON to ``path`` through a temporary file and a rename."""
     path = Path(path)
@@ -99,19 +140,86 @@ def write_json_atomically(path, data):
         raise
 
 
+def read_state(root):
+    """The state file of an unfinished build or addition in ``root``, or None."""
+    try:
+        state = json.loads((Path(root) / BUILD / STATE).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        return None
+    return state if isinstance(state, dict) else None
+
+
+def pending_addition(root, manifest):
+    """The state of an unfinished addition of clips to the database, or None.
+
+    A state left by a build or an addition that did finish (the process stopped
+    between writing the manifest and removing ``build/``) is not pending.
+    """
+    state = read_state(root)
+    if state and state.get("mode") == "add" and state.get("base") == len(manifest["clips"]):
+        return state
+    return None
+
+
+def folder_state(root):
+    """What a folder holds, as :func:`build_database`, :func:`add_clips` and ``info`` see it.
+
+    Returns one of ``"missing"`` (no such folder), ``"file"``, ``"empty"`` (nothing, or
+    only lock files), ``"database"`` (a manifest), ``"unfinished"`` (a build's state
+    file: resume it), ``"debris"`` (only what a build makes, but no state: a build that
+    stopped or was rolled back before it recorded its state; a new build clears it) and
+    ``"foreign"`` (anything else: not ours to touch).
+    """
+    from ._lock import LOCK_FILE, lock_files
+
+    root = Path(root)
+    if not root.exists():
+        return "missing"
+    if not root.is_dir():
+        return "file"
+    if (root / MANIFEST).is_file():
+        return "database"
+    state = read_state(root)
+    if state is not None and state.get("mode") == "build":
+        return "unfinished"
+    names = {p.name for p in root.iterdir()}
+    names -= set(lock_files())
+    names = {n for n in names if not n.startswith((f".{LOCK_FILE}", f".{MANIFEST}."))}
+    if not names:
+        return "empty"
+    if names <= {"zarr.json", "clips", BUILD} and _our_zarr(root):
+        return "debris"
+    return "foreign"
+
+
+def _our_zarr(root):
+    try:
+        meta = json.loads((Path(root) / "zarr.json").read_text(encoding="utf-8"))
+        return meta["attributes"]["fluidnb"] == FORMAT
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
+
+
+def writer_at_work(root):
+    """The lock holder's description if a live process is writing ``root``, else None."""
+    from ._lock import LOCK_FILE, describe, holder
+
+    info = holder(Path(root) / LOCK_FILE)
+    return None if info is None else describe(info)
+
+
 def read_manifest(path):
-    """Read and check a database's manifest; ValueError naming the file if it is wrong."""
+    """Read and check a database's manifest; ValueError naming the file if it is wrong.
+
+    The message for a folder without a manifest says what it holds and what to do, in
+    the same words :func:`~fluidnb.videodb.build_database` uses.
+    """
     root = Path(path)
     file = root / MANIFEST
     if not root.is_dir():
         raise ValueError(f"db: no such database folder {str(root)!r}")
     if not file.is_file():
-        if (root / "build").is_dir():
-            raise ValueError(
-                f"db: {str(root)!r} holds an unfinished build (no {MANIFEST}); continue it "
-                "with build_database(..., resume=True) or `fluidnb videodb build --resume`"
-            )
-        raise ValueError(f"db: {str(root)!r} is not a fluidnb video database (no {MANIFEST})")
+        raise ValueError(_not_a_database(root))
     try:
         manifest = json.loads(file.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
@@ -119,10 +227,10 @@ def read_manifest(path):
     if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
         raise ValueError(f"db: {str(file)!r} is not a fluidnb video database manifest")
     version = manifest.get("version")
-    if version != FORMAT_VERSION:
+    if version not in READABLE_VERSIONS:
         raise ValueError(
-            f"db: {str(file)!r} has format version {version!r}; this fluidnb reads version "
-            f"{FORMAT_VERSION}: rebuild the database with this version"
+            f"db: {str(file)!r} has format version {version!r}; this fluidnb reads versions "
+            f"{', '.join(map(str, READABLE_VERSIONS))}: rebuild the database with this version"
         )
     try:
         params = DatabaseParams.from_dict(manifest["params"])
@@ -146,6 +254,28 @@ def read_manifest(path):
             f"db: {str(file)!r}: the clips hold {first} fragments but the manifest says {total}"
         )
     return manifest, params, codebook
+
+
+def _not_a_database(root):
+    where = repr(str(root))
+    state = folder_state(root)
+    writer = writer_at_work(root)
+    if writer is not None and state in ("unfinished", "debris", "empty"):
+        return f"db: {where} is being built right now by {writer}: wait for it to finish"
+    if state == "unfinished":
+        return (
+            f"db: {where} holds an unfinished build (no {MANIFEST}): continue it with "
+            "`fluidnb videodb build --resume` and the same clips (build_database(..., "
+            "resume=True)), or delete the folder"
+        )
+    what = {
+        "empty": "it is empty; build one into it",
+        "debris": "it holds the remains of a build that stopped before recording its "
+        "state; building into it again starts afresh",
+    }.get(state)
+    return f"db: {where} is not a fluidnb video database (no {MANIFEST})" + (
+        f": {what}" if what else ""
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -197,6 +327,11 @@ class VideoDatabase:
     def __len__(self):
         return len(self.words)
 
+    @property
+    def checked(self):
+        """Whether every chunk carries a checksum and must exist (format version 2 on)."""
+        return self.manifest.get("version", FORMAT_VERSION) >= 2
+
     @functools.cached_property
     def index(self):
         """The :class:`HistogramIndex` of the word maps (built on first use, kept)."""
@@ -227,6 +362,20 @@ class VideoDatabase:
             f"motion threshold {p.motion_threshold:g} px/frame",
             f"  on disk {_folder_size(self.path) / 1e6:.1f} MB",
         ]
+        if not self.checked:
+            lines.append(
+                f"  format version {self.manifest.get('version')}: its chunks carry no "
+                "checksums and a missing chunk reads as zeros; rebuild the database to "
+                "have both checked"
+            )
+        pending = pending_addition(self.path, self.manifest)
+        if pending is not None:
+            names = ", ".join(repr(c["name"]) for c in pending.get("clips", [])) or "clips"
+            lines.append(
+                f"  an addition of {names} was interrupted: continue it with `fluidnb "
+                "videodb add DB CLIPS --resume` and the same clips (until then the "
+                "database is as it was)"
+            )
         for c in self.clips:
             lines.append(
                 f"  [{c['index']:3d}] {c['name']!r}: {c['frames']} frames {c['height']}x"
@@ -264,14 +413,27 @@ class VideoDatabase:
         for clip in np.unique(self.clip_of(ids)) if len(ids) else ():
             sel = np.flatnonzero(self.clip_of(ids) == clip)
             local = ids[sel] - self.clips[clip]["first"]
-            arr = group[f"{clip_group(clip)}/mean"]
-            out[sel] = arr.get_orthogonal_selection((local,)).astype(np.float32) / 255.0
+            arr = self._array(group, clip, "mean")
+            rows = read_rows(arr, self.path, local, checked=self.checked)
+            out[sel] = rows.astype(np.float32) / 255.0
         return out
 
     def clip_frames(self, clip, start=0, stop=None):
-        """Frames ``start:stop`` of source clip ``clip`` as uint8 (T, H, W, 3)."""
+        """Frames ``start:stop`` of source clip ``clip`` as uint8 (T, H, W, 3).
+
+        Raises
+        ------
+        ValueError
+            If a chunk of them is missing or damaged (the message names it).
+        """
         clip = check_int("clip", clip, 0, len(self.clips) - 1)
-        return self._group()[f"{clip_group(clip)}/frames"][start:stop]
+        arr = self._array(self._group(), clip, "frames")
+        return read_rows(arr, self.path, slice(start, stop), checked=self.checked)
+
+    def _array(self, group, clip, name):
+        """Array ``name`` of clip ``clip``, checked against the manifest."""
+        shape, dtype = clip_layout(self.clips[clip], self.params)[name]
+        return _open_array(group, self.path, f"{clip_group(clip)}/{name}", shape, dtype)
 
     def fragment_frames(self, ids, *, margin=0, grey=False):
         """Rebuild the ``N`` frames of fragments from their source clips.
@@ -390,6 +552,7 @@ def open_database(path, *, progress=None):
     except Exception as exc:
         raise ValueError(f"db: {str(root)!r}: cannot open the zarr store ({exc})") from None
     clips = manifest["clips"]
+    checked = manifest["version"] >= 2
     done, n_steps = 0, max(1, len(clips) * len(RAM_ARRAYS))
     for clip in clips:
         first, count = int(clip["first"]), int(clip["fragments"])
@@ -397,7 +560,8 @@ def open_database(path, *, progress=None):
         arrays = {}
         for name in RAM_ARRAYS:
             shape, dtype = layout[name]
-            arrays[name] = _read_array(group, root, f"{where}/{name}", (count, *shape), dtype)
+            arr = _open_array(group, root, f"{where}/{name}", (count, *shape), dtype)
+            arrays[name] = read_rows(arr, root, slice(None), checked=checked)
             data[name][first : first + count] = arrays[name]
             done += 1
             report(done / n_steps, f"loading {clip['name']} ({name})")
@@ -420,33 +584,198 @@ def open_database(path, *, progress=None):
     )
 
 
-def _read_array(group, root, name, shape, dtype):
+def clip_layout(clip, params):
+    """Shape and dtype of every array of one clip (its manifest record), frames included."""
+    count = int(clip["fragments"])
+    out = {"frames": ((int(clip["frames"]), int(clip["height"]), int(clip["width"]), 3), "uint8")}
+    for name, (shape, dtype) in fragment_layout(params).items():
+        out[name] = ((count, *shape), dtype)
+    return out
+
+
+#: Arrays read on demand, by row: more rows than the manifest's are harmless (the
+#: benchmark's synthetic store cuts a clip's records but links its whole mean images).
+_ON_DEMAND = ("frames", "mean")
+
+
+def _open_array(group, root, name, shape, dtype):
     try:
         arr = group[name]
     except Exception:
-        raise ValueError(f"db: {str(root / name)!r} is missing") from None
-    if tuple(arr.shape) != tuple(shape) or str(arr.dtype) != dtype:
+        raise ValueError(f"db: {str(Path(root) / name)!r} is missing") from None
+    fits = tuple(arr.shape) == tuple(shape)
+    if name.rsplit("/", 1)[-1] in _ON_DEMAND:
+        fits = arr.shape[1:] == tuple(shape[1:]) and arr.shape[0] >= shape[0]
+    if not fits or str(arr.dtype) != dtype:
         raise ValueError(
-            f"db: {str(root / name)!r} has shape {tuple(arr.shape)} and dtype {arr.dtype}; "
+            f"db: {str(Path(root) / name)!r} has shape {tuple(arr.shape)} and dtype {arr.dtype}; "
             f"the manifest expects {tuple(shape)} {dtype} (truncated or mismatched store)"
         )
+    return arr
+
+
+def read_rows(arr, root, rows, *, checked=True):
+    """``arr[rows]`` along the first axis, every chunk it needs accounted for.
+
+    zarr reads a missing chunk as its fill value and reports a damaged one as a codec
+    error (a checksum mismatch, "error during blosc decompression"): here either is a
+    ValueError naming the array, the chunk, its file and what to do.
+
+    Parameters
+    ----------
+    arr : zarr.Array
+        An array of the store, chunked along its first axis only.
+    root : path-like
+        The database folder (the store's root).
+    rows : slice or array_like of int
+        Rows to read.
+    checked : bool
+        Refuse missing chunks (format version 2 writes every chunk; version 1 did not
+        write all-zero ones).
+    """
+    step = arr.chunks[0]
+    if isinstance(rows, slice):
+        start, stop, _ = rows.indices(arr.shape[0])
+        chunks = range(start // step, -(-stop // step)) if stop > start else range(0)
+    else:
+        rows = np.asarray(rows, np.int64)
+        chunks = np.unique(rows // step).tolist()
+    if checked:
+        for i in chunks:
+            if not _chunk_file(arr, root, i).is_file():
+                raise ValueError(_chunk_error(arr, root, i, "is missing"))
     try:
-        return arr[...]
+        return arr[rows] if isinstance(rows, slice) else arr.get_orthogonal_selection((rows,))
+    except MemoryError:
+        raise
     except Exception as exc:
-        raise ValueError(f"db: {_bad_chunk(arr, root / name)!r} cannot be read ({exc})") from None
+        bad, reason = _first_bad_chunk(arr, chunks, exc)
+        raise ValueError(_chunk_error(arr, root, bad, f"cannot be read: {reason}")) from None
 
 
-def _bad_chunk(arr, where):
-    """Name the first chunk file of ``arr`` that fails to read, else the array folder."""
-    chunks = arr.chunks
-    counts = [math.ceil(s / c) for s, c in zip(arr.shape, chunks)]
-    for index in np.ndindex(*counts):
-        sl = tuple(slice(i * c, (i + 1) * c) for i, c in zip(index, chunks))
+def _chunk_file(arr, root, i):
+    key = arr.metadata.encode_chunk_key((i,) + (0,) * (arr.ndim - 1))
+    return Path(root) / arr.path / key
+
+
+def _chunk_error(arr, root, i, what):
+    return (
+        f"db: {str(root)!r} is damaged: chunk {i} of {arr.path} {what} (file "
+        f"{str(_chunk_file(arr, root, i))!r}); {_rebuild_advice(root)}"
+    )
+
+
+def _rebuild_advice(root):
+    """What to do about a damaged database: a starter one is rebuilt by fluidnb itself."""
+    from .._cache import cache_dir
+
+    root = Path(root)
+    if root.parent == cache_dir() / "videodb":
+        kind = root.name.split("-v")[0]
+        quick = " --quick" if root.name.endswith("-quick") else ""
+        return (
+            f"rebuild this starter database: `fluidnb videodb build --starter {kind}{quick} "
+            f"--rebuild` (starter_database({kind!r}, rebuild=True))"
+        )
+    return "rebuild the database from its source clips (`fluidnb videodb build`)"
+
+
+def _first_bad_chunk(arr, chunks, exc):
+    """The first of ``chunks`` that fails to decode, and why (else the first, and ``exc``)."""
+    step = arr.chunks[0]
+    for i in chunks:
         try:
-            arr[sl]
-        except Exception:
-            return str(Path(where) / "c" / "/".join(str(i) for i in index))
-    return str(where)
+            arr[i * step : (i + 1) * step]
+        except Exception as err:
+            return i, _reason(err)
+    return next(iter(chunks), 0), _reason(exc)
+
+
+def _reason(exc):
+    if "checksum" in str(exc).lower():
+        return "its checksum does not match, the file was changed or truncated"
+    return f"{type(exc).__name__}: {exc}"
+
+
+def verify_database(path, *, progress=None):
+    """Read every chunk of a database and list what is wrong (``info --verify``).
+
+    Checks the manifest, then for every clip every array (the frames, the mean images
+    and the in-memory arrays): that it exists with the shape the manifest gives, that
+    every chunk exists (format version 2 on) and decodes (its checksum matches), and
+    that the in-memory arrays match the manifest's SHA-256 of them.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The database folder.
+    progress : callable, optional
+        ``progress(fraction, message)``.
+
+    Returns
+    -------
+    list of str
+        One line per problem found; empty if the database is intact.
+
+    Raises
+    ------
+    ValueError
+        If the folder is not a database or its manifest is damaged (nothing to verify
+        against).
+    """
+    import zarr
+
+    root = Path(path)
+    manifest, params, _ = read_manifest(root)
+    checked = manifest["version"] >= 2
+    report = Progress(progress)
+    try:
+        group = zarr.open_group(str(root), mode="r", zarr_format=3)
+    except Exception as exc:
+        return [f"db: {str(root)!r}: cannot open the zarr store ({exc})"]
+    problems = []
+    clips = manifest["clips"]
+    for k, clip in enumerate(clips):
+        where = clip_group(int(clip["index"]))
+        arrays, intact = {}, True
+        for name, (shape, dtype) in clip_layout(clip, params).items():
+            report(k / max(1, len(clips)), f"verifying {clip['name']} ({name})")
+            try:
+                arr = _open_array(group, root, f"{where}/{name}", shape, dtype)
+            except ValueError as exc:
+                problems.append(str(exc))
+                intact = False
+                continue
+            found, rows = _verify_chunks(arr, root, checked)
+            problems += found
+            intact = intact and not found
+            if name in RAM_ARRAYS:
+                arrays[name] = rows
+        # The manifest's SHA-256 of the in-memory arrays: for version 1 the only check
+        # of a chunk that is missing (read as zeros), for version 2 one more.
+        if intact and checksum(arrays) != clip.get("checksum"):
+            problems.append(
+                f"db: {str(root / where)!r}: the arrays do not match the manifest's "
+                "checksum (a file was changed or damaged); rebuild the database"
+            )
+    report(1.0, f"verified {len(clips)} clips: {len(problems)} problems")
+    return problems
+
+
+def _verify_chunks(arr, root, checked):
+    """Problems of every chunk of ``arr``, and its rows (None if one could not be read)."""
+    step, problems, parts = arr.chunks[0], [], []
+    for i in range(-(-arr.shape[0] // step)):
+        if checked and not _chunk_file(arr, root, i).is_file():
+            problems.append(_chunk_error(arr, root, i, "is missing"))
+            continue
+        try:
+            parts.append(arr[i * step : (i + 1) * step])
+        except Exception as exc:
+            problems.append(_chunk_error(arr, root, i, f"cannot be read: {_reason(exc)}"))
+    if problems:
+        return problems, None
+    return problems, np.concatenate(parts) if parts else arr[...]
 
 
 def _folder_size(path):

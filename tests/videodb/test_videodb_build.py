@@ -1,48 +1,19 @@
 """Building, resuming, growing and opening video databases (Okabe et al., sec. 4)."""
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
-from scipy import ndimage as ndi
 
 from fluidnb import Cancelled, Clip
+from fluidnb.videodb import _build as build_module
 from fluidnb.videodb import (
-    DatabaseParams,
     add_clips,
     build_database,
     open_database,
     read_video,
 )
-from fluidnb.videodb import _build as build_module
-
-# Small and quick: N = 8 frames a fragment, the clip and its mirror image, 8 words.
-PARAMS = DatabaseParams(N=8, augment="flip", words=8, codebook_samples=2000)
-
-
-def moving_texture(seed, shape=(72, 96), frames=20, velocity=(0, 1), colour=(1.0, 0.9, 0.7)):
-    """A smooth random texture translating by whole pixels each frame (wraps around)."""
-    gen = np.random.default_rng(seed)
-    h, w = shape
-    base = ndi.gaussian_filter(gen.random((h, w)), 2.0, mode="wrap")
-    base = (base - base.min()) / (base.max() - base.min())
-    dy, dx = velocity
-    out = np.stack([np.roll(base, (t * dy, t * dx), axis=(0, 1)) for t in range(frames)])
-    return (out[..., None] * np.array(colour)).astype(np.float32)
-
-
-def sources():
-    return [
-        ("right", moving_texture(1)),
-        ("down", moving_texture(2, velocity=(1, 0), colour=(0.6, 0.8, 1.0))),
-    ]
-
-
-def store_bytes(path):
-    """Every file of a store, relative path -> bytes."""
-    root = Path(path)
-    return {str(p.relative_to(root)): p.read_bytes() for p in root.rglob("*") if p.is_file()}
+from tests.support.videodb_store import PARAMS, moving_texture, sources, store_bytes
 
 
 @pytest.fixture(scope="module")
