@@ -18,8 +18,10 @@ predicts it well, so the solver measures what the second thread buys:
 - the step then uses the more threads only if their median step time is at least
   :data:`MARGIN` below one thread's: a second core that buys less is better left to
   the machine's other work;
-- every :data:`REPROBE_SECONDS` of stepping the probe is repeated, since the machine's
-  load changes.
+- the probe is repeated after :data:`REPROBE_SECONDS` of stepping, since the machine's
+  load changes; each time the more threads lose again the wait doubles, up to
+  :data:`MAX_REPROBE_SECONDS` (on a busy machine a probe's steps on two threads took
+  3-5 ms against 0.6 on one: probing every 2 s cost more than it could find).
 
 The results do not depend on the choice: every kernel gives the same bits on any
 number of threads (tested), so this only moves time.
@@ -40,8 +42,10 @@ __all__ = ["ThreadChooser", "fixed"]
 SMALL_CELLS = 64 * 64
 #: Timed steps per candidate in a probe (interleaved: 1, n, 1, n, ...).
 PROBE_STEPS = 3
-#: Seconds of stepping between two probes of the same grid.
+#: Seconds of stepping between two probes of the same grid while more threads pay.
 REPROBE_SECONDS = 2.0
+#: The longest wait between probes, reached while more threads keep losing.
+MAX_REPROBE_SECONDS = 64.0
 #: More threads are chosen only when they save at least this fraction of a step.
 MARGIN = 0.10
 
@@ -49,10 +53,11 @@ MARGIN = 0.10
 class _Grid:
     """What the chooser knows about one grid shape at one thread count."""
 
-    __slots__ = ("choice", "next_probe", "plan", "times")
+    __slots__ = ("choice", "interval", "next_probe", "plan", "times")
 
     def __init__(self, top):
         self.choice = 1
+        self.interval = REPROBE_SECONDS
         self.next_probe = 0.0
         # The first step pays the set-up (and the kernels' loading): not timed.
         self.plan = [(1, False)] + [(1, True), (top, True)] * PROBE_STEPS
@@ -117,7 +122,11 @@ class ThreadChooser:
         one = statistics.median(grid.times.get(1, [float("inf")]))
         many = statistics.median(grid.times.get(top, [float("inf")]))
         grid.choice = top if many < (1.0 - MARGIN) * one else 1
-        grid.next_probe = self.clock() + REPROBE_SECONDS
+        if grid.choice == 1:
+            grid.interval = min(2.0 * grid.interval, MAX_REPROBE_SECONDS)
+        else:  # being wrong now costs the most: a busy core stalls every step
+            grid.interval = REPROBE_SECONDS
+        grid.next_probe = self.clock() + grid.interval
 
     def choice(self, shape):
         """The thread count chosen for ``shape`` so far (1 before any measurement)."""
