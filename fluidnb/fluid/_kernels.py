@@ -533,22 +533,33 @@ def forces_and_divergence(
 
 
 @njit(cache=True, nogil=True, inline="always", error_model="numpy")
-def _projected(vy, vx, p, pos, open_top, p0, i, j):
+def _pressure_row(p, pos, p0, i, out):
+    """Row ``i`` of the pressure in its natural order, ``p0`` taken off.
+
+    ``out[j] = p[i, pos[j]] - p0`` (see :func:`divergence` for ``pos``), so the
+    gradient reads each value in order, once.
+    """
+    for jj in range(out.shape[0]):
+        j = np.uint64(jj)
+        out[j] = p[i, pos[j]] - p0
+
+
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def _projected(vy, vx, here, above, open_top, i, j):
     """The faces of cell (i, j) minus the pressure gradient.
 
-    Cell (i, j)'s pressure is ``p[i, pos[j]] - p0`` (see :func:`divergence`); above an
-    open top it is 0, and a wall face (the left column's dx, a closed top's dy) is
-    left as it is (zero).
+    ``here`` and ``above``: the pressure of rows i and i - 1 (:func:`_pressure_row`).
+    Above an open top the pressure is 0, and a wall face (the left column's dx, a
+    closed top's dy) is left as it is (zero).
     """
-    here = p[i, pos[j]] - p0
     a = vy[i, j]
     if i > U0:
-        a -= here - (p[i - U1, pos[j]] - p0)
+        a -= here[j] - above[j]
     elif open_top:
-        a -= here
+        a -= here[j]
     b = vx[i, j]
     if j > U0:
-        b -= here - (p[i, pos[j - U1]] - p0)
+        b -= here[j] - here[j - U1]
     return a, b
 
 
@@ -558,9 +569,13 @@ def subtract_gradient(vy, vx, p, pos, open_top, p0, out):
     h, w = p.shape
     for r in prange(h):
         i = np.uint64(r)
+        here, above = np.empty(w), np.empty(w)
+        _pressure_row(p, pos, p0, i, here)
+        if i > U0:
+            _pressure_row(p, pos, p0, i - U1, above)
         for jj in range(w):
             j = np.uint64(jj)
-            out[i, j, 0], out[i, j, 1] = _projected(vy, vx, p, pos, open_top, p0, i, j)
+            out[i, j, 0], out[i, j, 1] = _projected(vy, vx, here, above, open_top, i, j)
 
 
 @njit(cache=True, nogil=True, parallel=True, error_model="numpy")
@@ -585,17 +600,23 @@ def gradient_and_scalars(
     for c in prange(parts):
         lo, hi = _chunk(c, parts, h)
         below = np.zeros(w)  # the bottom wall's faces, or the first row below the chunk
+        here, above, beyond = np.empty(w), np.empty(w), np.empty(w)
         for r in range(hi - 1, lo - 1, -1):
             i = np.uint64(r)
             fi = float(i)
+            _pressure_row(p, pos, p0, i, here)
+            if r > 0:
+                _pressure_row(p, pos, p0, i - U1, above)
             for jj in range(w):
                 j = np.uint64(jj)
-                vy[i, j], vx[i, j] = _projected(by, bx, p, pos, open_top, p0, i, j)
+                vy[i, j], vx[i, j] = _projected(by, bx, here, above, open_top, i, j)
             # The dy faces of the row below, in a buffer of its own (see
             # forces_and_divergence).
             if r + 1 == hi and hi < h:
+                _pressure_row(p, pos, p0, i + U1, beyond)
                 for jj in range(w):
-                    below[jj] = _projected(by, bx, p, pos, open_top, p0, i + U1, np.uint64(jj))[0]
+                    j = np.uint64(jj)
+                    below[j] = _projected(by, bx, beyond, here, open_top, i + U1, j)[0]
             elif r + 1 < hi:
                 for jj in range(w):
                     below[jj] = vy[i + U1, np.uint64(jj)]
