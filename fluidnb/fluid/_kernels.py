@@ -59,10 +59,15 @@ from numba import njit, prange
 # numba's OpenMP threads spin while they wait for work by default. On a machine whose
 # cores are busy with other programs (a classroom server, a notebook beside a
 # browser, CI) a spinning thread that loses its core stalls every parallel loop: a
-# step measured 5-10x slower with two threads than with one. Passive waiting costs a
-# few microseconds a loop instead. Set before numba loads its OpenMP runtime, and only
-# when the user has not chosen.
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+# step measured 5-10x slower with two threads than with one. Passive waiting avoids
+# that, at a price: waking the second thread costs about 40 microseconds a parallel
+# loop on the 2-core VMs we measured on, even idle, so there two threads do not pay
+# for a 128 x 128 step and fluidnb.fluid._threads keeps one. On a machine of your
+# own, GOMP_SPINCOUNT=10000 (a short spin, then sleep) made two threads 1.5x faster
+# than one when idle. Set before numba loads its OpenMP runtime, and only when the
+# user has chosen neither.
+if "OMP_WAIT_POLICY" not in os.environ and "GOMP_SPINCOUNT" not in os.environ:
+    os.environ["OMP_WAIT_POLICY"] = "PASSIVE"
 
 U0 = np.uint64(0)
 U1 = np.uint64(1)
