@@ -70,17 +70,19 @@ def _padded(v):
     return qy, qx
 
 
-def _push(qy, qx, shape, epsilon):
+def _push(qy, qx, shape, epsilon, parts=None):
     """The confinement push epsilon (N x omega) at the centres, from padded planes.
 
     Zeros for ``epsilon == 0`` or a grid of a single row or column (no curl).
+    ``parts``: chunks of rows, one per thread (numba's count if not given).
     """
     h, w = shape
     if epsilon == 0 or h < 2 or w < 2:
         zero = np.zeros((h, w))
         return zero, zero
     fy, fx = np.empty((h, w)), np.empty((h, w))
-    _kernels.confinement(qy, qx, float(epsilon), numba.get_num_threads(), fy, fx)
+    parts = numba.get_num_threads() if parts is None else parts
+    _kernels.confinement(qy, qx, float(epsilon), parts, fy, fx)
     return fy, fx
 
 

@@ -124,15 +124,19 @@ class _FastPoisson:
         pos[1::2] = w - 1 - np.arange(w // 2)
         self.pos = pos
 
-    def _solve_ordered(self, r):
-        """The pressure (in ``pos`` order) for a right-hand side in ``pos`` order."""
+    def _solve_ordered(self, r, parts=None):
+        """The pressure (in ``pos`` order) for a right-hand side in ``pos`` order.
+
+        ``parts``: runs of FFT bins for the tridiagonal solves, one per thread.
+        """
         w = self.shape[1]
         # The FFTs run on one thread: a second worker measured slower at 128 x 128
         # on a busy machine (its thread pool wakes for 30 microseconds of work), and
         # how the rows are shared out then cannot change a bit on any CPU.
         z = scipy.fft.rfft(r, axis=1)
         _thomas(z.view(np.float64), self.cos, self.sin, self.inv_a, self.up_a,
-                self.inv_b, self.up_b, self.pin, numba.get_num_threads())  # fmt: skip
+                self.inv_b, self.up_b, self.pin,
+                numba.get_num_threads() if parts is None else parts)  # fmt: skip
         return scipy.fft.irfft(z, n=w, axis=1, overwrite_x=True)
 
     def solve(self, div):
@@ -144,12 +148,12 @@ class _FastPoisson:
             p -= p[0, 0]
         return p
 
-    def pressure(self, r):
+    def pressure(self, r, parts=None):
         """The pressure (``pos`` order) for a divergence in ``pos`` order, and ``p0``.
 
         ``p0`` is the constant to take from it (a closed box's ``p[0, 0]``, else 0).
         """
-        p = self._solve_ordered(r)
+        p = self._solve_ordered(r, parts)
         return p, (float(p[0, 0]) if self.pin else 0.0)  # cell (0, 0) is in place 0
 
     def project(self, vy, vx, out):

@@ -272,23 +272,27 @@ def step(state, params, *, rng=None):
             "pass the same generator to every step (an int would replay the same "
             "noise on every step)"
         )
-    with CHOOSER.step(state.shape):
-        return _step(state, params, rng)
+    with CHOOSER.step(state.shape) as threads:
+        return _step(state, params, rng, threads)
 
 
-def _step(state, params, rng):
-    """The body of :func:`step`, on checked arguments: the numbered steps in order."""
+def _step(state, params, rng, threads=None):
+    """The body of :func:`step`, on checked arguments: the numbered steps in order.
+
+    ``threads``: numba's thread count for this step (looked up if not given).
+    """
     p, dt = params, float(params.dt)
     v = _f64(state.velocity)
     t = _f64(state.temperature)
     d = _f64(state.density)
     shape = t.shape
-    parts = numba.get_num_threads()  # chunks of rows for the kernels that run bottom-up
+    # Chunks of rows for the kernels that run bottom-up: one per thread.
+    parts = numba.get_num_threads() if threads is None else threads
     # 1. Self-advection.
     ay, ax = _advected(v, dt)
     # 2. Forces: the confinement push from the advected velocity, then, in one pass
     # with the walls and the divergence, buoyancy and the push added on the faces.
-    fy, fx = _push(ay, ax, shape, p.epsilon)
+    fy, fx = _push(ay, ax, shape, p.epsilon, parts)
     solver = poisson_solver(shape, p.boundary, "fast")
     by, bx, div = np.empty(shape), np.empty(shape), np.empty(shape)
     _kernels.forces_and_divergence(
@@ -297,7 +301,7 @@ def _step(state, params, rng):
     )  # fmt: skip
     # 3. The pressure, and 4. in one pass its gradient subtracted and the scalars
     # carried along the divergence-free velocity (measuring T_max for 5).
-    pressure, p0 = solver.pressure(div)
+    pressure, p0 = solver.pressure(div, parts)
     vy, vx, t_new, d_new = (np.empty(shape) for _ in range(4))
     t_max = _kernels.gradient_and_scalars(
         by, bx, pressure, solver.pos, p.boundary == "open_top", p0, t, d, dt, parts,

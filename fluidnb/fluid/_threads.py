@@ -79,16 +79,18 @@ class ThreadChooser:
         self._lock = threading.Lock()
         self._fixed = threading.local()
 
-    def pick(self, shape):
+    def pick(self, shape, top=None):
         """The thread count for the next step on a grid of ``shape``.
 
+        ``top`` is numba's thread count (``numba.get_num_threads()`` if not given).
         Returns ``(n, probe)``: ``probe`` is True when the step is one of a probe's,
         to be reported with :meth:`record`.
         """
         forced = getattr(self._fixed, "n", None)
         if forced is not None:
             return forced, False
-        top = numba.get_num_threads()
+        if top is None:
+            top = numba.get_num_threads()
         if top <= 1 or shape[0] * shape[1] < SMALL_CELLS:
             return 1, False
         key = (tuple(shape), top)
@@ -105,9 +107,9 @@ class ThreadChooser:
                 return grid.plan[0][0], True
             return grid.choice, False
 
-    def record(self, shape, n, seconds):
+    def record(self, shape, n, seconds, top=None):
         """Report that a probe's step on ``shape`` with ``n`` threads took ``seconds``."""
-        key = (tuple(shape), numba.get_num_threads())
+        key = (tuple(shape), numba.get_num_threads() if top is None else top)
         with self._lock:
             grid = self._grids.get(key)
             if grid is None or not grid.plan or grid.plan[0][0] != n:
@@ -136,8 +138,8 @@ class ThreadChooser:
     @contextmanager
     def step(self, shape):
         """Run the body on the picked thread count; time it when it is a probe's."""
-        n, probe = self.pick(shape)
         before = numba.get_num_threads()
+        n, probe = self.pick(shape, before)
         if n != before:
             numba.set_num_threads(n)
         t0 = self.clock()
@@ -148,7 +150,7 @@ class ThreadChooser:
             if n != before:
                 numba.set_num_threads(before)
         if probe:
-            self.record(shape, n, elapsed)
+            self.record(shape, n, elapsed, before)
 
     @contextmanager
     def fixed(self, n):
