@@ -30,7 +30,8 @@ Peers (installed in their own environment, never in fluidnb's)::
 
 Timing: every case runs once per round and the rounds go round-robin over all cases,
 fluidnb's and the peers' (the peers in one long-lived subprocess of their interpreter,
-which times its own steps), so a change in the machine's load hits every case alike.
+which times its own steps), so a change in the machine's load hits every case alike;
+the order rotates from round to round, so that no case always comes first.
 Reported: the fastest round and the median, per step, and the load average at the
 start, the end and over the rounds. The last table is the one the README quotes. The
 kernels are compiled and the solvers' set-ups built before the first round.
@@ -379,9 +380,13 @@ def main():
 
     secs = {k: [] for k in cases}
     loads = []
+    keys = list(cases)
     for r in range(args.rounds):
-        for k, run in cases.items():
-            secs[k].append(run())
+        # The order rotates each round: the case that follows the peers' (or another
+        # grid's) measured a few percent slow, its caches cold.
+        shift = r % len(keys)
+        for k in keys[shift:] + keys[:shift]:
+            secs[k].append(cases[k]())
         loads.append(_load())
         print(f"round {r + 1}/{args.rounds} done", file=sys.stderr)
     if peers is not None:
