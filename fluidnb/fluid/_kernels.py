@@ -530,7 +530,7 @@ def forces_and_divergence(
                     )[0]
             elif r + 1 < hi:
                 for jj in range(w):
-                    below[jj] = by[i + U1, np.uint64(jj)]
+                    below[np.uint64(jj)] = by[i + U1, np.uint64(jj)]
             for jj in range(w):
                 j = np.uint64(jj)
                 jr = j + U1 if j + U1 < np.uint64(w) else j
@@ -624,7 +624,7 @@ def gradient_and_scalars(
                     below[j] = _projected(by, bx, beyond, here, open_top, i + U1, j)[0]
             elif r + 1 < hi:
                 for jj in range(w):
-                    below[jj] = vy[i + U1, np.uint64(jj)]
+                    below[np.uint64(jj)] = vy[i + U1, np.uint64(jj)]
             last = r + 1 == h
             for jj in range(w):
                 j = np.uint64(jj)

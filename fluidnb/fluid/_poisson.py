@@ -186,33 +186,45 @@ def _thomas(z, cos, sin, inv_a, up_a, inv_b, up_b, pin, parts):
     h = z.shape[0]
     n_bins = z.shape[1] // 2
     parts = max(min(parts, n_bins), 1)
+    two = np.uint64(2)
+    one = np.uint64(1)
     for part in prange(parts):
         lo = part * n_bins // parts
         hi = (part + 1) * n_bins // parts
-        for k in range(lo, hi):
+        # Unsigned indices into row views: no wrap-around guards, so the loops across
+        # bins vectorise.
+        row, ia, ib = z[0], inv_a[0], inv_b[0]
+        for kk in range(lo, hi):
+            k = np.uint64(kk)
             c, s = cos[k], sin[k]
-            re, im = z[0, 2 * k], z[0, 2 * k + 1]
-            z[0, 2 * k] = -(c * re + s * im) * inv_a[0, k]
-            z[0, 2 * k + 1] = -(s * re - c * im) * inv_b[0, k]
+            re, im = row[two * k], row[two * k + one]
+            row[two * k] = -(c * re + s * im) * ia[k]
+            row[two * k + one] = -(s * re - c * im) * ib[k]
         if pin and lo == 0:
-            z[0, 0] = 0.0  # p_hat = 0 for the closed box's constant mode
+            row[0] = 0.0  # p_hat = 0 for the closed box's constant mode
         for i in range(1, h):
-            for k in range(lo, hi):
+            row, prev, ia, ib = z[i], z[i - 1], inv_a[i], inv_b[i]
+            for kk in range(lo, hi):
+                k = np.uint64(kk)
                 c, s = cos[k], sin[k]
-                re, im = z[i, 2 * k], z[i, 2 * k + 1]
-                z[i, 2 * k] = (z[i - 1, 2 * k] - (c * re + s * im)) * inv_a[i, k]
-                z[i, 2 * k + 1] = (z[i - 1, 2 * k + 1] - (s * re - c * im)) * inv_b[i, k]
+                re, im = row[two * k], row[two * k + one]
+                row[two * k] = (prev[two * k] - (c * re + s * im)) * ia[k]
+                row[two * k + one] = (prev[two * k + one] - (s * re - c * im)) * ib[k]
         for i in range(h - 2, -1, -1):
-            for k in range(lo, hi):
+            row, nxt, ua, ub = z[i], z[i + 1], up_a[i], up_b[i]
+            for kk in range(lo, hi):
+                k = np.uint64(kk)
                 c, s = cos[k], sin[k]
-                pa, pb = z[i + 1, 2 * k], z[i + 1, 2 * k + 1]
-                z[i, 2 * k] -= up_a[i, k] * pa
-                z[i, 2 * k + 1] -= up_b[i, k] * pb
-                z[i + 1, 2 * k], z[i + 1, 2 * k + 1] = c * pa + s * pb, s * pa - c * pb
-        for k in range(lo, hi):
+                pa, pb = nxt[two * k], nxt[two * k + one]
+                row[two * k] -= ua[k] * pa
+                row[two * k + one] -= ub[k] * pb
+                nxt[two * k], nxt[two * k + one] = c * pa + s * pb, s * pa - c * pb
+        row = z[0]
+        for kk in range(lo, hi):
+            k = np.uint64(kk)
             c, s = cos[k], sin[k]
-            pa, pb = z[0, 2 * k], z[0, 2 * k + 1]
-            z[0, 2 * k], z[0, 2 * k + 1] = c * pa + s * pb, s * pa - c * pb
+            pa, pb = row[two * k], row[two * k + one]
+            row[two * k], row[two * k + one] = c * pa + s * pb, s * pa - c * pb
 
 
 class _SparsePoisson:
