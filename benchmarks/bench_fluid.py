@@ -177,12 +177,10 @@ def _shape_cases(shape, steps, quick, threads):
                 ay, ax, t, fy, fx, 1.0, params.kappa_b, 0.0, 0.0, False, solver.pos, 1, by, bx, div
             ),
             "pass 4: the pressure (FFT, Thomas, inverse FFT)": lambda: solver.pressure(div),
-            "pass 5: gradient + advect T and density": lambda: K.gradient_and_scalars(
-                by, bx, pressure, solver.pos, True, p0, t, dd, 1.0, 1, vy, vx, t_out, d_out
+            "pass 5: gradient, store, advect T and density": lambda: K.gradient_and_scalars(
+                by, bx, pressure, solver.pos, True, p0, t, dd, 1.0, 1, vy, vx, new, t_out, d_out
             ),
-            "pass 6: cooling + store the velocity": lambda: K.cool_and_store(
-                t_out, True, 0.0, 1.0, 0.15, 1.88, vy, vx, new
-            ),
+            "pass 6: cooling": lambda: K.cool(t_out, 0.0, 1.0, 0.15, 1.88, t_out),
         }
     )
     for label, fn in extra.items():

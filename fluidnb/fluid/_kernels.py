@@ -17,7 +17,7 @@ a few fused passes, in the order of the readable step (:mod:`fluidnb.fluid._refe
    transform's turns folded in, the inverse FFT);
 4. :func:`gradient_and_scalars` -- the pressure gradient subtracted, and temperature and
    density advected along the divergence-free velocity (the per-row maximum taken);
-5. :func:`cool_and_store` -- the cooling with that maximum, and the velocity stored;
+5. :func:`cool` -- the cooling with that maximum, in place;
 6. :func:`heat` -- the source, over its own few cells.
 
 Each term is a small inline function (:func:`_advected_faces`, :func:`_face_forces`,
@@ -589,12 +589,13 @@ def subtract_gradient(vy, vx, p, pos, open_top, p0, out):
 
 @njit(cache=True, nogil=True, parallel=True, error_model="numpy")
 def gradient_and_scalars(
-    by, bx, p, pos, open_top, p0, t, d, dt, parts, vy, vx, t_out, d_out
+    by, bx, p, pos, open_top, p0, t, d, dt, parts, vy, vx, v, t_out, d_out
 ):  # fmt: skip
     """Subtract the pressure gradient, then advect temperature and density; ``max(t_out)``.
 
     ``by``, ``bx``: the velocity before the projection; the divergence-free faces go to
-    the planes ``vy``, ``vx`` (see :func:`_projected`). Temperature and density are
+    the planes ``vy``, ``vx`` (see :func:`_projected`) and, row by row in a loop of its
+    own, to the state's (H, W, 2) array ``v``. Temperature and density are
     both read at the same position backtraced from the centre along that velocity
     (bilinear, clamped). Chunks of rows bottom-up, as :func:`forces_and_divergence`:
     a row's centres find the row below done. The maximum, which the cooling law needs
@@ -619,6 +620,10 @@ def gradient_and_scalars(
             for jj in range(w):
                 j = np.uint64(jj)
                 vy[i, j], vx[i, j] = _projected(by, bx, here, above, open_top, i, j)
+            for jj in range(w):
+                j = np.uint64(jj)
+                v[i, j, 0] = vy[i, j]
+                v[i, j, 1] = vx[i, j]
             # The dy faces of the row below, in a buffer of its own (see
             # forces_and_divergence).
             if r + 1 == hi and hi < h:
@@ -663,19 +668,3 @@ def _row_max(a, i):
         m0 = max(m0, a[i, np.uint64(j)])
         j += 1
     return max(max(m0, m1), max(m2, m3))
-
-
-@njit(cache=True, nogil=True, parallel=True, error_model="numpy")
-def cool_and_store(t, cooling, t_amb, span, k, k_root, vy, vx, v):
-    """Cool ``t`` in place (when ``cooling``) and store the planes ``vy``, ``vx`` in ``v``."""
-    h, w = t.shape
-    for r in prange(h):
-        i = np.uint64(r)
-        if cooling:
-            for jj in range(w):
-                j = np.uint64(jj)
-                t[i, j] = _cooled(t[i, j], t_amb, span, k, k_root)
-        for jj in range(w):
-            j = np.uint64(jj)
-            v[i, j, 0] = vy[i, j]
-            v[i, j, 1] = vx[i, j]

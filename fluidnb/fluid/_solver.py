@@ -303,18 +303,16 @@ def _step(state, params, rng, threads=None):
     # carried along the divergence-free velocity (measuring T_max for 5).
     pressure, p0 = solver.pressure(div, parts)
     vy, vx, t_new, d_new = (np.empty(shape) for _ in range(4))
+    new = np.empty((*shape, 2))
     t_max = _kernels.gradient_and_scalars(
         by, bx, pressure, solver.pos, p.boundary == "open_top", p0, t, d, dt, parts,
-        vy, vx, t_new, d_new,
+        vy, vx, new, t_new, d_new,
     )  # fmt: skip
-    # 5. Radiative cooling with T_max measured now; the velocity stored.
+    # 5. Radiative cooling with T_max measured now, in place.
     span = t_max - p.T_amb
-    cooling = p.C_r != 0 and dt != 0 and span > 0
-    k, k_root = _cooling_rate(p.C_r, dt, span) if cooling else (0.0, 0.0)
-    new = np.empty((*shape, 2))
-    _kernels.cool_and_store(
-        t_new, cooling, float(p.T_amb), float(span), float(k), float(k_root), vy, vx, new
-    )
+    if p.C_r != 0 and dt != 0 and span > 0:
+        k, k_root = _cooling_rate(p.C_r, dt, span)
+        _kernels.cool(t_new, float(p.T_amb), float(span), float(k), float(k_root), t_new)
     # 6. The source, over its own cells.
     if p.source_radius > 0:
         _heat(t_new, d_new, p, rng)
