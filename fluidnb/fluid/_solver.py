@@ -238,11 +238,11 @@ def step(state, params, *, rng=None):
     -----
     The per-cell work runs in numba-compiled kernels (six fused passes, no whole-grid
     temporaries; see :mod:`fluidnb.fluid._kernels`); the FFTs are scipy's. The very
-    first call on a machine compiles them (several seconds) and caches them on disk;
-    later processes load them in a fraction of a second. A step runs on one thread or
-    on numba's (``numba.get_num_threads()``), whichever measured faster on this grid
-    (:mod:`fluidnb.fluid._threads`; ``numba.set_num_threads(1)`` pins one); the result
-    is the same bit for bit either way.
+    first call on a machine compiles them (about 20 s on a busy 2-core machine) and
+    caches them on disk; later processes load them in a fraction of a second. A step
+    runs on one thread or on numba's (``numba.get_num_threads()``), whichever measured
+    faster on this grid (:mod:`fluidnb.fluid._threads`; ``numba.set_num_threads(1)``
+    pins one); the result is the same bit for bit either way.
 
     References
     ----------
