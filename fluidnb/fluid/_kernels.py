@@ -32,8 +32,8 @@ root (about one unit in the last place; see :func:`_inv_cbrt`) and the Poisson s
 (round-off: another route to the same cosine transform).
 
 Index arithmetic is unsigned and the velocity is kept as two planes between the
-passes: numba then adds no wrap-around guard to an access, the stores are not
-interleaved, and LLVM turns the loops with gathers into vector code.
+passes: numba then adds no wrap-around guard to an access, no loop of gathers stores
+into the interleaved (H, W, 2) array, and LLVM turns every pass into vector code.
 
 Both cores: the kernels split the grid by rows among numba's threads (``prange``);
 each row is computed by one thread and written only by it, and the one reduction

@@ -1,13 +1,15 @@
 """How many threads a solver step runs on: the count that measured fastest, per grid.
 
 Two threads are not always faster than one. A step is a handful of parallel loops of
-a few tens of microseconds each, and every loop waits for its slowest thread: on a
-machine whose other core is busy (a classroom server, a notebook beside a browser,
-CI, other people's jobs) the second thread is often descheduled and the step gets
-slower, not faster. Measured on a 2-core machine with a load average about 1, a
-128 x 128 step took 1.14-1.47 ms on two threads against 0.75 ms on one, while on the
-same machine idle two threads paid. Neither the grid size nor the load average
-predicts it well, so the solver measures what the second thread buys:
+a few tens of microseconds each, and every loop is a rendezvous: on a machine whose
+other core is busy (a classroom server, a notebook beside a browser, CI, other
+people's jobs) the second thread is often descheduled and every loop waits for it;
+and with the passive OpenMP waiting fluidnb sets (see ``_kernels.py``) waking it costs
+about 40 microseconds a loop on the 2-core VMs we measured on, even idle. There a
+128 x 128 step took 0.60-0.75 ms on two threads against 0.50-0.53 on one, idle or
+busy; with a short spin instead (``GOMP_SPINCOUNT``) two threads took 0.34 ms idle.
+Neither the grid size nor the load average predicts this, so the solver measures what
+the second thread buys:
 
 - grids below :data:`SMALL_CELLS` always run on one thread (waking a second costs more
   than the half of the work it would take over);
