@@ -6,10 +6,12 @@ import json
 import os
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from .._clip import Clip
+from .._media import write_atomically
 from .._progress import Progress
 from .._random import resolve_seed
 from .._random import rng as _as_rng
@@ -196,13 +198,14 @@ class Simulation:
             "substeps": self.substeps,
             "timings": self.timings,
         }
-        np.savez(
-            path,
-            velocity=self.velocity,
-            temperature=self.temperature,
-            density=self.density,
-            metadata=np.array(json.dumps(meta)),
-        )
+        arrays = {
+            "velocity": self.velocity,
+            "temperature": self.temperature,
+            "density": self.density,
+            "metadata": np.array(json.dumps(meta)),
+        }
+        # Through a temporary file: a failed write keeps the file that was there.
+        write_atomically(Path(path), lambda tmp: np.savez(tmp, **arrays))
         return path
 
     @classmethod

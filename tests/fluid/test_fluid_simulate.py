@@ -264,3 +264,21 @@ def test_a_run_too_large_for_memory_is_refused_and_told_what_fits(monkeypatch):
         simulate(FluidParams(), 120, shape=(4096, 4096), seed=0)
     with pytest.raises(ValueError, match="method='fast'"):
         project(np.zeros((1024, 1024, 2)), method="lu")
+
+
+def test_a_failed_save_keeps_the_file_that_was_there(tmp_path, monkeypatch):
+    first = simulate(FluidParams(), 2, shape=(10, 12), seed=1)
+    path = tmp_path / "run.npz"
+    first.save(path)
+    before = path.read_bytes()
+
+    def disk_full(file, **arrays):
+        with open(file, "wb") as f:
+            f.write(b"half a zip")
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(np, "savez", disk_full)
+    with pytest.raises(OSError, match=r"run\.npz.*No space left"):
+        simulate(FluidParams(), 3, shape=(10, 12), seed=2).save(path)
+    assert path.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.npz"]  # no partial left
