@@ -30,8 +30,10 @@ One idea per module, in the order of the method:
   :class:`Assignment`);
 - the rendering (sec. 6): ``_blend`` (multi-band blending of the differences),
   ``_appearance`` (motion blur, histogram matching), ``_composite`` (moving matte,
-  background, loop, composite), ``_render`` (the pipeline), ``_animate`` (the entry
-  point);
+  background, loop, composite), ``_desync`` (neighbours sharing a fragment play it at
+  different times, beyond the paper), ``_flow_render`` (the flow rendering's motion
+  field and Eulerian loop, beyond the paper), ``_render`` (the pipeline: the paper's
+  rendering or the flow rendering), ``_animate`` (the entry point);
 - ``_reference`` (the plain versions) and ``_figures`` (the lesson's pictures).
 """
 
@@ -49,6 +51,7 @@ from ._augment import (
 from ._blend import blend_differences, fragment_weights
 from ._build import add_clips, build_database, clip_fragments
 from ._composite import composite, dynamic_matte, inpaint_background, loop_crossfade
+from ._desync import stagger, sync_share, temporal_offsets
 from ._features import motion_spectra, textureness, window_features
 from ._figures import (
     assignment_figure,
@@ -66,13 +69,22 @@ from ._figures import (
 )
 from ._flow import optical_flow
 from ._flow_map import flow_map_texture
+from ._flow_render import (
+    displacement_maps,
+    eulerian_loop,
+    extend_outside,
+    flow_field,
+    flow_timing,
+    loop_phases,
+)
 from ._geometry import ANGLES, FRAGMENT, SCALES, STRIDE, VERSIONS
 from ._lock import DatabaseBusy
 from ._mrf import MRFSolution, alpha_expansion, brute_force, energy, grid_edges, icm, solve
-from ._params import AUGMENTATIONS, FLOW_BACKENDS, AnimateParams, DatabaseParams
+from ._params import AUGMENTATIONS, FLOW_BACKENDS, RENDERINGS, AnimateParams, DatabaseParams
 from ._reference import (
     reference_blend_differences,
     reference_dense_sift,
+    reference_eulerian_loop,
     reference_match_histograms_cells,
     reference_pair_tables,
     reference_quantise,
@@ -96,6 +108,7 @@ __all__ = [
     "AUGMENTATIONS",
     "FLOW_BACKENDS",
     "FRAGMENT",
+    "RENDERINGS",
     "SCALES",
     "STARTER_KINDS",
     "STRIDE",
@@ -127,10 +140,15 @@ __all__ = [
     "composite",
     "cut_target",
     "dense_sift",
+    "displacement_maps",
     "dynamic_matte",
     "energy",
+    "eulerian_loop",
+    "extend_outside",
     "fit_codebook",
+    "flow_field",
     "flow_map_texture",
+    "flow_timing",
     "fragment_figure",
     "fragment_motion",
     "fragment_weights",
@@ -139,6 +157,7 @@ __all__ = [
     "inpaint_background",
     "intersection",
     "loop_crossfade",
+    "loop_phases",
     "match_histograms_cells",
     "motion_arrows",
     "motion_blur",
@@ -151,6 +170,7 @@ __all__ = [
     "read_video",
     "reference_blend_differences",
     "reference_dense_sift",
+    "reference_eulerian_loop",
     "reference_match_histograms_cells",
     "reference_pair_tables",
     "reference_quantise",
@@ -163,11 +183,14 @@ __all__ = [
     "sample_version",
     "solve",
     "spectra_figure",
+    "stagger",
     "starter_clips",
     "starter_database",
     "starter_params",
     "starter_path",
     "sweep_figure",
+    "sync_share",
+    "temporal_offsets",
     "textureness",
     "transform_flow",
     "transform_vectors",

@@ -18,6 +18,7 @@ plain version                          fast path (tested against it)
 :func:`reference_pair_tables`          :func:`~fluidnb.videodb.pair_tables`
 :func:`reference_blend_differences`    :func:`~fluidnb.videodb.blend_differences`
 :func:`reference_match_histograms_cells` :func:`~fluidnb.videodb.match_histograms_cells`
+:func:`reference_eulerian_loop`        :func:`~fluidnb.videodb.eulerian_loop`
 =====================================  =============================================
 
 How closely each pair agrees, and why not bit for bit where it does not, is said in
@@ -32,7 +33,7 @@ import numpy as np
 from scipy import ndimage as ndi
 
 from .._validation import check_int
-from ..fields import collapse, gaussian_pyramid, laplacian_pyramid
+from ..fields import backward_warp, collapse, gaussian_pyramid, laplacian_pyramid
 from ._appearance import _QUANTILES, _SLOPE_RANGE, HISTOGRAM_BINS, _Cells
 from ._augment import _TRUNCATE, _window, prefilter_sigma, version_shape
 from ._blend import (
@@ -44,6 +45,7 @@ from ._blend import (
     _check_positions,
     _raw_weights,
 )
+from ._flow_render import loop_phases
 from ._geometry import (
     FRAGMENT,
     GRID,
@@ -61,6 +63,7 @@ from ._words import _check_pair, _squared_distances, pyramid_histograms
 __all__ = [
     "reference_blend_differences",
     "reference_dense_sift",
+    "reference_eulerian_loop",
     "reference_match_histograms_cells",
     "reference_pair_tables",
     "reference_quantise",
@@ -531,3 +534,51 @@ def _maps_np(edges, q_f, q_r):
     np.clip(slope, *_SLOPE_RANGE, out=slope)
     lut = np.where(edges < q_f[:, :1], q_r[:, :1] + slope * (edges - q_f[:, :1]), lut)
     return np.where(edges > q_f[:, -1:], q_r[:, -1:] + slope * (edges - q_f[:, -1:]), lut)
+
+
+# ------------------------------------------------------ the flow rendering (beyond the paper)
+
+
+def reference_eulerian_loop(image, velocity, n_frames, *, cycle):
+    r"""The flow rendering's Eulerian loop, one frame and one phase at a time (slow).
+
+    For every frame :math:`t`, each phase's age :math:`s` (:func:`loop_phases`) is
+    walked from 0, one frame at a time, with the semi-Lagrangian recurrence of the
+    displacement map, :math:`D_{s+1}(x) = D_s(x - v(x)) - v(x)` forwards and
+    :math:`D_{s-1}(x) = D_s(x + v(x)) + v(x)` backwards
+    (:func:`fluidnb.fields.backward_warp`); a fractional age interpolates linearly
+    between the two whole ones around it. The frame is
+
+    .. math::
+
+        I_t(x) = w_a(t)\, I\big(x + D_{s_a(t)}(x)\big)
+            + (1 - w_a(t))\, I\big(x + D_{s_b(t)}(x)\big).
+
+    :func:`~fluidnb.videodb.eulerian_loop` makes every map once and warps with
+    OpenCV's ``remap``, whose bilinear weights are rounded to 1/32 of a pixel: the
+    two agree to about ``|grad I| / 32`` (checked in the tests to 1e-2 on smooth
+    images).
+    """
+    img = np.asarray(image, np.float64)
+    v = np.asarray(velocity, np.float64)
+    age_a, age_b, weight_a = loop_phases(n_frames, cycle)
+
+    def displacement(age):
+        def walk(steps):
+            sign = 1.0 if steps >= 0 else -1.0
+            d = np.zeros_like(v)
+            for _ in range(abs(steps)):
+                d = backward_warp(d, -sign * v) - sign * v
+            return d
+
+        lo = math.floor(age)
+        frac = age - lo
+        d = walk(lo)
+        return d if frac == 0 else (1 - frac) * d + frac * walk(lo + 1)
+
+    frames = []
+    for sa, sb, wa in zip(age_a, age_b, weight_a):
+        a = backward_warp(img, displacement(sa))
+        b = backward_warp(img, displacement(sb))
+        frames.append(wa * a + (1 - wa) * b)
+    return np.array(frames, np.float32)

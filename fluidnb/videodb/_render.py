@@ -22,7 +22,16 @@ from .._validation import check_shape_match
 from ._appearance import match_histograms_cells, motion_blur
 from ._assign import Assignment, _check_params
 from ._blend import MARGIN, blend_differences, blend_values
-from ._composite import composite, dynamic_matte, inpaint_background, loop_crossfade
+from ._composite import _restore_area, composite, dynamic_matte, inpaint_background
+from ._desync import stagger, temporal_offsets
+from ._flow_render import (
+    displacement_maps,
+    eulerian_loop,
+    extend_outside,
+    flow_field,
+    flow_timing,
+    loop_phases,
+)
 from ._geometry import FRAGMENT
 
 __all__ = ["Animation", "render"]
@@ -116,15 +125,27 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
         frames = db.fragment_frames(ids[lo : lo + step], margin=MARGIN, grey=True)
         diffs[lo : lo + step] = frames - frames.mean(axis=1, keepdims=True)  # D_i = F_i - A
         rebuild(min(1.0, (lo + step) / len(ids)), "rebuilding fragments")
+    offsets = np.zeros(len(ids), np.int64)
+    flow = _flow_plan(assignment, params, n) if params.rendering == "flow" else None
+    if params.loop:
+        # Beyond the paper: each fragment loops on its own, and neighbours that share a
+        # database fragment start it at different times (no tile pattern).
+        offsets = temporal_offsets(ids, target.positions, n - params.loop)
+        rates, n_frames = (None, None) if flow is None else (flow["rates"], flow["n_frames"])
+        diffs = stagger(diffs, offsets, overlap=params.loop, rates=rates, n_frames=n_frames)
     clock["rebuild"] = time.perf_counter() - t
 
     t = time.perf_counter()
     blend(0.0, "blending the difference frames (Laplacian pyramids)")
     d = blend_differences(diffs, target.positions, (hc, wc), margin=MARGIN)
     del diffs
-    if params.loop:
-        d = loop_crossfade(d, overlap=params.loop)
     clock["blend"] = time.perf_counter() - t
+    if flow is not None:
+        out, stages, flow_clock = _render_flow(
+            assignment, params, d, flow, background, report.sub(0.6, 1.0)
+        )
+        clock.update(flow_clock)
+        return _animation(assignment, params, out, stages, clock, offsets, fps)
 
     t = time.perf_counter()
     mean(0.0, "approximate mean image (pseudo motion blur)")
@@ -166,7 +187,22 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     np.clip(out, 0.0, 1.0, out=out)
     clock["composite"] = time.perf_counter() - t
     comp(1.0, "done")
+    stages = {
+        "differences": d[:, :h, :w],
+        "mean": np.clip(approx[:h, :w], 0, 1),
+        "unmatched": np.clip(frames[:, :h, :w], 0, 1),
+        "matte": (matte if matte.ndim == 3 else np.broadcast_to(matte, (len(out), hc, wc)))[
+            :, :h, :w
+        ],
+        "background": back[:h, :w],
+    }
+    return _animation(assignment, params, out, stages, clock, offsets, fps)
 
+
+def _animation(assignment, params, out, stages, clock, offsets, fps):
+    """The Animation: the clip with its metadata, the stages and the timings."""
+    db = assignment.db
+    stages["offsets"] = offsets
     timings = {**{f"assign_{k}": v for k, v in assignment.timings.items()}, **clock}
     timings["render"] = sum(clock.values())
     meta = {
@@ -182,16 +218,114 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
         "energy": float(assignment.solution.energy),
     }
     clip = Clip(out, fps=fps, metadata=meta)
+    return Animation(clip=clip, assignment=assignment, stages=stages, timings=timings)
+
+
+def _flow_plan(assignment, params, n):
+    """The flow rendering's field, clip length, cycle and per-fragment playback rates.
+
+    The difference frames of a fragment play faster (or slower) by the factor its
+    motion was rescaled to the painted speed (:func:`flow_field`), so the detail
+    moves with the warp; rates are multiples of 1/k for a clip of k repeats of the
+    loop, so each fragment's loop fits a whole number of times.
+    """
+    velocity = flow_field(assignment)
+    target = assignment.target
+    length = n - params.loop if params.loop else n
+    n_frames, cycle = flow_timing(
+        velocity, target.canvas_matte, length, travel=params.travel, repeats=params.loop > 0
+    )
+    repeats = n_frames // length
+    own = np.linalg.norm(assignment.db.mean_motion[assignment.fragments], axis=1)
+    centre = target.positions + FRAGMENT // 2
+    wanted = np.linalg.norm(velocity[centre[:, 0], centre[:, 1]], axis=1)
+    gain = np.divide(wanted, own, out=np.ones_like(wanted), where=own > 1e-3)
+    rates = np.maximum(1, np.round(gain * repeats)) / repeats
+    return {"velocity": velocity, "n_frames": n_frames, "cycle": cycle, "rates": rates}
+
+
+def _render_flow(assignment, params, d, plan, background, progress):
+    r"""The flow rendering's steps after the blend (beyond the paper; see :func:`render`).
+
+    Returns the frames (T, H, W, 3), the stages and the seconds per step.
+    """
+    target = assignment.target
+    h, w = target.shape
+    hc, wc = target.canvas.shape[:2]
+    field, advect, match, comp = Progress(progress).split(0.15, 0.6, 0.85)
+    clock = {}
+
+    t = time.perf_counter()
+    field(0.0, "the motion field's displacement maps")
+    velocity, n_frames, cycle = plan["velocity"], plan["n_frames"], plan["cycle"]
+    age_a, age_b, weight_a = loop_phases(n_frames, cycle)
+    steps = int(np.ceil(max(np.abs(age_a).max(), np.abs(age_b).max())))
+    maps = displacement_maps(velocity, steps)
+    clock["field"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    advect(0.0, "advecting the photo in two phases (Eulerian loop)")
+    # What flows in across the matte's edge is the fluid's own texture, mirrored.
+    layer = extend_outside(target.canvas, target.canvas_matte)
+    moved, phase_a, phase_b = eulerian_loop(
+        layer, velocity, n_frames, cycle=cycle, maps=maps, return_phases=True
+    )
+    # Without a loop of their own (loop = 0) the differences are N frames, as the clip.
+    d = d[np.arange(n_frames) % len(d)]
+    frames = moved + np.float32(params.detail) * d[..., None]
+    clock["advect"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    match(0.0, "matching histograms cell by cell")
+    centre, axes = _colour_axes(target.canvas, target.canvas_matte)
+    matched = match_histograms_cells(
+        (frames - centre) @ axes,
+        (target.canvas - centre) @ axes,
+        target.canvas_matte,
+        cell=params.cell,
+    )
+    matched = matched @ axes.T + centre
+    clock["match"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    comp(0.0, "compositing")
+    alpha = target.canvas_matte
+    if params.tau > 0:
+        # The outline moves with the fluid by the same loop (frame 0 is alpha, the
+        # loop closes), pulled towards alpha by 1 - tau as the paper's B_i are.
+        carried = eulerian_loop(alpha, velocity, n_frames, cycle=cycle, maps=maps)
+        matte = np.float32(params.tau) * carried + np.float32(1 - params.tau) * alpha
+        np.clip(matte, 0.0, 1.0, out=matte)
+        area = float(alpha.sum(dtype=np.float64))
+        for b in matte[1:]:
+            _restore_area(b, area)
+        if background is None:
+            back = inpaint_background(target.canvas, alpha)
+        else:
+            back = target.canvas.copy()
+            back[:h, :w] = background
+    else:
+        matte = alpha
+        back = target.canvas
+    out = composite(matched, back, matte)[:, :h, :w]
+    np.clip(out, 0.0, 1.0, out=out)
+    clock["composite"] = time.perf_counter() - t
+    comp(1.0, "done")
     stages = {
+        "velocity": velocity[:h, :w],
+        "phase_a": phase_a[:, :h, :w],
+        "phase_b": phase_b[:, :h, :w],
+        "weights": np.stack([weight_a, 1.0 - weight_a], axis=1),
+        "ages": np.stack([age_a, age_b], axis=1),
+        "advected": moved[:, :h, :w],
         "differences": d[:, :h, :w],
-        "mean": np.clip(approx[:h, :w], 0, 1),
         "unmatched": np.clip(frames[:, :h, :w], 0, 1),
         "matte": (matte if matte.ndim == 3 else np.broadcast_to(matte, (len(out), hc, wc)))[
             :, :h, :w
         ],
         "background": back[:h, :w],
     }
-    return Animation(clip=clip, assignment=assignment, stages=stages, timings=timings)
+    return out, stages, clock
 
 
 def _colour_axes(image, matte):
