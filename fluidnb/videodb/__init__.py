@@ -30,7 +30,8 @@ One idea per module, in the order of the method:
   :class:`Assignment`);
 - the rendering (sec. 6): ``_blend`` (multi-band blending of the differences),
   ``_appearance`` (motion blur, histogram matching), ``_composite`` (moving matte,
-  background, loop, composite), ``_desync`` (neighbours sharing a fragment play it at
+  background, loop, composite), ``_fill`` (exemplar-based fill of the background,
+  beyond the paper), ``_desync`` (neighbours sharing a fragment play it at
   different times, beyond the paper), ``_flow_render`` (the flow rendering's motion
   field and Eulerian loop, beyond the paper), ``_render`` (the pipeline: the paper's
   rendering or the flow rendering), ``_animate`` (the entry point);
@@ -67,6 +68,7 @@ from ._figures import (
     version_label,
     versions_figure,
 )
+from ._fill import exemplar_fill
 from ._flow import optical_flow
 from ._flow_map import flow_map_texture
 from ._flow_render import (
@@ -85,6 +87,7 @@ from ._reference import (
     reference_blend_differences,
     reference_dense_sift,
     reference_eulerian_loop,
+    reference_fill,
     reference_match_histograms_cells,
     reference_pair_tables,
     reference_quantise,
@@ -144,6 +147,7 @@ __all__ = [
     "dynamic_matte",
     "energy",
     "eulerian_loop",
+    "exemplar_fill",
     "extend_outside",
     "fit_codebook",
     "flow_field",
@@ -171,6 +175,7 @@ __all__ = [
     "reference_blend_differences",
     "reference_dense_sift",
     "reference_eulerian_loop",
+    "reference_fill",
     "reference_match_histograms_cells",
     "reference_pair_tables",
     "reference_quantise",

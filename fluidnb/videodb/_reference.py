@@ -19,6 +19,7 @@ plain version                          fast path (tested against it)
 :func:`reference_blend_differences`    :func:`~fluidnb.videodb.blend_differences`
 :func:`reference_match_histograms_cells` :func:`~fluidnb.videodb.match_histograms_cells`
 :func:`reference_eulerian_loop`        :func:`~fluidnb.videodb.eulerian_loop`
+:func:`reference_fill`                 :func:`~fluidnb.videodb.exemplar_fill`
 =====================================  =============================================
 
 How closely each pair agrees, and why not bit for bit where it does not, is said in
@@ -64,6 +65,7 @@ __all__ = [
     "reference_blend_differences",
     "reference_dense_sift",
     "reference_eulerian_loop",
+    "reference_fill",
     "reference_match_histograms_cells",
     "reference_pair_tables",
     "reference_quantise",
@@ -582,3 +584,48 @@ def reference_eulerian_loop(image, velocity, n_frames, *, cycle):
         b = backward_warp(img, displacement(sb))
         frames.append(wa * a + (1 - wa) * b)
     return np.array(frames, np.float32)
+
+
+def reference_fill(image, hole, *, seed=0):
+    r"""Exemplar-based fill with an exhaustive search for every patch's match (slow).
+
+    The completion of :func:`~fluidnb.videodb.exemplar_fill` (Wexler et al. 2007:
+    coarse to fine, match every patch that touches the hole, each hole pixel the mean
+    of what the matches say), but each 7 x 7 patch is compared with *every* patch
+    wholly outside the hole, in numpy, where the fast path's PatchMatch samples a
+    few. Its matches are the best there are, so the fast path's patch distances can
+    only be as low or higher (the tests check they stay close), and the fills look
+    alike. Only for small images.
+    """
+    from ._fill import PATCH_RADIUS, _check, _complete, _pyramid, _sources
+
+    img, h, grey = _check(image, hole)
+    r = PATCH_RADIUS
+    offsets = np.stack(np.mgrid[-r : r + 1, -r : r + 1], axis=-1).reshape(-1, 2)
+
+    def patches(im, centres):
+        # out-of-image pixels are clamped here and excluded by the mask below
+        yy = centres[:, None, 0] + offsets[None, :, 0]
+        xx = centres[:, None, 1] + offsets[None, :, 1]
+        inside = (yy >= 0) & (yy < im.shape[0]) & (xx >= 0) & (xx < im.shape[1])
+        yy = np.clip(yy, 0, im.shape[0] - 1)
+        xx = np.clip(xx, 0, im.shape[1] - 1)
+        return im[yy, xx].astype(np.float64), inside
+
+    def exhaustive(im, hole_, targets, sources, nnf, gen):
+        src, _ = patches(im, sources)
+        tgt, inside = patches(im, targets)
+        best = np.empty((len(targets), 2), np.int64)
+        for i in range(len(targets)):
+            diff = (src - tgt[i][None]) ** 2 * inside[i][None, :, None]
+            best[i] = sources[np.argmin(diff.sum(axis=(1, 2)))]
+        return best
+
+    if not h.any():
+        out = img
+    else:
+        if len(_sources(h, r)) == 0:
+            raise ValueError("hole leaves no 7 x 7 patch of the image to fill it from")
+        out = _complete(_pyramid(img, h), exhaustive, seed)
+        out = np.where(h[..., None], out, img)
+    return out[..., 0] if grey else out

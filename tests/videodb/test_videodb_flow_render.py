@@ -16,12 +16,14 @@ from fluidnb.videodb import (
     build_database,
     displacement_maps,
     eulerian_loop,
+    exemplar_fill,
     extend_outside,
     flow_field,
     flow_timing,
     loop_crossfade,
     loop_phases,
     reference_eulerian_loop,
+    reference_fill,
     render,
     stagger,
     sync_share,
@@ -267,3 +269,51 @@ def test_a_uniform_photo_no_longer_plays_a_fragment_in_sync(db):
     pos = a.target.positions
     assert sync_share(a.fragments, pos) > 0  # the MRF repeats fragments
     assert sync_share(a.fragments, pos, anim.stages["offsets"]) == 0.0
+
+
+# ------------------------------------------------------------------ exemplar fill
+
+
+def _stripes_and_checks():
+    yy, xx = np.mgrid[:64, :80]
+    stripes = ((xx // 4) % 2).astype(np.float32)
+    checks = (((yy // 6) + (xx // 6)) % 2).astype(np.float32)
+    hole = np.zeros((64, 80), bool)
+    hole[22:42, 28:52] = True
+    return stripes, checks, hole
+
+
+def test_the_fill_continues_a_texture_where_telea_smears_it():
+    stripes, checks, hole = _stripes_and_checks()
+    for truth in (stripes, checks):
+        rgb = np.repeat(truth[..., None], 3, axis=2)
+        given = np.where(hole[..., None], 0.5, rgb)
+        ours = exemplar_fill(given, hole)
+        telea = cv2.inpaint(to_uint8(given), hole.astype(np.uint8), 3, cv2.INPAINT_TELEA) / 255.0
+        err_ours = np.abs(ours - rgb)[hole].mean()
+        err_telea = np.abs(telea - rgb)[hole].mean()
+        assert err_ours < 0.5 * err_telea  # stripes: 0.0 against 0.4
+        assert np.array_equal(ours[~hole], given[~hole])  # outside: untouched
+
+
+def test_the_fast_fill_matches_almost_as_well_as_the_exhaustive_one():
+    gen = np.random.default_rng(3)
+    img = np.stack([texture(11, (40, 48), blur=1.0)] * 3, axis=-1)
+    img += 0.05 * gen.standard_normal(img.shape).astype(np.float32)
+    hole = np.zeros((40, 48), bool)
+    hole[14:26, 16:30] = True
+    fast = exemplar_fill(img, hole)
+    ref = reference_fill(img, hole)
+    # Both fills reproduce the texture's statistics; the exhaustive one's matches are
+    # the best there are, so ours is at most a little worse at explaining the hole.
+    for out in (fast, ref):
+        assert abs(out[hole].std() - img[~hole].std()) < 0.5 * img[~hole].std()
+    err = [np.abs(out - img)[hole].mean() for out in (fast, ref)]
+    assert err[0] < 1.25 * err[1] + 0.02
+
+
+def test_the_fill_refuses_a_hole_that_leaves_no_patch():
+    with pytest.raises(ValueError, match="no 7 x 7 patch"):
+        exemplar_fill(np.zeros((10, 10)), np.ones((10, 10)))
+    with pytest.raises(ValueError, match="hole must have the image's height and width"):
+        exemplar_fill(np.zeros((10, 10)), np.ones((10, 11)))
