@@ -30,6 +30,16 @@ neighbouring target fragments that play the same database fragment in sync.
 
 Run against the code before issue 24 (no ``rendering`` parameter) the same script
 renders the paper's way, which is how ``videodb_before.png`` was made.
+
+Two more sheets (with the new code only):
+
+- ``videodb_clouds_sync.png``: the overview's clouds (480 x 300, its stroke, 100
+  candidates), the cloud cropped, two frames per row: the paper's rendering with every
+  fragment in sync (temporal offsets all 0, what the code before issue 24 did), the
+  paper's rendering with the offsets, and the flow rendering;
+- ``videodb_fill.png``: what a moving matte uncovers, filled by Telea's diffusion
+  (``cv2.inpaint``, before) and by the exemplar fill (after), on the clouds over rocks
+  and on the smoke cut-out over a photo.
 """
 
 from __future__ import annotations
@@ -80,6 +90,8 @@ def smoke_cutout(backdrop, seed=0):
     density = f.mean(axis=2) if f.ndim == 3 else f
     density = cv2.resize(density, SIZE[::-1], interpolation=cv2.INTER_AREA)
     alpha = np.clip(density / max(float(np.percentile(density, 99.5)), 1e-6), 0, 1)
+    # The solver leaves a faint haze over its whole box: a cut-out ends where smoke does.
+    alpha = np.clip((alpha - 0.05) / 0.95, 0, 1)
     smoke = np.array([0.86, 0.87, 0.9], np.float32)
     img = backdrop * (1 - alpha[..., None]) + smoke * alpha[..., None]
     return img.astype(np.float32), alpha.astype(np.float32)
@@ -147,12 +159,93 @@ def row(photo, matte, strokes, frames):
     return np.concatenate(tiles, axis=1)
 
 
+def sync_sheet(path):
+    """The overview's clouds: in sync (offsets 0), with offsets, and the flow rendering."""
+    from unittest import mock
+
+    import fluidnb.videodb._render as R
+
+    photo, matte = data.sample("clouds", mode="rgb"), data.region("clouds")
+    h, w = matte.shape
+    stroke = np.array([(0.5, 0.1), (0.45, 0.9)]) * (h, w)
+    params = AnimateParams.for_kind("smoke", candidates=100)
+    a = assign(photo, matte, starter_database("smoke"), params, direction=[stroke])
+    paper = params.replace(rendering="paper")
+    zeros = lambda ids, positions, length: np.zeros(len(ids), np.int64)  # noqa: E731
+    with mock.patch.object(R, "temporal_offsets", zeros):
+        before = render(a, paper)
+    runs = {
+        "paper, in sync (before)": before,
+        "paper, offsets (after)": render(a, paper),
+        "flow (after)": render(a, params),
+    }
+    crop = (slice(20, 180), slice(20, 340))
+    rows = []
+    from fluidnb.videodb import sync_share
+
+    for name, anim in runs.items():
+        f = anim.clip.frames
+        share = sync_share(a.fragments, a.target.positions, anim.stages["offsets"])
+        print(f"{'clouds: ' + name:>48} in sync: {share:.2f}")
+        rows.append(np.concatenate([f[0][crop], f[len(f) // 2][crop]], axis=1))
+    sheet = np.concatenate([np.pad(r, ((0, 2), (0, 0), (0, 0))) for r in rows])
+    Image.fromarray(to_uint8(sheet)).save(path)
+    print(f"wrote {path}")
+
+
+def fill_sheet(path, fresh):
+    """Telea's diffusion against the exemplar fill, behind the clouds and a smoke cut-out."""
+    from scipy import ndimage as ndi
+
+    from fluidnb.videodb import exemplar_fill
+
+    backdrop = (
+        data.sample("lake", size=SIZE, mode="rgb")
+        if fresh is None
+        else resized(Path(fresh) / "usr/share/wallpapers/Path/contents/images/1920x1080.jpg")
+    )
+    smoke, alpha = smoke_cutout(backdrop, seed=1)
+    scenes = [
+        (data.sample("clouds", size=SIZE, mode="rgb"), data.region("clouds", size=SIZE)),
+        (smoke, alpha),
+    ]
+    rows = []
+    for photo, matte in scenes:
+        hole = ndi.binary_dilation(matte > 0, ndi.generate_binary_structure(2, 2), 2)
+        telea = np.stack(
+            [
+                cv2.inpaint(to_uint8(photo[..., c]), hole.astype(np.uint8), 3, cv2.INPAINT_TELEA)
+                for c in range(3)
+            ],
+            axis=-1,
+        )
+        t0 = time.perf_counter()
+        ours = exemplar_fill(photo, hole)
+        print(
+            f"{'fill of ' + str(int(hole.sum())) + ' pixels':>48} {time.perf_counter() - t0:.2f} s"
+        )
+        rows.append(np.concatenate([photo, telea / 255.0, ours], axis=1))
+    sheet = np.concatenate([np.pad(r, ((0, 2), (0, 0), (0, 0))) for r in rows])
+    Image.fromarray(to_uint8(sheet)).save(path)
+    print(f"wrote {path}")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--fresh", help="folder with the unpacked Debian wallpapers (see above)")
-    parser.add_argument("-o", "--output", default="docs/contact/videodb_after.png")
+    parser.add_argument(
+        "-o", "--output", default="docs/contact/videodb_after.png", help="the sheet ('-': none)"
+    )
     parser.add_argument("--rendering", default=None, help="flow or paper (default: the default)")
+    parser.add_argument("--sync-output", help="also the clouds' sync sheet (new code only)")
+    parser.add_argument("--fill-output", help="also the fill sheet (new code only)")
     args = parser.parse_args()
+    if args.sync_output:
+        sync_sheet(args.sync_output)
+    if args.fill_output:
+        fill_sheet(args.fill_output, args.fresh)
+    if args.output == "-":
+        return
     rows = []
     print(
         f"{'case':>48} {'painted':>7} {'flow (dy, dx)':>16} {'speed':>6} {'ratio':>5} "

@@ -131,7 +131,11 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
         # Beyond the paper: each fragment loops on its own, and neighbours that share a
         # database fragment start it at different times (no tile pattern).
         offsets = temporal_offsets(ids, target.positions, n - params.loop)
-        rates, n_frames = (None, None) if flow is None else (flow["rates"], flow["n_frames"])
+        rates = n_frames = None
+        if flow is not None and not np.all(flow["rates"] == 1):
+            # Fragments play at different rates: make all the clip's frames before the
+            # blend. At rate 1 the blended loop is simply repeated (see _render_flow).
+            rates, n_frames = flow["rates"], flow["n_frames"]
         diffs = stagger(diffs, offsets, overlap=params.loop, rates=rates, n_frames=n_frames)
     clock["rebuild"] = time.perf_counter() - t
 
@@ -270,7 +274,7 @@ def _render_flow(assignment, params, d, plan, background, progress):
     moved, phase_a, phase_b = eulerian_loop(
         layer, velocity, n_frames, cycle=cycle, maps=maps, return_phases=True
     )
-    # Without a loop of their own (loop = 0) the differences are N frames, as the clip.
+    # The differences' loop, repeated to the clip's length (or already that long).
     d = d[np.arange(n_frames) % len(d)]
     frames = moved + np.float32(params.detail) * d[..., None]
     clock["advect"] = time.perf_counter() - t
