@@ -1070,25 +1070,40 @@ def _flow_panels(ax, animation, frame, d, top):
     h, w = v.shape[:2]
     step = max(8, min(h, w) // 12)
     yy, xx = np.mgrid[step // 2 : h : step, step // 2 : w : step]
+    matte = animation.assignment.target.matte
+    speed = np.hypot(v[..., 0], v[..., 1])
+    typical = float(np.median(speed[matte > 0.5])) if (matte > 0.5).any() else 0.0
+    fastest = float(speed.max())
     ax[0, 0].quiver(
-        xx, yy, v[yy, xx, 1], -v[yy, xx, 0], color="cyan", angles="uv", scale_units="xy"
-    )
-    speed = float(
-        np.median(np.hypot(v[..., 0], v[..., 1])[animation.assignment.target.matte > 0.5])
+        xx,
+        yy,
+        v[yy, xx, 1],
+        v[yy, xx, 0],
+        angles="xy",
+        scale_units="xy",
+        scale=fastest / (0.9 * step) if fastest > 0 else 1.0,
+        color="cyan",
+        width=0.004,
+        pivot="middle",
     )
     ax[0, 0].set_title(
-        f"target, matte and motion field v (median {speed:.2f} px/frame)", fontsize=9
+        f"target, matte and motion field v (median {typical:.2f} px/frame)", fontsize=9
     )
     ages, weights = st["ages"][frame], st["weights"][frame]
+    photo = animation.assignment.target.image
+    m = matte[..., None]
     for k, (name, key) in enumerate((("a", "phase_a"), ("b", "phase_b"))):
-        ax[0, 1 + k].imshow(np.clip(st[key][frame], 0, 1))
+        # Inside the matte: the advected phase; outside, the photo dimmed (the layer
+        # there is only what may flow in).
+        shown = m * np.clip(st[key][frame], 0, 1) + (1 - m) * 0.4 * photo
+        ax[0, 1 + k].imshow(shown)
         ax[0, 1 + k].set_title(
             f"phase {name}: photo advected {ages[k]:+.1f} frames, weight {weights[k]:.2f}",
             fontsize=9,
         )
     ax[1, 0].imshow(d, cmap="RdBu_r", vmin=-top, vmax=top)
     ax[1, 0].set_title(f"blended differences $D_{{{frame}}}$ (±{top:.2f})", fontsize=9)
-    ax[1, 1].imshow(st["unmatched"][frame])
+    ax[1, 1].imshow(m * st["unmatched"][frame] + (1 - m) * 0.4 * photo)
     ax[1, 1].set_title(f"cross-fade + $D_{{{frame}}}$, before matching", fontsize=9)
     ax[1, 2].imshow(animation.clip.frames[frame])
     ax[1, 2].set_title(f"frame {frame}: histograms matched, composited", fontsize=9)

@@ -366,10 +366,12 @@ def test_rendering_figure_shows_the_flow_renderings_stages(assignment):
     axes = drawn(rendering_figure(anim, frame=t))
     st = anim.stages
     np.testing.assert_array_equal(image(axes[0]), assignment.target.image)
-    np.testing.assert_array_equal(image(axes[1]), np.clip(st["phase_a"][t], 0, 1))
-    np.testing.assert_array_equal(image(axes[2]), np.clip(st["phase_b"][t], 0, 1))
+    m = assignment.target.matte[..., None]
+    dim = (1 - m) * 0.4 * assignment.target.image
+    np.testing.assert_allclose(image(axes[1]), m * np.clip(st["phase_a"][t], 0, 1) + dim)
+    np.testing.assert_allclose(image(axes[2]), m * np.clip(st["phase_b"][t], 0, 1) + dim)
     np.testing.assert_array_equal(image(axes[3]), st["differences"][t])
-    np.testing.assert_array_equal(image(axes[4]), st["unmatched"][t])
+    np.testing.assert_allclose(image(axes[4]), m * st["unmatched"][t] + dim)
     np.testing.assert_array_equal(image(axes[5]), anim.clip.frames[t])
 
 
