@@ -201,8 +201,9 @@ def _complete(levels, search, seed):
     for lvl, (img, hole) in enumerate(levels):
         img = img.copy()
         sources = _sources(hole, r)
-        if len(sources) == 0 or not hole.any():
-            est, prev = img, None
+        if len(sources) == 0:
+            # Nothing to copy from at this scale: the next finer one starts afresh.
+            est = prev = None
             continue
         targets = _targets(hole, r)
         if est is None:

@@ -160,17 +160,7 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
 
     t = time.perf_counter()
     match(0.0, "matching histograms cell by cell")
-    # In the target's principal colour axes (Heeger & Bergen 1995 decorrelate colour by
-    # PCA): matching R, G and B independently can mix hues the photo does not have (a
-    # white-hot flame turned lilac); matching decorrelated axes keeps its colours.
-    centre, axes = _colour_axes(target.canvas, target.canvas_matte)
-    matched = match_histograms_cells(
-        (frames - centre) @ axes,
-        (target.canvas - centre) @ axes,
-        target.canvas_matte,
-        cell=params.cell,
-    )
-    matched = matched @ axes.T + centre
+    matched = _match_to_target(frames, target, params.cell)
     clock["match"] = time.perf_counter() - t
 
     t = time.perf_counter()
@@ -281,14 +271,7 @@ def _render_flow(assignment, params, d, plan, background, progress):
 
     t = time.perf_counter()
     match(0.0, "matching histograms cell by cell")
-    centre, axes = _colour_axes(target.canvas, target.canvas_matte)
-    matched = match_histograms_cells(
-        (frames - centre) @ axes,
-        (target.canvas - centre) @ axes,
-        target.canvas_matte,
-        cell=params.cell,
-    )
-    matched = matched @ axes.T + centre
+    matched = _match_to_target(frames, target, params.cell)
     clock["match"] = time.perf_counter() - t
 
     t = time.perf_counter()
@@ -330,6 +313,23 @@ def _render_flow(assignment, params, d, plan, background, progress):
         "background": back[:h, :w],
     }
     return out, stages, clock
+
+
+def _match_to_target(frames, target, cell):
+    """Each frame's histograms matched to the target's, cell by cell (Okabe et al., sec. 6).
+
+    In the target's principal colour axes (Heeger & Bergen 1995 decorrelate colour by
+    PCA): matching R, G and B independently can mix hues the photo does not have (a
+    white-hot flame turned lilac); matching decorrelated axes keeps its colours.
+    """
+    centre, axes = _colour_axes(target.canvas, target.canvas_matte)
+    matched = match_histograms_cells(
+        (frames - centre) @ axes,
+        (target.canvas - centre) @ axes,
+        target.canvas_matte,
+        cell=cell,
+    )
+    return matched @ axes.T + centre
 
 
 def _colour_axes(image, matte):
