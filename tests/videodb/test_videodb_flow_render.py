@@ -317,3 +317,15 @@ def test_the_fill_refuses_a_hole_that_leaves_no_patch():
         exemplar_fill(np.zeros((10, 10)), np.ones((10, 10)))
     with pytest.raises(ValueError, match="hole must have the image's height and width"):
         exemplar_fill(np.zeros((10, 10)), np.ones((10, 11)))
+
+
+def test_a_fragment_played_faster_skips_frames_and_still_loops():
+    gen = np.random.default_rng(2)
+    diffs = gen.standard_normal((2, 12, 4, 4)).astype(np.float32)
+    base = stagger(diffs, [0, 0], overlap=4)  # loops of 8 frames
+    fast = stagger(diffs, [0, 0], overlap=4, rates=[1, 2], n_frames=8)
+    np.testing.assert_array_equal(fast[0], base[0])
+    np.testing.assert_array_equal(fast[1], base[1][np.arange(8) * 2 % 8])  # every other frame
+    half = stagger(diffs, [0, 0], overlap=4, rates=[1, 0.5], n_frames=16)
+    np.testing.assert_allclose(half[1][1], 0.5 * (base[1][0] + base[1][1]), atol=1e-6)
+    np.testing.assert_array_equal(half[1][::2], base[1])
