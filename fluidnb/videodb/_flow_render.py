@@ -44,6 +44,10 @@ __all__ = [
     "loop_phases",
 ]
 
+#: Standard deviation in pixels of the Gaussian that smooths the motion field beyond
+#: the blend's weights (:func:`flow_field`): one stride.
+FIELD_SIGMA = 24.0
+
 #: At most this many repeats of the difference frames' loop make one flow-rendered
 #: clip (:func:`flow_timing`): slow motion needs long cycles, but each frame costs.
 MAX_REPEATS = 4
@@ -55,8 +59,10 @@ def flow_field(assignment):
     Every target fragment's chosen database fragment has a mean motion (its optical
     flow averaged over its pixels and frames, (dy, dx) px/frame); they are spread over
     the canvas with the partition-of-unity weights of the difference frames' blend
-    (:func:`~fluidnb.videodb.fragment_weights`), so the field is smooth across
-    fragment borders and equals a fragment's motion in the middle of its cell.
+    (:func:`~fluidnb.videodb.fragment_weights`), then smoothed by a Gaussian of one
+    stride (:data:`FIELD_SIGMA`, within the fragments' cores): neighbouring fragments
+    may move quite differently (the smoke database's slow and fast ones side by side),
+    and the sharper field sheared the photo along the line between them into a seam.
 
     Where the user painted a speed, the field keeps its direction and takes the
     painted speed (our decision: the painted speed is the user's request, and the
@@ -78,15 +84,30 @@ def flow_field(assignment):
     target, db = assignment.target, assignment.db
     canvas = target.canvas.shape[:2]
     ids = assignment.fragments
-    v = blend_values(db.mean_motion[ids].astype(np.float64), target.positions, canvas)
+    covered = blend_values(np.ones(len(ids)), target.positions, canvas) > 0.5
+
+    def spread(values):
+        # The blend's weights, then a Gaussian of one stride within the fragments'
+        # cores (normalised convolution): neighbours that move differently would
+        # otherwise shear the photo along a line between them (a visible seam).
+        out = blend_values(values, target.positions, canvas).astype(np.float64)
+        tail = out.shape[2:]
+        flat = out.reshape(out.shape[:2] + (-1,)) * covered[..., None]
+        sigma = (FIELD_SIGMA, FIELD_SIGMA, 0)
+        num = ndi.gaussian_filter(flat, sigma, mode="constant")
+        den = ndi.gaussian_filter(covered.astype(np.float64), FIELD_SIGMA, mode="constant")
+        res = np.divide(num, den[..., None], out=np.zeros_like(num), where=den[..., None] > 1e-9)
+        return (res * covered[..., None]).reshape(out.shape[:2] + tail)
+
+    v = spread(db.mean_motion[ids].astype(np.float64))
     speed = assignment.speed
     if speed is None or not np.isfinite(speed).any():
-        return v
+        return v.astype(np.float32)
     painted = np.isfinite(speed)
-    # Both blends use the same weights: `share` is how much of each pixel painted
-    # fragments own, `wanted` their painted speed averaged over that share.
-    share = blend_values(painted.astype(np.float64), target.positions, canvas)
-    wanted = blend_values(np.where(painted, speed, 0.0), target.positions, canvas)
+    # Both use the same weights: `share` is how much of each pixel painted fragments
+    # own, `wanted` their painted speed averaged over that share.
+    share = spread(painted.astype(np.float64))
+    wanted = spread(np.where(painted, speed, 0.0))
     wanted = np.divide(wanted, share, out=np.zeros_like(wanted), where=share > 1e-6)
     norm = np.hypot(v[..., 0], v[..., 1])
     gain = np.divide(wanted, norm, out=np.ones_like(norm), where=norm > 1e-6)
