@@ -44,15 +44,21 @@ class Animation:
     Attributes
     ----------
     clip : Clip
-        The animation (the target's size, ``N`` frames, or ``N - loop`` looping).
+        The animation (the target's size; the paper's rendering: ``N`` frames, or
+        ``N - loop`` looping; the flow rendering: whole repeats of those).
     assignment : Assignment
         The fragments chosen, with the energy per sweep.
     stages : dict of ndarray
-        The rendering's intermediate pictures, for the lesson: ``"differences"`` the
-        blended difference frames :math:`D_i` (T, H, W), ``"mean"`` the approximate
-        mean image (H, W, 3), ``"unmatched"`` the frames before histogram matching,
-        ``"matte"`` the (dynamic) matte :math:`B_i` (T, H, W), ``"background"`` the
-        image behind the fluid.
+        The rendering's intermediate pictures, for the lesson. Both renderings:
+        ``"differences"`` the blended difference frames :math:`D_i` (T, H, W),
+        ``"unmatched"`` the frames before histogram matching, ``"matte"`` the
+        (dynamic) matte :math:`B_i` (T, H, W), ``"background"`` the image behind the
+        fluid, ``"offsets"`` each target fragment's temporal offset (P,)
+        (:func:`temporal_offsets`). The paper's: ``"mean"`` the approximate mean
+        image (H, W, 3). The flow rendering's: ``"velocity"`` the motion field
+        (H, W, 2), ``"phase_a"`` and ``"phase_b"`` the two advected phases
+        (T, H, W, 3), ``"ages"`` and ``"weights"`` their ages (frames) and weights
+        (T, 2), ``"advected"`` their cross-fade (T, H, W, 3).
     timings : dict
         Seconds per stage (assignment and rendering).
     """
@@ -64,13 +70,19 @@ class Animation:
 
 
 def render(assignment, params=None, *, background=None, fps=24.0, progress=None):
-    r"""Render the animation of an assignment (Okabe et al., sec. 6).
+    r"""Render the animation of an assignment (Okabe et al., sec. 6, or beyond it).
+
+    ``params.rendering`` chooses between the paper's rendering and the flow
+    rendering (the default, beyond the paper). The paper's:
 
     1. Rebuild every assigned fragment's frames from its source clip (with 12 px of
-       context) and its difference frames :math:`D_i = F_i - A` (luminance);
+       context) and its difference frames :math:`D_i = F_i - A` (luminance); with
+       ``loop``, cross-fade each fragment's end into its start
+       (:func:`loop_crossfade`) and start neighbours that share a database fragment
+       at different times (:func:`temporal_offsets`, :func:`stagger`; beyond the
+       paper);
     2. blend them with Laplacian pyramids over the overlaps
-       (:func:`blend_differences`) and, with ``loop``, cross-fade the end into the
-       start (:func:`loop_crossfade`);
+       (:func:`blend_differences`);
     3. add them to the approximate mean image: the target blurred along the assigned
        motion (:func:`motion_blur`);
     4. match each frame's histograms to the target's cell by cell
@@ -78,14 +90,21 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
        colours (Heeger & Bergen's decorrelation), so no foreign hue appears;
     5. composite through the matte over the untouched image — for ``tau > 0`` through
        the dynamic matte :math:`B_i` (:func:`dynamic_matte`) over the background
-       (given, or inpainted behind the fluid, :func:`inpaint_background`).
+       (given, or filled behind the fluid with the photo's texture,
+       :func:`inpaint_background`).
+
+    The flow rendering keeps steps 1, 2, 4 and 5 and replaces 3: the photo itself is
+    moved along the motion field of the chosen fragments (:func:`flow_field`) in a
+    seamless Eulerian loop (:func:`eulerian_loop`, :func:`flow_timing`), and the
+    :math:`D_i`, played at the painted speed, are added on top (``detail``); a
+    moving matte is carried by the same loop.
 
     Parameters
     ----------
     assignment : Assignment
     params : AnimateParams, optional
-        Rendering settings (shutter, denoise, cell, tau, loop); default the
-        assignment's.
+        Rendering settings (rendering, shutter, denoise, cell, tau, loop, travel,
+        detail); default the assignment's.
     background : array_like, shape (H, W, 3), optional
         What shows where a moving outline uncovers the scene (``tau > 0``); default
         the target inpainted under its matte.
