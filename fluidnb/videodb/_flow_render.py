@@ -33,7 +33,8 @@ import numpy as np
 from scipy import ndimage as ndi
 
 from .._validation import check_array, check_int, check_range, check_vector_field
-from ._blend import blend_values
+from ._blend import fragment_weights
+from ._geometry import FRAGMENT
 
 __all__ = [
     "displacement_maps",
@@ -84,35 +85,47 @@ def flow_field(assignment):
     target, db = assignment.target, assignment.db
     canvas = target.canvas.shape[:2]
     ids = assignment.fragments
-    covered = blend_values(np.ones(len(ids)), target.positions, canvas) > 0.5
-
-    def spread(values):
-        # The blend's weights, then a Gaussian of one stride within the fragments'
-        # cores (normalised convolution): neighbours that move differently would
-        # otherwise shear the photo along a line between them (a visible seam).
-        out = blend_values(values, target.positions, canvas).astype(np.float64)
-        tail = out.shape[2:]
-        flat = out.reshape(out.shape[:2] + (-1,)) * covered[..., None]
-        sigma = (FIELD_SIGMA, FIELD_SIGMA, 0)
-        num = ndi.gaussian_filter(flat, sigma, mode="constant")
-        den = ndi.gaussian_filter(covered.astype(np.float64), FIELD_SIGMA, mode="constant")
-        res = np.divide(num, den[..., None], out=np.zeros_like(num), where=den[..., None] > 1e-9)
-        return (res * covered[..., None]).reshape(out.shape[:2] + tail)
-
-    v = spread(db.mean_motion[ids].astype(np.float64))
     speed = assignment.speed
-    if speed is None or not np.isfinite(speed).any():
-        return v.astype(np.float32)
-    painted = np.isfinite(speed)
-    # Both use the same weights: `share` is how much of each pixel painted fragments
-    # own, `wanted` their painted speed averaged over that share.
-    share = spread(painted.astype(np.float64))
-    wanted = spread(np.where(painted, speed, 0.0))
-    wanted = np.divide(wanted, share, out=np.zeros_like(wanted), where=share > 1e-6)
+    painted = np.zeros(len(ids), bool) if speed is None else np.isfinite(speed)
+    # One pass over the fragments for every per-fragment value: the mean motion
+    # (dy, dx), whether the user painted a speed there, and that speed.
+    values = np.zeros((len(ids), 4))
+    values[:, :2] = db.mean_motion[ids]
+    values[:, 2] = painted
+    if painted.any():
+        values[:, 3] = np.where(painted, speed, 0.0)
+    acc = np.zeros(canvas + (4,), np.float64)
+    covered = np.zeros(canvas, np.float64)
+    weights = fragment_weights(target.positions, canvas)
+    for (r, c), wgt, val in zip(target.positions, weights, values):
+        acc[r : r + FRAGMENT, c : c + FRAGMENT] += wgt[..., None] * val
+        covered[r : r + FRAGMENT, c : c + FRAGMENT] += wgt
+    inside = (covered > 0.5).astype(np.float32)
+    # Then a Gaussian of one stride within the fragments' cores (normalised
+    # convolution): neighbours that move differently would otherwise shear the photo
+    # along a line between them (a visible seam).
+    num = _gaussian(acc.astype(np.float32) * inside[..., None])
+    den = _gaussian(inside)[..., None]
+    field = np.divide(num, den, out=np.zeros_like(num), where=den > 1e-6) * inside[..., None]
+    v = field[..., :2]
+    if not painted.any():
+        return np.ascontiguousarray(v)
+    # `share` is how much of each pixel painted fragments own, `wanted` their painted
+    # speed averaged over that share.
+    share = field[..., 2]
+    wanted = np.divide(field[..., 3], share, out=np.zeros_like(share), where=share > 1e-6)
     norm = np.hypot(v[..., 0], v[..., 1])
     gain = np.divide(wanted, norm, out=np.ones_like(norm), where=norm > 1e-6)
     gain = 1.0 + share * (gain - 1.0)
     return (v * gain[..., None]).astype(np.float32)
+
+
+def _gaussian(x):
+    """Gaussian blur of standard deviation :data:`FIELD_SIGMA`, zero outside the canvas."""
+    import cv2
+
+    out = cv2.GaussianBlur(x, (0, 0), FIELD_SIGMA, borderType=cv2.BORDER_CONSTANT)
+    return out.reshape(x.shape)
 
 
 def loop_phases(n_frames, cycle):
