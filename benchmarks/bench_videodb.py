@@ -787,7 +787,9 @@ def part_rendering(ctx):
             angle = float(np.degrees(np.arctan2(flow[0], flow[1])))  # the stroke: 0 degrees
             sync = (
                 sync_share(a.fragments, a.target.positions),
-                sync_share(a.fragments, a.target.positions, anim.stages["offsets"]),
+                sync_share(
+                    a.fragments, a.target.positions, anim.stages["offsets"], anim.stages["mirrors"]
+                ),
             )
             rows.append(
                 [

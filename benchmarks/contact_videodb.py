@@ -35,8 +35,8 @@ Two more sheets (with the new code only):
 
 - ``videodb_clouds_sync.png``: the overview's clouds (480 x 300, its stroke, 100
   candidates), the cloud cropped, two frames per row: the paper's rendering with every
-  fragment in sync (temporal offsets all 0, what the code before issue 24 did), the
-  paper's rendering with the offsets, and the flow rendering;
+  fragment in sync (temporal offsets all 0, none mirrored: what the code before issue
+  24 did), the paper's rendering with the offsets and mirrors, and the flow rendering;
 - ``videodb_fill.png``: what a moving matte uncovers, filled by Telea's diffusion
   (``cv2.inpaint``, before) and by the exemplar fill (after), on the clouds over rocks
   and on the smoke cut-out over a photo.
@@ -160,7 +160,7 @@ def row(photo, matte, strokes, frames):
 
 
 def sync_sheet(path):
-    """The overview's clouds: in sync (offsets 0), with offsets, and the flow rendering."""
+    """The overview's clouds: in sync, with offsets and mirrors, and the flow rendering."""
     from unittest import mock
 
     import fluidnb.videodb._render as R
@@ -172,11 +172,12 @@ def sync_sheet(path):
     a = assign(photo, matte, starter_database("smoke"), params, direction=[stroke])
     paper = params.replace(rendering="paper")
     zeros = lambda ids, positions, length: np.zeros(len(ids), np.int64)  # noqa: E731
-    with mock.patch.object(R, "temporal_offsets", zeros):
+    none = lambda ids, positions, motion: np.full(len(ids), -1, np.int8)  # noqa: E731
+    with mock.patch.object(R, "temporal_offsets", zeros), mock.patch.object(R, "mirror_axes", none):
         before = render(a, paper)
     runs = {
         "paper, in sync (before)": before,
-        "paper, offsets (after)": render(a, paper),
+        "paper, offsets and mirrors (after)": render(a, paper),
         "flow (after)": render(a, params),
     }
     crop = (slice(20, 180), slice(20, 340))
@@ -185,7 +186,9 @@ def sync_sheet(path):
 
     for name, anim in runs.items():
         f = anim.clip.frames
-        share = sync_share(a.fragments, a.target.positions, anim.stages["offsets"])
+        share = sync_share(
+            a.fragments, a.target.positions, anim.stages["offsets"], anim.stages["mirrors"]
+        )
         print(f"{'clouds: ' + name:>48} in sync: {share:.2f}")
         rows.append(np.concatenate([f[0][crop], f[len(f) // 2][crop]], axis=1))
     sheet = np.concatenate([np.pad(r, ((0, 2), (0, 0), (0, 0))) for r in rows])
@@ -277,7 +280,9 @@ def main():
             from fluidnb.videodb import sync_share
 
             before = sync_share(a.fragments, a.target.positions)
-            after = sync_share(a.fragments, a.target.positions, anim.stages["offsets"])
+            after = sync_share(
+                a.fragments, a.target.positions, anim.stages["offsets"], anim.stages["mirrors"]
+            )
             sync = f"{before:.2f}->{after:.2f}"
         print(
             f"{name:>48} {painted or '-':>7} {np.array2string(flow, precision=3):>16} "

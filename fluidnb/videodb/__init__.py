@@ -52,7 +52,7 @@ from ._augment import (
 from ._blend import blend_differences, fragment_weights
 from ._build import add_clips, build_database, clip_fragments
 from ._composite import composite, dynamic_matte, inpaint_background, loop_crossfade
-from ._desync import stagger, sync_share, temporal_offsets
+from ._desync import mirror_axes, stagger, sync_share, temporal_offsets
 from ._features import motion_spectra, textureness, window_features
 from ._figures import (
     assignment_figure,
@@ -163,6 +163,7 @@ __all__ = [
     "loop_crossfade",
     "loop_phases",
     "match_histograms_cells",
+    "mirror_axes",
     "motion_arrows",
     "motion_blur",
     "motion_spectra",

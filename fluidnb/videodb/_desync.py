@@ -13,7 +13,10 @@ starts its loop at a temporal offset: 0 unless one of its 8 neighbours already p
 same database fragment, else the first offset of a golden-ratio sequence that is at
 least a quarter of the loop away from every such neighbour's (:func:`temporal_offsets`).
 A loop shifted in time is still seamless, and fragments that are not repeated render
-exactly as before. :func:`sync_share` measures what is left: the share of neighbouring
+exactly as before. A slowly changing fragment (smoke) looks alike at every time, so
+repeated neighbours are also mirrored, alternately, across the axis of their motion
+(:func:`mirror_axes`: a fragment moving sideways is flipped upside down, which keeps its
+sideways motion). :func:`sync_share` measures what is left: the share of neighbouring
 target fragments that show the same source pixels at the same time.
 """
 
@@ -25,7 +28,7 @@ from .._validation import check_array, check_int
 from ._composite import loop_crossfade
 from ._geometry import STRIDE
 
-__all__ = ["stagger", "sync_share", "temporal_offsets"]
+__all__ = ["mirror_axes", "stagger", "sync_share", "temporal_offsets"]
 
 # The golden ratio's fractional part: successive multiples spread evenly over a cycle.
 _GOLDEN = (5**0.5 - 1) / 2
@@ -82,17 +85,28 @@ def temporal_offsets(fragments, positions, length):
     out = np.zeros(len(ids), np.int64)
     if len(ids) == 0 or length == 1:
         return out
-    order = np.lexsort((grid[:, 1], grid[:, 0]))
-    where = {(int(r), int(c)): i for i, (r, c) in enumerate(grid)}
     # The distinct offsets of the golden-ratio sequence, in its own order.
     seq = np.floor(np.mod(np.arange(1, 4 * length) * _GOLDEN, 1) * length).astype(np.int64)
     _, first = np.unique(seq, return_index=True)
     choices = seq[np.sort(first)]
+    for i, twins in _earlier_twins(ids, grid):
+        if twins:
+            gaps = np.abs(choices[:, None] - out[twins][None, :]) % length
+            gaps = np.minimum(gaps, length - gaps).min(axis=1)
+            good = np.flatnonzero(gaps * 4 >= length)
+            out[i] = choices[good[0]] if len(good) else choices[np.argmax(gaps)]
+    return out
+
+
+def _earlier_twins(ids, grid):
+    """For each target fragment (raster order), its visited 8-neighbours with its id."""
+    where = {(int(r), int(c)): i for i, (r, c) in enumerate(grid)}
+    order = np.lexsort((grid[:, 1], grid[:, 0]))
     done = np.zeros(len(ids), bool)
     for i in order:
         r, c = grid[i]
-        taken = [
-            out[j]
+        twins = [
+            j
             for dr in (-1, 0, 1)
             for dc in (-1, 0, 1)
             if (dr or dc)
@@ -100,22 +114,57 @@ def temporal_offsets(fragments, positions, length):
             and done[j]
             and ids[j] == ids[i]
         ]
-        if taken:
-            gaps = np.abs(choices[:, None] - np.array(taken)[None, :]) % length
-            gaps = np.minimum(gaps, length - gaps).min(axis=1)
-            good = np.flatnonzero(gaps * 4 >= length)
-            out[i] = choices[good[0]] if len(good) else choices[np.argmax(gaps)]
+        yield i, twins
         done[i] = True
+
+
+def mirror_axes(fragments, positions, motion):
+    r"""Which repeated neighbours to mirror, and across which axis.
+
+    In raster order, a target fragment that has already visited 8-neighbours playing
+    the same database fragment is mirrored unless most of them are (so repeats
+    alternate); a fragment with no such neighbour is not. The axis keeps the
+    fragment's motion: a fragment moving more sideways than up or down (:math:`|dx|
+    \ge |dy|`) is flipped upside down (axis 0: its :math:`dy` changes sign), one
+    moving up or down is flipped left to right (axis 1).
+
+    Parameters
+    ----------
+    fragments : ndarray, shape (P,), int
+    positions : ndarray, shape (P, 2), int
+    motion : ndarray, shape (P, 2)
+        Each assigned fragment's mean motion (dy, dx).
+
+    Returns
+    -------
+    ndarray, shape (P,), int8
+        -1: not mirrored; 0: flipped upside down; 1: flipped left to right.
+
+    Examples
+    --------
+    >>> pos = [[0, 0], [0, 24], [0, 48], [0, 72]]
+    >>> mirror_axes([7, 7, 7, 3], pos, [[0, 1.0], [0, 1.0], [0, 1.0], [1.0, 0]]).tolist()
+    [-1, 0, -1, -1]
+    """
+    grid = _grid(positions)
+    ids = _check_fragments(fragments, len(grid))
+    m = np.asarray(motion, np.float64)
+    if m.shape != (len(ids), 2):
+        raise ValueError(f"motion must have shape ({len(ids)}, 2), got {m.shape}")
+    out = np.full(len(ids), -1, np.int8)
+    for i, twins in _earlier_twins(ids, grid):
+        if twins and 2 * sum(out[j] >= 0 for j in twins) <= len(twins):
+            out[i] = 0 if abs(m[i, 1]) >= abs(m[i, 0]) else 1
     return out
 
 
-def sync_share(fragments, positions, offsets=None):
+def sync_share(fragments, positions, offsets=None, mirrors=None):
     r"""The share of neighbouring target fragments that play the same frames in sync.
 
     Over the pairs of 4-neighbouring target fragments, the fraction whose overlap
     shows the same source pixels at the same time: the same database fragment, at the
-    same temporal offset (no mirror is ever applied). 0 means no fragment is repeated
-    in sync next to itself.
+    same temporal offset, mirrored alike. 0 means no fragment is repeated in sync next
+    to itself.
 
     Parameters
     ----------
@@ -123,6 +172,8 @@ def sync_share(fragments, positions, offsets=None):
     positions : ndarray, shape (P, 2), int
     offsets : ndarray, shape (P,), optional
         Temporal offsets (default all 0: the paper's rendering).
+    mirrors : ndarray, shape (P,), optional
+        Mirror axes as :func:`mirror_axes` gives them (default none mirrored).
 
     Returns
     -------
@@ -142,6 +193,9 @@ def sync_share(fragments, positions, offsets=None):
     offs = np.zeros(len(ids), np.int64) if offsets is None else np.asarray(offsets, np.int64)
     if offs.shape != ids.shape:
         raise ValueError(f"offsets must have shape {ids.shape}, got {offs.shape}")
+    flips = np.full(len(ids), -1) if mirrors is None else np.asarray(mirrors, np.int64)
+    if flips.shape != ids.shape:
+        raise ValueError(f"mirrors must have shape {ids.shape}, got {flips.shape}")
     where = {(int(r), int(c)): i for i, (r, c) in enumerate(grid)}
     pairs = same = 0
     for i, (r, c) in enumerate(grid):
@@ -150,11 +204,11 @@ def sync_share(fragments, positions, offsets=None):
             if j is None:
                 continue
             pairs += 1
-            same += ids[i] == ids[j] and offs[i] == offs[j]
+            same += ids[i] == ids[j] and offs[i] == offs[j] and flips[i] == flips[j]
     return float(same / pairs) if pairs else 0.0
 
 
-def stagger(diffs, offsets, *, overlap, rates=None, n_frames=None):
+def stagger(diffs, offsets, *, overlap, rates=None, n_frames=None, mirrors=None):
     r"""Each fragment's difference frames as a loop of its own, started at its offset.
 
     Every fragment's :math:`N` frames become a seamless loop of :math:`L = N -`
@@ -179,6 +233,9 @@ def stagger(diffs, offsets, *, overlap, rates=None, n_frames=None):
         the result to loop.
     n_frames : int, optional
         Frames to make (default :math:`L`).
+    mirrors : ndarray, shape (P,), optional
+        Per fragment, the spatial axis its frames are flipped across (0: upside
+        down, 1: left to right, -1: none; :func:`mirror_axes`).
 
     Returns
     -------
@@ -198,6 +255,17 @@ def stagger(diffs, offsets, *, overlap, rates=None, n_frames=None):
     r = np.ones(len(offs)) if rates is None else np.asarray(rates, np.float64)
     if r.shape != offs.shape:
         raise ValueError(f"rates must have shape {offs.shape}, got {r.shape}")
+    if mirrors is not None:
+        flips = np.asarray(mirrors, np.int64)
+        if flips.shape != offs.shape or looped.ndim < 4:
+            raise ValueError(
+                f"mirrors must have shape {offs.shape} for frames (P, N, H, W, ...), "
+                f"got {flips.shape} for {d.shape}"
+            )
+        for axis in (0, 1):
+            sel = flips == axis
+            if sel.any():
+                looped[sel] = np.flip(looped[sel], axis=2 + axis)
     if not offs.any() and (r == 1).all() and n_frames == length:
         return np.ascontiguousarray(looped)
     times = np.mod(offs[:, None] + r[:, None] * np.arange(n_frames)[None, :], length)

@@ -23,7 +23,7 @@ from ._appearance import match_histograms_cells, motion_blur
 from ._assign import Assignment, _check_params
 from ._blend import MARGIN, blend_differences, blend_values
 from ._composite import _restore_area, composite, dynamic_matte, inpaint_background
-from ._desync import stagger, temporal_offsets
+from ._desync import mirror_axes, stagger, temporal_offsets
 from ._flow_render import (
     displacement_maps,
     eulerian_loop,
@@ -54,7 +54,8 @@ class Animation:
         ``"unmatched"`` the frames before histogram matching, ``"matte"`` the
         (dynamic) matte :math:`B_i` (T, H, W), ``"background"`` the image behind the
         fluid, ``"offsets"`` each target fragment's temporal offset (P,)
-        (:func:`temporal_offsets`). The paper's: ``"mean"`` the approximate mean
+        (:func:`temporal_offsets`) and ``"mirrors"`` its mirror axis (P,)
+        (:func:`mirror_axes`). The paper's: ``"mean"`` the approximate mean
         image (H, W, 3). The flow rendering's: ``"velocity"`` the motion field
         (H, W, 2), ``"phase_a"`` and ``"phase_b"`` the two advected phases
         (T, H, W, 3), ``"ages"`` and ``"weights"`` their ages (frames) and weights
@@ -145,17 +146,21 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
         diffs[lo : lo + step] = frames - frames.mean(axis=1, keepdims=True)  # D_i = F_i - A
         rebuild(min(1.0, (lo + step) / len(ids)), "rebuilding fragments")
     offsets = np.zeros(len(ids), np.int64)
+    mirrors = np.full(len(ids), -1, np.int8)
     flow = _flow_plan(assignment, params, n) if params.rendering == "flow" else None
     if params.loop:
         # Beyond the paper: each fragment loops on its own, and neighbours that share a
-        # database fragment start it at different times (no tile pattern).
+        # database fragment start it at different times and mirrored (no tile pattern).
         offsets = temporal_offsets(ids, target.positions, n - params.loop)
+        mirrors = mirror_axes(ids, target.positions, db.mean_motion[ids])
         rates = n_frames = None
         if flow is not None and not np.all(flow["rates"] == 1):
             # Fragments play at different rates: make all the clip's frames before the
             # blend. At rate 1 the blended loop is simply repeated (see _render_flow).
             rates, n_frames = flow["rates"], flow["n_frames"]
-        diffs = stagger(diffs, offsets, overlap=params.loop, rates=rates, n_frames=n_frames)
+        diffs = stagger(
+            diffs, offsets, overlap=params.loop, rates=rates, n_frames=n_frames, mirrors=mirrors
+        )
     clock["rebuild"] = time.perf_counter() - t
 
     t = time.perf_counter()
@@ -168,7 +173,7 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
             assignment, params, d, flow, background, report.sub(0.6, 1.0)
         )
         clock.update(flow_clock)
-        return _animation(assignment, params, out, stages, clock, offsets, fps)
+        return _animation(assignment, params, out, stages, clock, (offsets, mirrors), fps)
 
     t = time.perf_counter()
     mean(0.0, "approximate mean image (pseudo motion blur)")
@@ -185,7 +190,10 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     t = time.perf_counter()
     comp(0.0, "compositing")
     if params.tau > 0:
-        motion = blend_values(db.motion[ids], target.positions, (hc, wc))  # (Hc, Wc, N - 1, 2)
+        per_fragment = db.motion[ids].astype(np.float32)  # (P, N - 1, 2)
+        for axis in (0, 1):  # a mirrored fragment moves mirrored
+            per_fragment[mirrors == axis, :, axis] *= -1
+        motion = blend_values(per_fragment, target.positions, (hc, wc))  # (Hc, Wc, N - 1, 2)
         motion = np.moveaxis(motion, 2, 0)[: len(matched) - 1]
         matte = dynamic_matte(target.canvas_matte, motion, tau=params.tau)
         if background is None:
@@ -209,13 +217,13 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
         ],
         "background": back[:h, :w],
     }
-    return _animation(assignment, params, out, stages, clock, offsets, fps)
+    return _animation(assignment, params, out, stages, clock, (offsets, mirrors), fps)
 
 
-def _animation(assignment, params, out, stages, clock, offsets, fps):
+def _animation(assignment, params, out, stages, clock, desync, fps):
     """The Animation: the clip with its metadata, the stages and the timings."""
     db = assignment.db
-    stages["offsets"] = offsets
+    stages["offsets"], stages["mirrors"] = desync
     timings = {**{f"assign_{k}": v for k, v in assignment.timings.items()}, **clock}
     timings["render"] = sum(clock.values())
     meta = {

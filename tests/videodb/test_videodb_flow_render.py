@@ -22,6 +22,7 @@ from fluidnb.videodb import (
     flow_timing,
     loop_crossfade,
     loop_phases,
+    mirror_axes,
     reference_eulerian_loop,
     reference_fill,
     render,
@@ -267,8 +268,30 @@ def test_a_uniform_photo_no_longer_plays_a_fragment_in_sync(db):
     a = assign(img, None, db, AnimateParams(candidates=3, lam=1.0, loop=4))
     anim = render(a, FEW.replace(rendering="paper"))
     pos = a.target.positions
+    st = anim.stages
     assert sync_share(a.fragments, pos) > 0  # the MRF repeats fragments
-    assert sync_share(a.fragments, pos, anim.stages["offsets"]) == 0.0
+    assert sync_share(a.fragments, pos, st["offsets"]) == 0.0
+    assert sync_share(a.fragments, pos, st["offsets"], st["mirrors"]) == 0.0
+    assert (st["mirrors"] >= 0).any()
+    # Everything moves right: mirrored fragments are flipped upside down (axis 0),
+    # which keeps their motion.
+    assert set(st["mirrors"].tolist()) <= {-1, 0}
+
+
+def test_repeated_neighbours_alternate_mirrors_across_their_motion():
+    pos = np.array([[0, 24 * k] for k in range(6)])
+    sideways = np.tile([0.1, 1.0], (6, 1))
+    assert mirror_axes([4] * 6, pos, sideways).tolist() == [-1, 0, -1, 0, -1, 0]
+    upwards = np.tile([-1.0, 0.2], (6, 1))
+    assert mirror_axes([4] * 6, pos, upwards).tolist() == [-1, 1, -1, 1, -1, 1]
+    assert mirror_axes([1, 2, 3, 4, 5, 6], pos, sideways).tolist() == [-1] * 6
+    # The frames of a mirrored fragment are flipped, and only its.
+    gen = np.random.default_rng(4)
+    diffs = gen.standard_normal((2, 8, 6, 6)).astype(np.float32)
+    plain = stagger(diffs, [0, 0], overlap=2)
+    flipped = stagger(diffs, [0, 0], overlap=2, mirrors=[-1, 0])
+    np.testing.assert_array_equal(flipped[0], plain[0])
+    np.testing.assert_array_equal(flipped[1], plain[1][:, ::-1])
 
 
 # ------------------------------------------------------------------ exemplar fill
