@@ -358,6 +358,31 @@ def frames_in_axes(mean, differences, centre, axes, *, unmatched=None):
     return out if unmatched is None else (out, frames)
 
 
+def colours_in_axes(frames, centre, axes):
+    """Colours (..., 3) in the colour axes: ``(x - centre) @ axes`` (float32, one pass).
+
+    Each coordinate summed as ``(g_0 a_0 + g_1 a_1) + g_2 a_2``, as
+    :func:`frames_in_axes`.
+    """
+    x = np.ascontiguousarray(frames, dtype=np.float32)
+    out = np.empty_like(x)
+    _colours_in_axes(
+        x.reshape(-1, 3), centre.astype(np.float32), np.ascontiguousarray(axes, np.float32),
+        out.reshape(-1, 3),
+    )  # fmt: skip
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _colours_in_axes(x, centre, axes, out):
+    for i in range(x.shape[0]):
+        g0 = x[i, 0] - centre[0]
+        g1 = x[i, 1] - centre[1]
+        g2 = x[i, 2] - centre[2]
+        for k in range(3):
+            out[i, k] = (g0 * axes[0, k] + g1 * axes[1, k]) + g2 * axes[2, k]
+
+
 def frames_from_axes(coordinates, centre, axes):
     """Colours back from the colour axes, in place: ``x @ axes.T + centre`` (float32)."""
     x = np.ascontiguousarray(coordinates, dtype=np.float32)

@@ -507,6 +507,75 @@ def _difference_frames(f, sin, cos, out):
                 o[j] = np.float32(m + sin[j] * head + cos[j] * tail)
 
 
+def play_loops(loops, offsets, *, rates=None, n_frames=None, mirrors=None):
+    r"""Every fragment's loop played from its offset, mirrored, at its rate, pixel-major.
+
+    What :func:`fluidnb.videodb.stagger` does after making the loops, for loops
+    already made (:func:`difference_frames`, kept in the frame cache) and laid out as
+    the blend reads them: fragment ``p`` shows frame :math:`(o_p + r_p t) \bmod L` of
+    its loop at time :math:`t` (linear between frames at fractional times), flipped
+    across ``mirrors[p]`` (0: upside down, 1: left to right, -1: not). The times are
+    computed as ``stagger`` computes them and the interpolation is the same float32
+    ``a + f (b - a)``, so the frames are ``stagger``'s bit for bit (tested).
+
+    Parameters
+    ----------
+    loops : sequence of ndarray, shape (s, s, L), float32
+        Each fragment's loop, pixel-major.
+    offsets : ndarray, shape (P,)
+        :math:`o_p`, in frames.
+    rates : ndarray, shape (P,), optional
+        :math:`r_p`, frames of the loop played per frame (default 1).
+    n_frames : int, optional
+        Frames to make (default :math:`L`).
+    mirrors : ndarray, shape (P,), optional
+        Per fragment -1, 0 or 1 (default -1).
+
+    Returns
+    -------
+    ndarray, shape (P, s, s, n_frames), float32
+    """
+    p = len(loops)
+    offs = np.asarray(offsets, np.float64)
+    if offs.shape != (p,):
+        raise ValueError(f"offsets must have shape ({p},), got {offs.shape}")
+    if p == 0:
+        return np.zeros((0, FRAGMENT, FRAGMENT, 0 if n_frames is None else n_frames), np.float32)
+    side, length = loops[0].shape[0], loops[0].shape[2]
+    n_frames = length if n_frames is None else check_int("n_frames", n_frames, 1)
+    r = np.ones(p) if rates is None else np.asarray(rates, np.float64)
+    flips = np.full(p, -1, np.int64) if mirrors is None else np.asarray(mirrors, np.int64)
+    if r.shape != (p,) or flips.shape != (p,):
+        raise ValueError(f"rates and mirrors must have shape ({p},)")
+    # As stagger: times mod L in float64, the frame below and the fraction in float32.
+    times = np.mod(offs[:, None] + r[:, None] * np.arange(n_frames)[None, :], length)
+    i0 = np.floor(times).astype(np.int64)
+    frac = (times - i0).astype(np.float32)
+    out = np.empty((p, side, side, n_frames), np.float32)
+    for k in range(p):
+        _play_loop(
+            np.ascontiguousarray(loops[k], np.float32), i0[k] % length, (i0[k] + 1) % length,
+            frac[k], flips[k], out[k],
+        )  # fmt: skip
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _play_loop(loop, below, above, frac, mirror, out):
+    side = loop.shape[0]
+    for r in range(side):
+        rr = side - 1 - r if mirror == 0 else r
+        for c in range(side):
+            cc = side - 1 - c if mirror == 1 else c
+            src = loop[rr, cc]
+            dst = out[r, c]
+            for t in range(frac.shape[0]):
+                v = src[below[t]]
+                if frac[t] != 0:
+                    v = v + frac[t] * (src[above[t]] - v)
+                dst[t] = v
+
+
 def _in_order(fn, items):
     """``fn(item)`` for every item, computed on threads, yielded in the items' order.
 
