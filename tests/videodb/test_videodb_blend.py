@@ -293,3 +293,22 @@ def test_difference_frames_are_the_frames_minus_their_mean_cross_faded():
         assert np.array_equal(got[loop:], d[loop : 12 - loop])
     with pytest.raises(ValueError, match="loop must be"):
         difference_frames(frames, 7)
+
+
+def test_play_loops_is_stagger_on_loops_already_made():
+    from fluidnb.videodb import loop_crossfade, stagger
+    from fluidnb.videodb._blend import play_loops
+
+    gen = np.random.default_rng(4)
+    diffs = gen.standard_normal((5, 10, 8, 8)).astype(np.float32)
+    offsets = np.array([0, 3, 5, 1, 0])
+    rates = np.array([1.0, 0.5, 1.5, 1.0, 0.25])
+    mirrors = np.array([-1, 0, 1, -1, 0])
+    loops = np.moveaxis(loop_crossfade(np.moveaxis(diffs, 1, 0), overlap=3), 0, 1)
+    pixel_major = [np.moveaxis(x, 0, 2) for x in loops]
+    for kw in ({}, {"mirrors": mirrors}, {"rates": rates, "n_frames": 14, "mirrors": mirrors}):
+        want = np.moveaxis(stagger(diffs, offsets, overlap=3, **kw), 1, 3)
+        assert np.array_equal(play_loops(pixel_major, offsets, **kw), want)
+    assert np.array_equal(play_loops(pixel_major, np.zeros(5)), np.moveaxis(loops, 1, 3))
+    with pytest.raises(ValueError, match="offsets must have shape"):
+        play_loops(pixel_major, offsets[:2])

@@ -228,7 +228,7 @@ def test_a_render_from_the_reference_frames_differs_only_by_round_off(built, mon
     gen = np.random.default_rng(5)
     photo = moving_texture(7, shape=(96, 120), frames=1)[0]
     photo = np.clip(photo + 0.05 * gen.random(photo.shape), 0, 1).astype(np.float32)
-    a = assign(photo, None, db, AnimateParams(candidates=10, loop=2))
+    a = assign(photo, None, db, AnimateParams(candidates=10, loop=2, rendering="paper"))
     fast = render(a)
 
     def plain(db, ids, *, margin, grey, differences=None, progress=None):
@@ -269,22 +269,32 @@ def test_frames_decoded_directly_equal_zarrs_and_bad_chunks_go_to_zarr(db, tmp_p
     assert not frames_module._decode(file, np.empty(7, np.uint8), True)  # another size
 
 
-def test_the_loop_fades_the_fragments_before_the_blend_as_after_it(built):
-    """Cross-fade and blend commute (both linear): fading first blends fewer frames."""
-    from fluidnb.videodb import AnimateParams, assign, blend_differences, loop_crossfade, render
+@pytest.mark.parametrize("rendering", ["paper", "flow"])
+def test_the_renders_differences_are_staggers_blended(built, rendering):
+    """The compiled loops (difference_frames, play_loops) against stagger and the blend."""
+    from fluidnb.videodb import AnimateParams, assign, blend_differences, render, stagger
 
     db = open_database(built.path)
     photo = moving_texture(8, shape=(96, 120), frames=1)[0]
-    a = assign(photo, None, db, AnimateParams(candidates=10, loop=3))
+    params = AnimateParams(candidates=10, loop=3, rendering=rendering)
+    a = assign(photo, None, db, params)
     anim = render(a)
     frames = db.fragment_frames(a.fragments, margin=12, grey=True)
     diffs = frames - frames.mean(axis=1, keepdims=True)
+    st = anim.stages
+    timing = {}
+    if rendering == "flow":
+        from fluidnb.videodb._render import _flow_plan
+
+        plan = _flow_plan(a, a.params, db.params.N)
+        if not np.all(plan["rates"] == 1):  # the detail plays at the painted speed
+            timing = {"rates": plan["rates"], "n_frames": plan["n_frames"]}
+    looped = stagger(diffs, st["offsets"], overlap=3, mirrors=st["mirrors"], **timing)
     canvas = a.target.canvas.shape[:2]
-    blended = blend_differences(diffs, a.target.positions, canvas, margin=12)
-    after = loop_crossfade(blended, overlap=3)
+    blended = blend_differences(looped, a.target.positions, canvas, margin=12)
     h, w = a.target.shape
-    assert anim.stages["differences"].shape == (db.params.N - 3, h, w)
-    np.testing.assert_allclose(anim.stages["differences"], after[:, :h, :w], rtol=0, atol=1e-6)
+    got = st["differences"][: len(blended)]
+    np.testing.assert_allclose(got, blended[:, :h, :w], rtol=0, atol=1e-6)
 
 
 def test_a_render_keeps_the_fragments_differences_for_the_next(built):
@@ -292,7 +302,7 @@ def test_a_render_keeps_the_fragments_differences_for_the_next(built):
 
     db = open_database(built.path)
     photo = moving_texture(9, shape=(96, 120), frames=1)[0]
-    a = assign(photo, None, db, AnimateParams(candidates=10, loop=2))
+    a = assign(photo, None, db, AnimateParams(candidates=10, loop=2, rendering="paper"))
     first = render(a)
     n = len(np.unique(a.fragments))
     assert db.cache.misses == n
