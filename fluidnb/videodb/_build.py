@@ -48,7 +48,7 @@ import numpy as np
 
 from .._progress import Progress
 from .._validation import check_int
-from ._features import grey, window_features
+from ._features import grey
 from ._geometry import FRAGMENT
 from ._lock import database_lock, lock_files
 from ._params import DatabaseParams
@@ -103,8 +103,9 @@ def clip_fragments(frames, params=None, *, clip=0, versions=None):
 
     Windows of ``N`` frames follow each other every ``N - window_overlap`` frames;
     within each window the optical flow is computed once on the clip and carried to
-    every augmented version, whose fragments (48 x 48 on the stride-24 grid, wholly
-    inside the version) keep their features when at least one pixel moves.
+    every augmented version (:func:`transform_flow`), whose fragments (48 x 48 on the
+    stride-24 grid, wholly inside the version) keep their features
+    (:func:`window_features`) when at least one pixel moves.
 
     Parameters
     ----------
@@ -123,7 +124,8 @@ def clip_fragments(frames, params=None, *, clip=0, versions=None):
         :func:`window_features` plus ``source`` (k, 5) int32 and ``descriptors``
         (k, 9, 9, 128) uint8 (dense SIFT of the rounded mean images).
     """
-    from ._augment import sample_version, transform_flow, valid_positions
+    from ._augment import VersionSampler, mirror_order, valid_positions
+    from ._features import pixel_features
     from ._flow import optical_flow
     from ._sift import dense_sift
     from ._store import fragment_grey
@@ -141,24 +143,31 @@ def clip_fragments(frames, params=None, *, clip=0, versions=None):
         g = grey(window)
         flow = optical_flow(g, backend=params.flow)
         mean = window.astype(np.float32).mean(axis=0) / np.float32(255)
-        for v, pos in positions.items():
-            keep, feats = window_features(
-                sample_version(g, v),
-                sample_version(mean[None], v)[0],
-                transform_flow(flow, v),
-                pos,
+        # Every version sampled from one prepared copy of the window, each mirror pair
+        # once (VersionSampler): the same pixels as sample_version / transform_flow.
+        samplers = VersionSampler(g), VersionSampler(mean[None]), VersionSampler(flow, vectors=True)
+        batches = {}
+        for v in mirror_order(positions):
+            stack, colour, motion = (sample(v) for sample in samplers)
+            keep, feats = pixel_features(
+                stack,
+                colour,
+                motion,
+                positions[v],
                 threshold=params.motion_threshold,
                 n_bins=params.n_bins,
             )
             if feats is None:
                 continue
-            kept = pos[keep]
+            kept = positions[v][keep]
             source = np.empty((len(kept), 5), np.int32)
             source[:, 0], source[:, 1], source[:, 2] = clip, v, start
             source[:, 3:] = kept
             feats["source"] = source
             feats["descriptors"] = dense_sift(fragment_grey(feats["mean"]))
-            yield feats
+            batches[v] = feats
+        for v in sorted(batches):  # in the order of the versions
+            yield batches[v]
 
 
 class _ChunkWriter:
@@ -213,14 +222,16 @@ def _process_clip(root, index, params_dict, codebook):
         words_writer = None
     else:
         words_writer = _ChunkWriter(clip, {"words": layout["words"]})
+    from ._flow import opencv_single_threaded
     from ._words import quantise
 
-    for batch in clip_fragments(frames, params, clip=index):
-        writer.add({n: batch[n] for n in names})
-        if descs is not None:
-            descs.add({"d": batch["descriptors"]})
-        else:
-            words_writer.add({"words": quantise(batch["descriptors"], codebook)})
+    with opencv_single_threaded():  # the clips run side by side: one thread each
+        for batch in clip_fragments(frames, params, clip=index):
+            writer.add({n: batch[n] for n in names})
+            if descs is not None:
+                descs.add({"d": batch["descriptors"]})
+            else:
+                words_writer.add({"words": quantise(batch["descriptors"], codebook)})
     count = writer.close()
     if descs is not None:
         descs.close()
