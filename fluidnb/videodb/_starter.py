@@ -29,7 +29,7 @@ __all__ = ["STARTER_KINDS", "starter_database", "starter_params", "starter_path"
 
 
 # Bump when the clips or the build change what a starter database holds.
-_VERSION = 4  # 4: format version 2 (chunk checksums)
+_VERSION = 5  # 4: format version 2 (chunk checksums); 5: water clips whose motion changes in time
 
 
 def _quick(quick):
