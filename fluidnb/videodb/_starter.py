@@ -3,9 +3,15 @@
 No real fluid footage ships with any package registry, so fluidnb makes its own
 (:func:`~fluidnb.videodb.starter_clips`): smoke from its fluid solver, fire from its
 fire method, water by advecting water textures along varied flows. The first call of
-:func:`starter_database` builds the database from those clips (about a minute on two
+:func:`starter_database` builds the database from those clips (15-30 s on two
 cores; seconds in quick mode) and keeps it in the cache folder
 (``$FLUIDNB_CACHE_DIR``, else ``~/.cache/fluidnb``); later calls open it.
+
+So that a lesson's first run does not wait for all of that, ``python3 dev.py lab``
+starts :func:`prebuild_starters` in a background process while JupyterLab opens
+(water first: the lessons' and the app's first need), and Binder builds them when it
+builds its image (``binder/postBuild``). A notebook asking for a database the
+background process is building waits for it (the cache's lock), then opens it.
 """
 
 from __future__ import annotations
@@ -25,7 +31,13 @@ from ._params import DatabaseParams
 from ._starter_clips import STARTER_KINDS
 from ._store import folder_state, open_database
 
-__all__ = ["STARTER_KINDS", "starter_database", "starter_params", "starter_path"]
+__all__ = [
+    "STARTER_KINDS",
+    "prebuild_starters",
+    "starter_database",
+    "starter_params",
+    "starter_path",
+]
 
 
 # Bump when the clips or the build change what a starter database holds.
@@ -108,6 +120,42 @@ def starter_database(kind="water", *, quick=None, rebuild=False, progress=None):
                 return db
         _build_starter(kind, quick, path, report)
     return open_database(path)
+
+
+def prebuild_starters(kinds=STARTER_KINDS, *, quick=None, progress=None):
+    """Build the starter databases missing from the cache, one after the other.
+
+    What ``python3 dev.py lab`` runs in a background process while JupyterLab starts
+    (``python -m fluidnb.videodb``): each kind is built, in the order given (water
+    first: what the lessons and the app ask for first), under the cache's lock, so a
+    notebook asking for it meanwhile waits and then opens it; a database already
+    cached is not opened, and one another process is building is waited for.
+
+    Parameters
+    ----------
+    kinds : sequence of str
+        The kinds, in the order to build them.
+    quick : bool, optional
+        The quick databases (default: as ``FLUIDNB_QUICK`` says).
+    progress : callable, optional
+        ``progress(fraction, message)`` over all of them.
+
+    Returns
+    -------
+    list of str
+        The kinds this call built (not those found in the cache).
+    """
+    kinds = [check_choice("kinds", kind, STARTER_KINDS) for kind in kinds]
+    parts = Progress(progress).split(*(i / len(kinds) for i in range(1, len(kinds))))
+    built = []
+    for kind, part in zip(kinds, parts):
+        path = starter_path(kind, quick=quick)
+        if folder_state(path) == "database":
+            part(1.0, f"starter {kind} database (cached)")
+            continue
+        starter_database(kind, quick=quick, progress=part)
+        built.append(kind)
+    return built
 
 
 def _build_starter(kind, quick, path, report):
