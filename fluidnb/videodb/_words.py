@@ -52,6 +52,7 @@ from ._geometry import FRAGMENT, GRID, LEVELS
 
 __all__ = [
     "CELLS",
+    "CODEBOOK_THREADS",
     "HISTOGRAM_TOTAL",
     "LEVEL_WEIGHTS",
     "fit_codebook",
@@ -109,13 +110,29 @@ def pyramid_cells():
     return out
 
 
+#: OpenMP threads of the clustering, fixed. scikit-learn splits each Lloyd iteration's
+#: float sums between its threads, so another count gives centres that differ in the
+#: last bits -- or, now and then, a bisection that goes another way: the codebook
+#: depended on the machine's cores and on ``OMP_NUM_THREADS`` (which dask.distributed
+#: sets to 1). Fixed, the same descriptors give the same codebook everywhere; two, the
+#: count the starter databases were first built with.
+CODEBOOK_THREADS = 2
+
+
 def _bisecting_kmeans(k, random_state):
     """The clustering :func:`fit_codebook` runs (the tests build the same one)."""
     from sklearn.cluster import BisectingKMeans
 
+    class _FixedThreads(BisectingKMeans):
+        # fit() sets _n_threads from the environment; every bisection (its Lloyd
+        # iterations and inertias) then runs on CODEBOOK_THREADS instead.
+        def _bisect(self, *args, **kwargs):
+            self._n_threads = CODEBOOK_THREADS
+            return super()._bisect(*args, **kwargs)
+
     # scikit-learn's defaults otherwise: random init, one init per bisection, Lloyd,
     # split the cluster of largest inertia.
-    return BisectingKMeans(n_clusters=k, random_state=random_state)
+    return _FixedThreads(n_clusters=k, random_state=random_state)
 
 
 def fit_codebook(descriptors, k=200, *, max_samples=1_000_000, seed=0):
