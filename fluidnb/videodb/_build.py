@@ -273,7 +273,9 @@ def build_database(
     sources : sequence
         The clips: video files, folders of frames, :class:`fluidnb.Clip` objects,
         ``(T, H, W[, 3])`` arrays, or ``(name, source)`` pairs (see
-        :func:`read_video`).
+        :func:`read_video`); or functions of no argument that return one, called
+        when the clip's turn comes (e.g. ``future.result`` of a clip still being
+        made: the clips before it are cut into fragments meanwhile).
     path : str or os.PathLike
         A new (or empty) folder for the database; with ``resume=True``, the folder of
         an interrupted build of the same sources.

@@ -20,6 +20,7 @@ import contextlib
 import os
 import shutil
 import tempfile
+import threading
 from pathlib import Path
 
 from .._cache import cache_dir
@@ -159,37 +160,70 @@ def prebuild_starters(kinds=STARTER_KINDS, *, quick=None, progress=None):
 
 
 def _build_starter(kind, quick, path, report):
-    """Build into ``<path>.partial`` (resuming what a killed process left), then move it."""
-    from ._starter_clips import starter_clips
+    """Build into ``<path>.partial`` (resuming what a killed process left), then move it.
+
+    The clips are made on threads of their own while the build cuts each into
+    fragments as soon as it is made (their futures are the build's sources).
+    """
+    from concurrent.futures import ThreadPoolExecutor
+
+    from ._starter_clips import submit_clips
 
     partial = path.parent / f"{path.name}.partial"
     if folder_state(partial) != "database":  # else: built, then killed before the move
         if folder_state(partial) in ("file", "foreign"):
             _remove(partial)
-        make, build = report.split(0.3)
-        clips = starter_clips(kind, quick=quick, seed=0, progress=make)
+        progress = _Blend(report, 0.3)
+        with ThreadPoolExecutor(os.cpu_count() or 1, thread_name_prefix="fluidnb-clips") as pool:
+            futures = submit_clips(pool, kind, quick=quick, seed=0, progress=progress.first)
+            try:
 
-        def run(resume):
-            build_database(
-                clips,
-                partial,
-                kind=kind,
-                params=starter_params(),
-                seed=0,
-                resume=resume,
-                progress=build,
-            )
+                def run(resume):
+                    build_database(
+                        [future.result for future in futures],
+                        partial,
+                        kind=kind,
+                        params=starter_params(),
+                        seed=0,
+                        resume=resume,
+                        progress=progress.second,
+                    )
 
-        try:
-            run(resume=True)  # an unfinished build of the same clips, or a fresh one
-        except ValueError:
-            if folder_state(partial) != "unfinished":
+                try:
+                    run(resume=True)  # an unfinished build of the same clips, or a fresh one
+                except ValueError:
+                    if folder_state(partial) != "unfinished":
+                        raise
+                    _remove(partial)  # an unfinished build of other clips: start afresh
+                    run(resume=False)
+            except BaseException:
+                for future in futures:
+                    future.cancel()
                 raise
-            _remove(partial)  # an unfinished build of other clips: start afresh
-            run(resume=False)
     if path.exists():
         _remove(path)
     os.replace(partial, path)
+
+
+class _Blend:
+    """One progress bar for two jobs running at once: ``w`` of the first, the rest the second."""
+
+    def __init__(self, report, weight):
+        self.report, self.weight = report, weight
+        self.fractions = [0.0, 0.0]
+        self.lock = threading.Lock()
+
+    def _part(self, i, fraction, message):
+        with self.lock:
+            self.fractions[i] = max(self.fractions[i], min(max(float(fraction), 0.0), 1.0))
+            a, b = self.fractions
+            self.report(self.weight * a + (1.0 - self.weight) * b, message)
+
+    def first(self, fraction, message=""):
+        self._part(0, fraction, message)
+
+    def second(self, fraction, message=""):
+        self._part(1, fraction, message)
 
 
 def _remove(path):

@@ -120,11 +120,30 @@ def starter_clips(kind, *, quick=False, seed=0, workers=None, progress=None):
     >>> clips[0][1].metadata["params"]["flow"]["type"]
     'shear'
     """
+    workers = (os.cpu_count() or 1) if workers is None else check_int("workers", workers, 1, 64)
+    with ThreadPoolExecutor(workers) as pool:
+        futures = submit_clips(pool, kind, quick=quick, seed=seed, progress=progress)
+        try:
+            return [f.result() for f in futures]
+        except BaseException:
+            for f in futures:
+                f.cancel()
+            raise
+
+
+def submit_clips(pool, kind, *, quick=False, seed=0, progress=None):
+    """:func:`starter_clips`' clips, each made by a task of ``pool``: their futures, in order.
+
+    Clips are independent (each has its own seed) and the solver's and synthesis'
+    compiled kernels release the GIL: made side by side on threads, whose results
+    are the same whatever their number. A starter build hands these futures to
+    :func:`~fluidnb.videodb.build_database` as they are, and starts cutting each
+    clip into fragments as soon as it is made (``future.result`` as a source).
+    """
     check_choice("kind", kind, STARTER_KINDS)
     if not isinstance(quick, (bool, np.bool_)):
         raise ValueError(f"quick must be True or False, got {quick!r}")
     size = _QUICK if quick else _FULL
-    workers = (os.cpu_count() or 1) if workers is None else check_int("workers", workers, 1, 64)
     report = Progress(progress)
     seed = resolve_seed(seed)
     gen = rng(seed)
@@ -165,19 +184,7 @@ def starter_clips(kind, *, quick=False, seed=0, workers=None, progress=None):
         return name, Clip(frames, fps=_FPS, metadata=metadata)
 
     report(0.0, f"making {len(chosen)} {kind} clips")
-    # Clips are independent (each has its own seed): made on a few threads, the
-    # solver's and synthesis' compiled kernels release the GIL. The order is fixed.
-    with ThreadPoolExecutor(max(1, min(workers, len(chosen)))) as pool:
-        futures = [
-            pool.submit(make_one, i, r, s) for i, (r, s) in enumerate(zip(chosen, clip_seeds))
-        ]
-        try:
-            clips = [f.result() for f in futures]
-        except BaseException:
-            for f in futures:
-                f.cancel()
-            raise
-    return clips
+    return [pool.submit(make_one, i, r, s) for i, (r, s) in enumerate(zip(chosen, clip_seeds))]
 
 
 # ----------------------------------------------------------------------------- water
