@@ -16,9 +16,9 @@ if __name__ == "__main__":  # pragma: no cover - run as a process (tests/test_la
     last = [-10.0]
 
     def log(fraction, message=""):
-        """One line every 5 s (a log file), and the last."""
+        """One line every 5 s (a log file), and one when each database is ready."""
         now = time.perf_counter()
-        if now - last[0] >= 5.0 or fraction >= 1.0:
+        if now - last[0] >= 5.0 or fraction >= 1.0 or message.endswith("database ready"):
             last[0] = now
             print(f"{now - started:6.1f} s {fraction:5.0%} {message}", flush=True)
 
