@@ -31,6 +31,14 @@ candidate pairs per edge), half an hour for rendering -- over a water database o
 - ``interactive``: on the starter water database, a 320 x 180 target assigned (goal
   < 1 s), re-solved after a sigma, lambda or rho change (goal < 0.5 s), rendered (goal
   < 3 s); rounds interleaved, fastest and median.
+- ``rendering``: the flow rendering (beyond the paper) against the paper's, on the
+  starter water database with the stream at 320 x 180, a stroke left to right and a
+  painted speed of 2 and 0.5 px/frame: the output's optical flow (OpenCV DIS, preset
+  MEDIUM, between consecutive frames, mean over the matte) against the painted speed
+  and the stroke's direction, the share of neighbouring target fragments that play the
+  same fragment in sync before and after the temporal offsets, and the time of each
+  rendering's stages (rounds interleaved); goal (issue 24): 0.65-1.35x the painted
+  speed, within 20 degrees, a 24-frame render under 0.25 s.
 - ``solver``: alpha-expansion (``solve``) against ICM on the real assignments, and on a
   metric sub-case (shared labels = direction / speed bins of the candidates' mean
   motion, Potts or truncated L1) side by side with gco-wrapper (``gco.cut_grid_graph_
@@ -68,7 +76,16 @@ import numpy as np
 # fluidnb is imported inside the functions: the peer part of this script runs in the
 # peers' interpreter, which does not have it.
 
-PARTS = ("starter", "throughput", "store", "paper", "interactive", "solver", "findings")
+PARTS = (
+    "starter",
+    "throughput",
+    "store",
+    "paper",
+    "interactive",
+    "rendering",
+    "solver",
+    "findings",
+)
 KINDS = ("water", "smoke", "fire")
 PAPER_FRAGMENTS = 240_000
 QUICK_FRAGMENTS = 24_000
@@ -542,38 +559,82 @@ def _frames_bytes(path):
 # ------------------------------------------------------------------- 4. paper
 
 
-def _assign_render(img, matte, db, params=None):
+def _assign_render(img, matte, db):
+    """Assign; render the paper's way with an empty frame cache, and again; the flow way.
+
+    Returns (assignment, the paper's animation, seconds): ``assign``, ``paper`` (the
+    first render, every fragment rebuilt), ``paper again`` (the same assignment again:
+    its fragments from the cache) and ``flow`` (the flow rendering, the default, also
+    with an empty cache).
+    """
     from fluidnb.videodb import assign, render
 
     t0 = now()
-    a = assign(img, matte, db, params)
-    t_assign = now() - t0
+    a = assign(img, matte, db)
+    secs = {"assign": now() - t0}
+    paper = a.params.replace(rendering="paper")
+    db.cache.clear()
     t0 = now()
-    r = render(a)
-    t_render = now() - t0
-    return a, r, t_assign, t_render
+    anim = render(a, paper)
+    secs["paper"] = now() - t0
+    t0 = now()
+    render(a, paper)
+    secs["paper again"] = now() - t0
+    db.cache.clear()
+    t0 = now()
+    render(a, a.params.replace(rendering="flow"))
+    secs["flow"] = now() - t0
+    return a, anim, secs
 
 
 def rebuild_anatomy(db, ids, margin=12):
-    """fragment_frames(ids, margin, grey=True) piece by piece: zarr reads, grey, resampling."""
-    from fluidnb.videodb._augment import _sample
-    from fluidnb.videodb._features import grey
+    """The render's rebuild of ``ids`` on one thread, piece by piece, with an empty cache.
+
+    What ``fluidnb.videodb._frames.rebuild_fragments`` does on each thread: a clip's
+    frames read once (decoded from the store's chunks), the luminance of the part of
+    each window its fragments read, each fragment re-sampled from it.
+    """
+    from fluidnb.videodb import _frames
 
     n, side = db.params.N, 48 + 2 * margin
-    keys = db.source[ids][:, [0, 2]]
-    out = {"windows": len(np.unique(keys, axis=0)), "read": 0.0, "grey": 0.0, "sample": 0.0}
-    for key in np.unique(keys, axis=0):
+    uniq = np.unique(ids)
+    src = db.source[uniq]
+    out = {"fragments": len(uniq), "windows": len(np.unique(src[:, [0, 2]], axis=0))}
+    out.update(frames=0, read=0.0, grey=0.0, sample=0.0)
+    db.cache.clear()
+    for clip in np.unique(src[:, 0]):
+        mine = src[src[:, 0] == clip]
+        starts = np.unique(mine[:, 2])
+        wanted = np.unique(starts[:, None] + np.arange(n))
         t0 = now()
-        frames = db.clip_frames(int(key[0]), int(key[1]), int(key[1]) + n)
-        t1 = now()
-        g = grey(frames)
-        t2 = now()
-        for s in np.flatnonzero((keys == key).all(axis=1)):
-            _, version, _, row, col = (int(v) for v in db.source[ids[s]])
-            _sample(g, version, (row - margin, col - margin), (side, side))
-        out["read"] += t1 - t0
-        out["grey"] += t2 - t1
-        out["sample"] += now() - t2
+        runs = np.split(wanted, np.flatnonzero(np.diff(wanted) != 1) + 1)
+        frames = {}
+        for run in runs:
+            block = _frames._read_frames(db, int(clip), int(run[0]), int(run[-1]) + 1)
+            frames.update(zip(run.tolist(), block))
+        out["read"] += now() - t0
+        out["frames"] += len(wanted)
+        shape = next(iter(frames.values())).shape[:2]
+        for start in starts:
+            rows = mine[mine[:, 2] == start]
+            plans = [
+                _frames._plan(shape, int(v), int(r) - margin, int(c) - margin, side)
+                for _, v, _, r, c in rows
+            ]
+            box = (
+                min(p["top"] for p in plans),
+                max(p["bottom"] for p in plans),
+                min(p["left"] for p in plans),
+                max(p["right"] for p in plans),
+            )
+            t0 = now()
+            part = np.stack([frames[start + t][box[0] : box[1], box[2] : box[3]] for t in range(n)])
+            planes = _frames._pixel_major(part, True)
+            t1 = now()
+            for plan in plans:
+                _frames._sample_planned(planes, box, plan, n, side, True)
+            out["grey"] += t1 - t0
+            out["sample"] += now() - t1
     return out
 
 
@@ -602,9 +663,14 @@ def part_paper(ctx):
     rounds = 1 if ctx.quick else max(2, ctx.rounds // 2)
     for r in range(rounds):
         for c, (img, matte) in cases.items():
-            a, anim, ta, tr = _assign_render(img, matte, db)
-            runs[c].append((a, anim, ta, tr))
-            print(f"  round {r + 1} {c}: assign {ta:.1f} s, render {tr:.1f} s", flush=True)
+            a, anim, secs = _assign_render(img, matte, db)
+            runs[c].append((a, anim, secs))
+            print(
+                f"  round {r + 1} {c}: assign {secs['assign']:.1f} s, render {secs['paper']:.1f} s "
+                f"(again, from the cache: {secs['paper again']:.1f} s; the flow rendering "
+                f"{secs['flow']:.1f} s); load {load():.1f}",
+                flush=True,
+            )
     out = {}
     for c, rs in runs.items():
         a = rs[-1][0]
@@ -614,12 +680,18 @@ def part_paper(ctx):
         rows = []
         for s in stages_a:
             rows.append([f"assign: {s}", fm([x[0].timings[s] for x in rs])])
-        rows.append(["**assignment**", fm([x[2] for x in rs])])
+        rows.append(["**assignment**", fm([x[2]["assign"] for x in rs])])
         for s in stages_r:
             rows.append([f"render: {s}", fm([x[1].timings[s] for x in rs])])
-        rows.append(["**rendering**", fm([x[3] for x in rs])])
-        total = [x[2] + x[3] for x in rs]
+        rows.append(
+            ["**rendering**, the paper's (empty frame cache)", fm([x[2]["paper"] for x in rs])]
+        )
+        total = [x[2]["assign"] + x[2]["paper"] for x in rs]
         rows.append(["**end to end**", fm(total)])
+        rows.append(
+            ["rendering again (fragments from the cache)", fm([x[2]["paper again"] for x in rs])]
+        )
+        rows.append(["the flow rendering (empty frame cache)", fm([x[2]["flow"] for x in rs])])
         sol = a.solution
         print(
             f"\n### {c}: {len(a.target)} target fragments, {len(a.edges)} edges, "
@@ -631,25 +703,26 @@ def part_paper(ctx):
         table([f"stage (fastest / median of {len(rs)})", "time"], rows)
         best = min(total)
         paper = PAPER_ASSIGN_S + PAPER_RENDER_S
-        fast_a, fast_r = min(x[2] for x in rs), min(x[3] for x in rs)
+        fast_a, fast_r = min(x[2]["assign"] for x in rs), min(x[2]["paper"] for x in rs)
         print(
-            f"end to end {best:.1f} s (median {np.median(total):.1f} s): goal < 60 s "
+            f"end to end {best:.1f} s (median {np.median(total):.1f} s): goal < 4 s (issue 25) "
+            f"{_met(best, float(np.median(total)), 4)}, < 60 s (spec) "
             f"{_met(best, float(np.median(total)), 60)}; paper ~{paper / 60:.0f} min -> "
             f"{paper / best:.0f}x faster (assignment {PAPER_ASSIGN_S / fast_a:.0f}x, "
             f"rendering {PAPER_RENDER_S / fast_r:.0f}x)"
         )
         anatomy = rebuild_anatomy(db, a.fragments)
         print(
-            "render's rebuild, once more piece by piece: "
-            f"{anatomy['windows']} (clip, window) pairs read for {len(a.fragments)} fragments: "
-            f"zarr reads {fmt_s(anatomy['read'])}, to grey {fmt_s(anatomy['grey'])}, resampling "
-            f"{fmt_s(anatomy['sample'])}"
+            "render's rebuild on one thread, piece by piece (empty cache): "
+            f"{anatomy['fragments']} fragments from {anatomy['windows']} (clip, window) pairs, "
+            f"{anatomy['frames']} frames: reading {fmt_s(anatomy['read'])}, luminance "
+            f"{fmt_s(anatomy['grey'])}, resampling {fmt_s(anatomy['sample'])} (the render "
+            "runs it on two threads)"
         )
         out[c] = {
             "nodes": len(a.target),
             "edges": len(a.edges),
-            "assign_s": [x[2] for x in rs],
-            "render_s": [x[3] for x in rs],
+            "seconds": [x[2] for x in rs],
             "assign_stages": {s: [x[0].timings[s] for x in rs] for s in stages_a},
             "render_stages": {s: [x[1].timings[s] for x in rs] for s in stages_r},
             "solve_parts": sol.timings,
@@ -658,7 +731,11 @@ def part_paper(ctx):
         }
     opens = ctx.results.get("store", {}).get("open_s")
     if opens:
-        first = min(opens) + index_s + min(min(x[2] + x[3] for x in rs) for rs in runs.values())
+        first = (
+            min(opens)
+            + index_s
+            + min(min(x[2]["assign"] + x[2]["paper"] for x in rs) for rs in runs.values())
+        )
         print(
             f"\nthe first animation after opening the store adds open {fmt_s(min(opens))} + index "
             f"{fmt_s(ctx.results['store']['index_s'])}: ~{first:.0f} s"
@@ -678,8 +755,11 @@ def part_interactive(ctx):
     db = ctx.starter("water")
     img, matte = stream_target((180, 320))
     render(assign(img, matte, db))  # warm-up: kernels, the database's index
-    names = ["assign", "resolve sigma x10", "resolve lambda x10", "resolve rho x10", "render"]
+    renders = ("render (empty frame cache)", "render again", "render after the sigma x10 re-solve")
+    names = ["assign", "resolve sigma x10", "resolve lambda x10", "resolve rho x10"]
+    names += [f"{r}, {how}" for how in ("paper", "flow") for r in renders]
     secs = {k: [] for k in names}
+    frames = {}  # frames per clip: the flow rendering's slow motion makes longer clips
     stages = {k: [] for k in ("describe", "retrieval", "tables", "solve")}
     rstages = {k: [] for k in ("rebuild", "blend", "mean", "match", "composite")}
     rounds = 3 if ctx.quick else ctx.rounds
@@ -690,51 +770,214 @@ def part_interactive(ctx):
         for k in stages:
             stages[k].append(a.timings[k])
         p = a.params
+        solved = {}
         for name, change in (
             ("resolve sigma x10", {"sigma": 10 * p.sigma}),
             ("resolve lambda x10", {"lam": 10 * p.lam}),
             ("resolve rho x10", {"rho": 10 * p.rho}),
         ):
             t0 = now()
-            a.resolve(**change)
+            solved[name] = a.resolve(**change)
             secs[name].append(now() - t0)
-        t0 = now()
-        anim = render(a)
-        secs["render"].append(now() - t0)
-        for k in rstages:
-            rstages[k].append(anim.timings[k])
+        for how in ("paper", "flow"):
+            q = p.replace(rendering=how)
+            db.cache.clear()  # the first render of a database opened afresh
+            t0 = now()
+            anim = render(a, q)
+            secs[f"{renders[0]}, {how}"].append(now() - t0)
+            frames[f"{renders[0]}, {how}"] = len(anim.clip)
+            if how == "paper":
+                for k in rstages:
+                    rstages[k].append(anim.timings[k])
+            t0 = now()
+            again = render(a, q)  # Render pressed again (or after moving only shutter, tau...)
+            secs[f"{renders[1]}, {how}"].append(now() - t0)
+            t0 = now()
+            after = render(solved["resolve sigma x10"], q)  # the app: move sigma, then Render
+            secs[f"{renders[2]}, {how}"].append(now() - t0)
+            frames[f"{renders[1]}, {how}"] = len(again.clip)
+            frames[f"{renders[2]}, {how}"] = len(after.clip)
     ctx.assignments["interactive: stream 320x180 + matte"] = a
-    goals = {"assign": 1.0, "render": 3.0}
+    changed = int((solved["resolve sigma x10"].fragments != a.fragments).sum())
+    goals = {"assign": 0.3}
     print(
         f"{len(a.target)} target fragments, {len(a.edges)} edges, {db.n_fragments:,} fragments, "
-        f"{rounds} interleaved rounds after a warm-up; load avg {load0:.1f} -> {load():.1f}"
+        f"{rounds} interleaved rounds after a warm-up; load avg {load0:.1f} -> {load():.1f}; "
+        f"sigma x10 changes {changed} of {len(a.target)} fragments"
     )
     rows = []
     for k in names:
-        goal = goals.get(k, 0.5)
+        goal = goals.get(k, 0.25 if k.startswith("render") else 0.05)
         lo, med = fastest_median(secs[k])
-        rows.append([k, fmt_s(lo), fmt_s(med), f"< {goal:g} s", _met(lo, med, goal)])
-    table(["case", "fastest", "median", "goal", "met"], rows)
+        n = frames.get(k)
+        each = f"{n} frames: {fmt_s(lo * 24 / n)}" if n else "-"
+        rows.append([k, fmt_s(lo), fmt_s(med), each, f"< {goal:g} s", _met(lo, med, goal)])
+    table(["case", "fastest", "median", "per 24 frames", "goal (issue 25)", "met"], rows)
     print(
+        "goals: issue 25 (assign < 0.3 s, re-solve kept at 30-40 ms, render < 0.25 s); the "
+        "spec's (assign < 1 s, re-solve < 0.5 s, render < 3 s)\n"
         "assign stages (fastest / median): "
         + ", ".join(f"{k} {fm(v)}" for k, v in stages.items())
-        + "\nrender stages: "
+        + "\nthe paper's render stages (empty cache): "
         + ", ".join(f"{k} {fm(v)}" for k, v in rstages.items())
     )
+    app = _app_render(ctx, rounds)
     ctx.results["interactive"] = {
         "nodes": len(a.target),
         "edges": len(a.edges),
         "seconds": secs,
         "assign_stages": stages,
         "render_stages": rstages,
+        "resolve_changed": changed,
+        "app": app,
         "load": (load0, load()),
     }
+
+
+def _app_render(ctx, rounds):
+    """The app's Render button, headless, at the app's own working size (as the user sees it).
+
+    ``VideoDBApp`` (widgets) works on the photo at 480 px on its longer side (256 in
+    quick mode): the stream photo is 480 x 376 there, four times the pixels of the
+    320 x 180 rows above. The matte is the whole photo; the rendering the app's
+    default (flow). Timed: from pressing Render to the clip in the player (its first
+    frame encoded), the worker thread's status included; not the browser's drawing.
+    """
+
+    from fluidnb.widgets import VideoDBApp
+
+    load0 = load()
+    app = VideoDBApp("stream", db="water", quick=ctx.quick)
+    try:
+        h, w = app.photo.shape[:2]
+        app.set_matte(np.ones((h, w), np.float32))
+        t0 = now()
+        app.run(timeout=600)
+        run_s = now() - t0
+        a = app.assignment
+        first, again = [], []
+        for _ in range(rounds):
+            a.db.cache.clear()
+            t0 = now()
+            app.render_clip(timeout=600)
+            first.append(now() - t0)
+            t0 = now()
+            app.render_clip(timeout=600)
+            again.append(now() - t0)
+        rows = [
+            ["Run (assign + render + show), first", fmt_s(run_s), "-", "-", "-"],
+            [
+                "Render (empty frame cache)",
+                *(fmt_s(x) for x in fastest_median(first)),
+                "< 0.5 s",
+                _met(*fastest_median(first), 0.5),
+            ],
+            [
+                "Render again (fragments cached)",
+                *(fmt_s(x) for x in fastest_median(again)),
+                "< 0.5 s",
+                _met(*fastest_median(again), 0.5),
+            ],
+        ]
+        print(
+            f"\n### The app's Render button (VideoDBApp, headless): the stream at {w} x {h}, "
+            f"whole-frame matte, {len(a.target)} fragments; load avg {load0:.1f} -> {load():.1f}"
+        )
+        table(["case", "fastest", "median", "goal (issue 25)", "met"], rows)
+        return {"shape": [h, w], "fragments": len(a.target), "run_s": run_s,
+                "render_s": first, "render_again_s": again}  # fmt: skip
+    finally:
+        app.close()
 
 
 def _met(lo, med, goal):
     if med < goal:
         return "yes"
     return "fastest only" if lo < goal else "no"
+
+
+# --------------------------------------------------------------- 5b. rendering
+
+
+def dis_flow(frames, mask):
+    """Mean (dy, dx) of OpenCV DIS (MEDIUM) between consecutive frames, over ``mask``."""
+    import cv2
+
+    from fluidnb import to_uint8
+
+    dis = cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM)
+    grey = [cv2.cvtColor(to_uint8(f), cv2.COLOR_RGB2GRAY) for f in frames]
+    flows = [dis.calc(a, b, None)[mask][:, ::-1].mean(axis=0) for a, b in zip(grey, grey[1:])]
+    return np.mean(flows, axis=0)
+
+
+def part_rendering(ctx):
+    from fluidnb.videodb import assign, render, sync_share
+
+    print("\n## Renderings: the flow rendering (beyond the paper) against the paper's")
+    load0 = load()
+    db = ctx.starter("water")
+    img, matte = stream_target((180, 320))
+    h, w = matte.shape
+    stroke = np.array([[0.5 * h, 0.05 * w], [0.5 * h, 0.95 * w]])
+    fluid = matte > 0.5
+    rows, out = [], {}
+    rounds = 2 if ctx.quick else 5
+    for painted in (2.0, 0.5):
+        speed = np.where(fluid, painted, 0.0).astype(np.float32)
+        a = assign(img, matte, db, direction=[stroke], speed=speed)
+        params = {r: a.params.replace(rendering=r) for r in ("paper", "flow")}
+        anims, secs, stages = {}, {r: [] for r in params}, {r: {} for r in params}
+        for p in params.values():
+            render(a, p)  # warm-up
+        for _ in range(rounds):
+            for r, p in params.items():
+                t0 = now()
+                anims[r] = render(a, p)
+                secs[r].append(now() - t0)
+                for k, v in anims[r].timings.items():
+                    if not k.startswith("assign_") and k != "render":
+                        stages[r].setdefault(k, []).append(v)
+        for r, anim in anims.items():
+            flow = dis_flow(anim.clip.frames, fluid)
+            mag = float(np.hypot(*flow))
+            angle = float(np.degrees(np.arctan2(flow[0], flow[1])))  # the stroke: 0 degrees
+            sync = (
+                sync_share(a.fragments, a.target.positions),
+                sync_share(
+                    a.fragments, a.target.positions, anim.stages["offsets"], anim.stages["mirrors"]
+                ),
+            )
+            rows.append(
+                [
+                    f"{painted:g} px/frame",
+                    r,
+                    f"{mag:.2f} ({mag / painted:.2f}x)",
+                    f"{angle:+.0f}",
+                    f"{sync[0]:.2f} -> {sync[1]:.2f}",
+                    str(len(anim.clip)),
+                    fm(secs[r]),
+                    ", ".join(f"{k} {fm(v)}" for k, v in stages[r].items()),
+                ]
+            )
+            out[f"{painted}:{r}"] = {
+                "flow": flow,
+                "ratio": mag / painted,
+                "angle": angle,
+                "sync": sync,
+                "frames": len(anim.clip),
+                "seconds": secs[r],
+                "stages": stages[r],
+            }
+    print(
+        f"stream 320 x 180 + its matte, a stroke left to right, {rounds} interleaved rounds "
+        f"after a warm-up; load avg {load0:.1f} -> {load():.1f}"
+    )
+    table(
+        ["painted", "rendering", "measured", "angle", "in sync", "frames", "render", "stages"],
+        rows,
+    )
+    ctx.results["rendering"] = out
 
 
 # ------------------------------------------------------------------ 6. solver

@@ -21,7 +21,8 @@ One idea per module, in the order of the method:
   ``_video`` (reading clips), ``_flow`` (optical flow), ``_augment`` (the versions'
   pixels and motion), ``_features`` (mean image, motion spectra, textureness),
   ``_sift`` (dense SIFT), ``_words`` (codebook, visual words, pyramid histograms,
-  Eq. 1), ``_build`` and ``_store`` (building and reading the zarr store),
+  Eq. 1), ``_build`` and ``_store`` (building and reading the zarr store), ``_frames``
+  (rebuilding fragments' frames for rendering, the frame cache),
   ``_starter_clips``, ``_flow_map`` and ``_starter`` (the starter databases' clips and
   their cache);
 - the assignment (sec. 5): ``_target`` (the target cut into fragments, the user's
@@ -30,8 +31,11 @@ One idea per module, in the order of the method:
   :class:`Assignment`);
 - the rendering (sec. 6): ``_blend`` (multi-band blending of the differences),
   ``_appearance`` (motion blur, histogram matching), ``_composite`` (moving matte,
-  background, loop, composite), ``_render`` (the pipeline), ``_animate`` (the entry
-  point);
+  background, loop, composite), ``_fill`` (exemplar-based fill of the background,
+  beyond the paper), ``_desync`` (neighbours sharing a fragment play it at
+  different times, beyond the paper), ``_flow_render`` (the flow rendering's motion
+  field and Eulerian loop, beyond the paper), ``_render`` (the pipeline: the paper's
+  rendering or the flow rendering), ``_animate`` (the entry point);
 - ``_reference`` (the plain versions) and ``_figures`` (the lesson's pictures).
 """
 
@@ -49,6 +53,7 @@ from ._augment import (
 from ._blend import blend_differences, fragment_weights
 from ._build import add_clips, build_database, clip_fragments
 from ._composite import composite, dynamic_matte, inpaint_background, loop_crossfade
+from ._desync import mirror_axes, stagger, sync_share, temporal_offsets
 from ._features import motion_spectra, textureness, window_features
 from ._figures import (
     assignment_figure,
@@ -64,16 +69,30 @@ from ._figures import (
     version_label,
     versions_figure,
 )
+from ._fill import exemplar_fill
 from ._flow import optical_flow
 from ._flow_map import flow_map_texture
+from ._flow_render import (
+    displacement_maps,
+    eulerian_loop,
+    extend_outside,
+    flow_field,
+    flow_timing,
+    loop_phases,
+)
+from ._frames import FrameCache
 from ._geometry import ANGLES, FRAGMENT, SCALES, STRIDE, VERSIONS
 from ._lock import DatabaseBusy
 from ._mrf import MRFSolution, alpha_expansion, brute_force, energy, grid_edges, icm, solve
-from ._params import AUGMENTATIONS, FLOW_BACKENDS, AnimateParams, DatabaseParams
+from ._params import AUGMENTATIONS, FLOW_BACKENDS, RENDERINGS, AnimateParams, DatabaseParams
 from ._reference import (
     reference_blend_differences,
     reference_dense_sift,
+    reference_eulerian_loop,
+    reference_fill,
+    reference_fragment_frames,
     reference_match_histograms_cells,
+    reference_motion_blur,
     reference_pair_tables,
     reference_quantise,
     reference_sample_version,
@@ -96,6 +115,7 @@ __all__ = [
     "AUGMENTATIONS",
     "FLOW_BACKENDS",
     "FRAGMENT",
+    "RENDERINGS",
     "SCALES",
     "STARTER_KINDS",
     "STRIDE",
@@ -106,6 +126,7 @@ __all__ = [
     "Assignment",
     "DatabaseBusy",
     "DatabaseParams",
+    "FrameCache",
     "HistogramIndex",
     "MRFSolution",
     "PairTables",
@@ -127,10 +148,16 @@ __all__ = [
     "composite",
     "cut_target",
     "dense_sift",
+    "displacement_maps",
     "dynamic_matte",
     "energy",
+    "eulerian_loop",
+    "exemplar_fill",
+    "extend_outside",
     "fit_codebook",
+    "flow_field",
     "flow_map_texture",
+    "flow_timing",
     "fragment_figure",
     "fragment_motion",
     "fragment_weights",
@@ -139,7 +166,9 @@ __all__ = [
     "inpaint_background",
     "intersection",
     "loop_crossfade",
+    "loop_phases",
     "match_histograms_cells",
+    "mirror_axes",
     "motion_arrows",
     "motion_blur",
     "motion_spectra",
@@ -152,7 +181,11 @@ __all__ = [
     "read_video",
     "reference_blend_differences",
     "reference_dense_sift",
+    "reference_eulerian_loop",
+    "reference_fill",
+    "reference_fragment_frames",
     "reference_match_histograms_cells",
+    "reference_motion_blur",
     "reference_pair_tables",
     "reference_quantise",
     "reference_sample_version",
@@ -164,11 +197,14 @@ __all__ = [
     "sample_version",
     "solve",
     "spectra_figure",
+    "stagger",
     "starter_clips",
     "starter_database",
     "starter_params",
     "starter_path",
     "sweep_figure",
+    "sync_share",
+    "temporal_offsets",
     "textureness",
     "transform_flow",
     "transform_vectors",

@@ -161,7 +161,8 @@ def test_draw_run_resolve_and_export_in_jupyterlab(notebook, page, shot):
     page.locator(".fluidnb-app .fluidnb-run").click()
     state = nb.state("state.json", lambda s: s["frames"] and s["retrievals"] == 1, timeout=240)
     ran = time.monotonic()
-    assert state["frames"] == 24
+    # The flow rendering (default since issue 24): whole repeats of the N - loop = 24.
+    assert state["frames"] % 24 == 0
     assert state["inside_change"] > 2e-3, state["inside_change"]
     assert state["outside_change"] == 0.0
     assert state["outside_is_photo"]
@@ -213,7 +214,7 @@ def test_draw_run_resolve_and_export_in_jupyterlab(notebook, page, shot):
     poll("the GIF file", lambda: path.exists() and path.stat().st_size > 0)
     with Image.open(path) as gif:
         assert gif.size == (SHAPE[1], SHAPE[0])
-        assert gif.n_frames == 24
+        assert gif.n_frames % 24 == 0  # whole repeats of N - loop (the flow rendering)
     exported = time.monotonic()
 
     # A click on the map shows the database fragment that animates that place.
