@@ -103,7 +103,7 @@ from ._render import Animation, render
 from ._retrieval import HistogramIndex
 from ._sift import dense_sift
 from ._smoothness import TEXTURE_SCALE, PairTables, pair_tables
-from ._starter import starter_database, starter_params, starter_path
+from ._starter import prebuild_starters, starter_database, starter_params, starter_path
 from ._starter_clips import STARTER_KINDS, starter_clips
 from ._store import VideoDatabase, open_database, verify_database
 from ._target import Target, cut_target, fragment_motion
@@ -175,6 +175,7 @@ __all__ = [
     "open_database",
     "optical_flow",
     "pair_tables",
+    "prebuild_starters",
     "pyramid_histograms",
     "quantise",
     "read_video",
