@@ -31,7 +31,7 @@ One idea per module, in the order of the method:
 - the rendering (sec. 6): ``_blend`` (multi-band blending of the differences),
   ``_appearance`` (motion blur, histogram matching), ``_composite`` (moving matte,
   background, loop, composite), ``_render`` (the pipeline), ``_animate`` (the entry
-  point);
+  point), ``_preview`` (one quick low-resolution frame, for live previews);
 - ``_reference`` (the plain versions) and ``_figures`` (the lesson's pictures).
 """
 
@@ -70,6 +70,7 @@ from ._geometry import ANGLES, FRAGMENT, SCALES, STRIDE, VERSIONS
 from ._lock import DatabaseBusy
 from ._mrf import MRFSolution, alpha_expansion, brute_force, energy, grid_edges, icm, solve
 from ._params import AUGMENTATIONS, FLOW_BACKENDS, AnimateParams, DatabaseParams
+from ._preview import preview_frame
 from ._reference import (
     reference_blend_differences,
     reference_dense_sift,
@@ -146,6 +147,7 @@ __all__ = [
     "open_database",
     "optical_flow",
     "pair_tables",
+    "preview_frame",
     "pyramid_histograms",
     "quantise",
     "read_video",
