@@ -77,7 +77,7 @@ _RETRIEVAL_FIELDS = ("candidates", "max_angle", "max_speed_ratio")
 _RENDER_FIELDS = ("shutter", "denoise", "cell", "tau", "loop", "rendering")
 
 _QUIVER = "rgba(255, 214, 10, 0.95)"
-_MAP_WIDTH = 320  # the assignment map's width on screen, as the player's picture
+_MAP_WIDTH = 300  # the assignment map's width on screen, as the player's picture
 _TILE = 60  # pixels per tile of the fragment view
 # Live previews: one frame, FACTOR times smaller than the photo; their cache of
 # difference frames is dropped beyond this many fragments (~9 KB each).
@@ -142,7 +142,12 @@ class _AssignmentMap(W.VBox):
         self.selected = None
         h, w = photo.shape[:2]
         self.canvas.width = self.width
-        self.canvas.height = max(1, round(h * self.width / w))
+        self.canvas.height = ch = max(1, round(h * self.width / w))
+        # The photo at the canvas's size once (each re-solve only re-tints it), and the
+        # image pixel under each canvas pixel, as clip_map_picture samples the clips.
+        self._shown = resize(photo, (ch, self.width))
+        self._rows = np.minimum((np.arange(ch) * h / ch).astype(int), h - 1)
+        self._cols = np.minimum((np.arange(self.width) * w / self.width).astype(int), w - 1)
         self.strip.layout.display = "none"
         self.caption.value = ""
         self.legend.value = (
@@ -164,9 +169,8 @@ class _AssignmentMap(W.VBox):
     def picture(self):
         """The map as RGB uint8 at canvas size: the photo tinted by source clip."""
         a = self.assignment
-        clips = None if a is None else a.clip_map()
-        shape = (self.canvas.height, self.canvas.width)
-        return to_uint8(clip_map_picture(self.photo, clips, shape=shape))
+        clips = None if a is None else a.clip_map()[self._rows][:, self._cols]
+        return to_uint8(clip_map_picture(self._shown, clips))
 
     def redraw(self, *_):
         if self.photo is None:
@@ -183,18 +187,20 @@ class _AssignmentMap(W.VBox):
             return
         s = self.scale
         pos = a.target.positions.astype(float)
-        # Cell outlines (each fragment owns the 24 x 24 cell at its centre).
+        # Cell outlines (each fragment owns the 24 x 24 cell at its centre), and the
+        # arrows with their heads, each in one batched command: a re-solve redraws
+        # them while a slider moves.
         layer.stroke_style = "rgba(0, 0, 0, 0.35)"
         layer.line_width = 1
-        q = STRIDE / 2
-        for r, c in pos:
-            layer.stroke_rect((c + q) * s, (r + q) * s, STRIDE * s, STRIDE * s)
-        layer.stroke_style = "rgba(255, 255, 255, 0.95)"
-        layer.line_width = 1.5
-        for seg in (self.motion_segments()[..., ::-1] + 0.5) * s:  # (row, col) -> (x, y)
-            layer.stroke_line(*seg[0], *seg[1])
-            for tip, end in arrow_heads(seg, size=3.5):
-                layer.stroke_line(*tip, *end)
+        corner = (pos[:, ::-1] + STRIDE / 2) * s  # (x, y)
+        layer.stroke_rects(corner[:, 0], corner[:, 1], STRIDE * s, STRIDE * s)
+        arrows = (self.motion_segments()[..., ::-1] + 0.5) * s  # (row, col) -> (x, y)
+        if len(arrows):
+            heads = [arrow_heads(seg, size=3.5) for seg in arrows]
+            lines = np.concatenate([arrows, *heads])
+            layer.stroke_style = "rgba(255, 255, 255, 0.95)"
+            layer.line_width = 1.5
+            layer.stroke_line_segments(lines.reshape(-1, 2), np.full(len(lines), 2))
         if self.selected is not None:
             r, c = pos[self.selected]
             layer.stroke_style = "rgba(255, 214, 10, 1)"
@@ -378,13 +384,17 @@ class VideoDBApp(App):
             interval=lambda: self.resolve_interval,
             name="re-solve",
         )
-        #: Least seconds between two live re-solves (each one is ~35 ms plus its preview).
+        #: Least seconds between two live re-solves.
         self.resolve_interval = 0.02
-        #: Whether each re-solve shows a preview frame (one frame at half size).
+        #: Whether new assignments show a preview frame (one frame at half size).
         self.live_preview = True
+        #: Seconds after which a drag's re-solve shows a preview even with a newer
+        #: value waiting (otherwise only maps are drawn until the slider pauses).
+        self.preview_every = 0.3
+        self._preview_shown = 0.0  # time.monotonic() of the last preview
         #: Seconds σ, λ, ρ (or a rendering setting) must rest before the clip is
         #: rendered: the kernel hears no "mouse released", only values.
-        self.settle = 0.25
+        self.settle = 0.2
         self.quiver_segments = 0  #: Arrows of the direction field on the canvas now.
         self.previews = 0  #: Preview frames shown.
         self._preview_cache = (None, {})  # (database, fragment id -> D_t)
@@ -427,7 +437,7 @@ class VideoDBApp(App):
             options=db_options,
             value=choice,
             description="database",
-            style={"description_width": "60px"},
+            style={"description_width": "64px"},
             layout=W.Layout(width="290px"),
         )
         self._db_path = W.Text(
@@ -581,11 +591,7 @@ class VideoDBApp(App):
         )
         self.views = (
             self.titled("clip", self.player, margin="0 0 0.4em 0"),
-            self.titled(
-                "assignment: the source clip of each fragment (click one)",
-                self.map,
-                margin="0",
-            ),
+            self.titled("assignment (click a fragment)", self.map, margin="0"),
         )
         self.views_width = f"{_MAP_WIDTH + 8}px"
         self.add_class("fluidnb-vdb-app")
@@ -792,7 +798,7 @@ class VideoDBApp(App):
         if db is not None:
             text = (
                 f"N = <b>{db.params.N}</b> frames per fragment (the database's) · "
-                f"{db.n_fragments} fragments, {len(db.clips)} clips"
+                f"{plural(db.n_fragments, 'fragment')}, {plural(len(db.clips), 'clip')}"
             )
         elif key[0] == "starter":
             built = starter_path(key[1], quick=self.quick).exists()
@@ -1046,6 +1052,11 @@ class VideoDBApp(App):
         # The assignment's own sigma, lambda, rho (they made it); the panel's rendering
         # settings.
         params = params.replace(**{k: getattr(a.params, k) for k in _SOLVE_FIELDS})
+        if self.live_preview:
+            # One frame at full size first (a fraction of the clip's time): the new
+            # assignment is on screen at once, its clip follows.
+            progress(0.0, "a first frame")
+            self._show_preview(a, params, 1)
         animation = render(a, params, progress=progress)
         self.renders += 1
         self.animation = animation
@@ -1117,8 +1128,12 @@ class VideoDBApp(App):
         self.assignment = new
         self.resolves += 1
         self._on_main(self._show_assignment)
-        if self.live_preview:
-            self._show_preview(new, params)
+        # The map first; the preview when no newer value waits, or when the last one is
+        # older than preview_every (a drag faster than re-solve and preview together
+        # shows every map it can, a preview now and then, and the last one).
+        stale = time.monotonic() - self._preview_shown > self.preview_every
+        if self.live_preview and (stale or not self._values_changed()):
+            self._show_preview(new, params, _PREVIEW_FACTOR)
         if not self.running or self._live_render:
             self.say(
                 f"σ={new.params.sigma:.3g}, λ={new.params.lam:.3g}, ρ={new.params.rho:.3g}: "
@@ -1129,7 +1144,7 @@ class VideoDBApp(App):
         self._schedule_render()
 
     def wait_resolve(self, timeout=30):
-        """Block until every re-solve asked for so far is done (for scripts and tests)."""
+        """Block until every re-solve asked for so far, and its preview, is done (tests)."""
         self._resolves.wait(timeout)
 
     def _preview_cache_for(self, a):
@@ -1142,25 +1157,34 @@ class VideoDBApp(App):
             preview_frame(a, factor=_PREVIEW_FACTOR, cache=cache)
         return cache
 
-    def _show_preview(self, a, params):
-        """One frame of ``a`` at half size in the player, until the clip is rendered."""
+    def _values_changed(self):
+        """Whether the panel's σ, λ, ρ differ from the current assignment's."""
+        a, params = self.assignment, self.panel.params
+        return a is not None and any(
+            getattr(params, k) != getattr(a.params, k) for k in _SOLVE_FIELDS
+        )
+
+    def _show_preview(self, a, params, factor):
+        """One frame of ``a`` in the player (``factor`` times smaller), until its clip."""
         cache = self._preview_cache_for(a)
-        picture = preview_frame(a, params, factor=_PREVIEW_FACTOR, cache=cache)
+        picture = preview_frame(a, params, factor=factor, cache=cache)
         png = _png(picture)
         if self.assignment is not a:
             return  # a newer one is on its way
+        size = "at half size" if factor == 2 else "at full size" if factor == 1 else "small"
+        follows = "rendering the clip…" if factor == 1 else "the clip follows when the slider rests"
         note = (
-            f"preview: frame {a.db.params.N // 2 + 1} at half size (σ = {a.params.sigma:.3g}, "
-            f"λ = {a.params.lam:.3g}, ρ = {a.params.rho:.3g}); the clip follows when the "
-            "slider rests"
+            f"preview: frame {a.db.params.N // 2 + 1} {size} (σ = {a.params.sigma:.3g}, "
+            f"λ = {a.params.lam:.3g}, ρ = {a.params.rho:.3g}); {follows}"
         )
 
         def show():
-            if self.assignment is not a:
+            if self.assignment is not a or self._clip_is_current():
                 return
             if not self._previewing:
                 self._was_playing = self.player.playing
             self._previewing = True
+            self._preview_shown = time.monotonic()
             with self.player.hold_sync():
                 self.player.play(False)
                 self.player.image.value = png
@@ -1199,8 +1223,7 @@ class VideoDBApp(App):
     def _settled(self):
         if self._closed or self.running or self.assignment is None:
             return
-        wanted = self.panel.params
-        if any(getattr(wanted, k) != getattr(self.assignment.params, k) for k in _SOLVE_FIELDS):
+        if self._values_changed():
             return  # a re-solve is on its way; it schedules the render again
         if self._clip_is_current():
             return
@@ -1330,7 +1353,7 @@ class VideoDBApp(App):
         s = a.solution
         self.energy.value = _energy_svg(np.asarray(s.energies, float), float(s.icm_energy)) + (
             "<div style='font-size:12px;line-height:1.4'>"
-            f"alpha-expansion: E = {s.energy:.5g} after {s.sweeps} sweeps (from the "
+            f"alpha-expansion: E = {s.energy:.5g} after {plural(s.sweeps, 'sweep')} (from the "
             f"{html.escape(s.start)} start) · ICM: {s.icm_energy:.5g}<br>"
             f"σ = {a.params.sigma:.3g}, λ = {a.params.lam:.3g}, ρ = {a.params.rho:.3g}</div>"
         )
