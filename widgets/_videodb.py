@@ -63,10 +63,10 @@ PHOTOS = {"stream": "water", "clouds": "smoke", "fire": "fire", "lake": "water"}
 
 #: The panel's groups: what a lecturer moves (the MRF's weights and the search's K)
 #: open, the rendering's settings folded. ``rendering`` (the flow or the paper's
-#: rendering) is shown as a toggle beside Render.
+#: rendering, where the library has it) is shown as a toggle beside Render.
 GROUPS = (
     ("the assignment (Eq. 1-6)", ("sigma", "lam", "rho", "candidates")),
-    ("rendering (sec. 6)", ("shutter", "tau", "loop", "rendering")),
+    ("rendering (sec. 6)", ("shutter", "tau", "loop", "rendering", "travel", "detail")),
 )
 # The fields the panel shows (the rest keep their values: max_angle, max_speed_ratio,
 # denoise, cell).
@@ -74,7 +74,7 @@ _HIDDEN = ("max_angle", "max_speed_ratio", "denoise", "cell")
 _SOLVE_FIELDS = ("sigma", "lam", "rho")
 _RETRIEVAL_FIELDS = ("candidates", "max_angle", "max_speed_ratio")
 #: Fields that change the clip but not the assignment.
-_RENDER_FIELDS = ("shutter", "denoise", "cell", "tau", "loop", "rendering")
+_RENDER_FIELDS = ("shutter", "denoise", "cell", "tau", "loop", "rendering", "travel", "detail")
 
 _QUIVER = "rgba(255, 214, 10, 0.95)"
 _MAP_WIDTH = 300  # the assignment map's width on screen, as the player's picture

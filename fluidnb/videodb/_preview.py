@@ -12,8 +12,10 @@ from the same public building blocks, with three shortcuts (beyond the paper):
   its core anyway);
 * the approximate mean image, the histogram matching and the composite run at
   ``scale`` of the target's size (the motion in pixels per frame scaled with it);
-* the matte stays still (no :math:`B_i`, whatever :math:`\tau`) and the loop's
-  cross-fade is left out.
+* the matte stays still (no :math:`B_i`, whatever :math:`\tau`), the loop's
+  cross-fade is left out, and with the flow rendering (``params.rendering ==
+  "flow"``, where the library has it) the photo stands still under the difference
+  frames instead of moving along the motion (in one frame it has moved a few pixels).
 
 A ``cache`` (a dict the caller keeps) holds the fragments' :math:`D_t` between calls:
 the assignments of one retrieval choose among the same candidates, so a drag of a
@@ -95,7 +97,6 @@ def preview_frame(assignment, params=None, *, frame=None, factor=2, levels=None,
 
     diffs = _difference_frames(a.db, ids, t, {} if cache is None else cache)
     d = blend_differences(diffs[:, None], target.positions, (hc, wc), margin=0, levels=levels)[0]
-    velocity = blend_values(a.db.mean_motion[ids], target.positions, (hc, wc))
 
     # The canvas is whole fragments (multiples of 24 px): block means of any factor
     # up to 8 that divides 24 fit; others are resized.
@@ -103,12 +104,18 @@ def preview_frame(assignment, params=None, *, frame=None, factor=2, levels=None,
         return downsample(x, factor, vector=vector) if factor > 1 else x
 
     image, matte = shrink(target.canvas), shrink(target.canvas_matte)
-    # Pixels per frame shrink with the picture; shutter (frames) and denoise (pixels
-    # of blur per px/frame) keep their meaning at any size.
-    approx = motion_blur(
-        image, shrink(velocity, vector=True), shutter=params.shutter, denoise=params.denoise
-    )
-    shown = approx + shrink(d)[..., None]
+    if getattr(params, "rendering", "paper") == "flow":
+        # The flow rendering moves the sharp photo and adds the differences, weighted.
+        shown = image + np.float32(params.detail) * shrink(d)[..., None]
+    else:
+        # The paper's: the differences over the approximate mean image. Pixels per
+        # frame shrink with the picture; shutter (frames) and denoise (pixels of blur
+        # per px/frame) keep their meaning at any size.
+        velocity = blend_values(a.db.mean_motion[ids], target.positions, (hc, wc))
+        approx = motion_blur(
+            image, shrink(velocity, vector=True), shutter=params.shutter, denoise=params.denoise
+        )
+        shown = approx + shrink(d)[..., None]
     centre, axes = _colour_axes(image, matte)
     matched = match_histograms_cells(
         ((shown - centre) @ axes)[None],

@@ -1,13 +1,25 @@
 """A live preview frame of an assignment: one frame of what render makes, at low resolution."""
 
+from dataclasses import dataclass
+
 import numpy as np
 import pytest
 
-from fluidnb import data
+from fluidnb import data, param
 from fluidnb.fields import downsample
 from fluidnb.videodb import AnimateParams, assign, preview_frame, render, starter_database
 
 SIZE = 160  # the stream photo at 160 px: 125 x 160
+# The paper's rendering (where the library also offers the flow rendering).
+PAPER = {"rendering": "paper"} if "rendering" in AnimateParams.specs() else {}
+
+
+@dataclass(frozen=True)
+class FlowParams(AnimateParams):
+    """The flow rendering's two fields, for a library that does not have them yet."""
+
+    rendering: str = param("flow", choices=("flow", "paper"), doc="the rendering")
+    detail: float = param(0.5, lo=0, hi=4, doc="weight of the differences")
 
 
 @pytest.fixture(scope="module")
@@ -15,7 +27,7 @@ def scene():
     db = starter_database("water", quick=True)
     photo = data.sample("stream", size=SIZE)
     matte = data.region("stream", size=SIZE)
-    a = assign(photo, matte, db, AnimateParams(candidates=20, loop=0))
+    a = assign(photo, matte, db, AnimateParams(candidates=20, loop=0, **PAPER))
     return a, render(a).clip.frames
 
 
@@ -51,6 +63,22 @@ def test_its_half_size_is_the_full_size_frame_shrunk(scene):
     out = preview_frame(a, factor=2)[:62]
     photo = downsample(a.target.image[:124], 2)
     assert np.abs(out - half).mean() < 0.25 * np.abs(half - photo).mean()
+
+
+def test_the_flow_rendering_keeps_the_photo_sharp_under_the_differences(scene):
+    a, _ = scene
+    params = FlowParams(**{**a.params.to_dict(), "rendering": "flow", "detail": 0.0})
+    photo = np.clip(downsample(a.target.canvas, 2)[:63, :80], 0, 1)
+    # No differences: the photo itself (histograms matched to themselves).
+    np.testing.assert_allclose(preview_frame(a, params), photo, atol=2e-3)
+    flow = preview_frame(a, params.replace(detail=1.0))
+    inside = downsample(a.target.canvas_matte, 2)[:63, :80] > 0.5
+    assert np.abs(flow[inside] - photo[inside]).mean() > 5e-3  # the differences show
+    # The paper's blurs the photo along the motion: farther from it than the flow's.
+    paper = preview_frame(a)
+    assert (
+        np.abs(paper[inside] - photo[inside]).mean() > np.abs(flow[inside] - photo[inside]).mean()
+    )
 
 
 def test_a_cache_rebuilds_only_new_fragments(scene, monkeypatch):

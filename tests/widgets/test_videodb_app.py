@@ -544,6 +544,8 @@ def drag_sigma(app, values, pause=0.0):
 def test_dragging_sigma_shows_the_map_and_a_preview_then_the_clip_when_it_rests(app):
     # Issue 25: every value of a drag re-solves (latest wins), redraws the map and
     # shows a small preview frame; the clip is rendered once the slider rests.
+    if "rendering" in app.panel.controls:  # the paper's, whose frames the test compares
+        app.panel.set("rendering", "paper")
     draw_scene(app)
     app.run(timeout=120)
     app.wait_resolve()
