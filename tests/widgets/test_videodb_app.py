@@ -546,6 +546,7 @@ def test_dragging_sigma_shows_the_map_and_a_preview_then_the_clip_when_it_rests(
     # shows a small preview frame; the clip is rendered once the slider rests.
     if "rendering" in app.panel.controls:  # the paper's, whose frames the test compares
         app.panel.set("rendering", "paper")
+    app.panel.set("loop", 0)  # every fragment at its own frame t (no loop, no stagger)
     draw_scene(app)
     app.run(timeout=120)
     app.wait_resolve()
