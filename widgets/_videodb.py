@@ -398,6 +398,7 @@ class VideoDBApp(App):
         self.quiver_segments = 0  #: Arrows of the direction field on the canvas now.
         self.previews = 0  #: Preview frames shown.
         self._preview_cache = (None, {})  # (database, fragment id -> D_t)
+        self._previewed = None  # the assignment whose preview frame was shown last
         self._previewing = False  # a preview, not the clip, is in the player's picture
         self._was_playing = False  # the player played when the first preview came
         self._settle_timer = None
@@ -1052,11 +1053,11 @@ class VideoDBApp(App):
         # The assignment's own sigma, lambda, rho (they made it); the panel's rendering
         # settings.
         params = params.replace(**{k: getattr(a.params, k) for k in _SOLVE_FIELDS})
-        if self.live_preview:
-            # One frame at full size first (a fraction of the clip's time): the new
-            # assignment is on screen at once, its clip follows.
+        if self.live_preview and self._previewed is not a and not self._clip_is_current():
+            # One frame first (a few percent of the clip's time): the new assignment is
+            # on screen at once, its clip follows. A drag has shown it already.
             progress(0.0, "a first frame")
-            self._show_preview(a, params, 1)
+            self._show_preview(a, params)
         animation = render(a, params, progress=progress)
         self.renders += 1
         self.animation = animation
@@ -1133,7 +1134,7 @@ class VideoDBApp(App):
         # shows every map it can, a preview now and then, and the last one).
         stale = time.monotonic() - self._preview_shown > self.preview_every
         if self.live_preview and (stale or not self._values_changed()):
-            self._show_preview(new, params, _PREVIEW_FACTOR)
+            self._show_preview(new, params)
         if not self.running or self._live_render:
             self.say(
                 f"σ={new.params.sigma:.3g}, λ={new.params.lam:.3g}, ρ={new.params.rho:.3g}: "
@@ -1164,23 +1165,22 @@ class VideoDBApp(App):
             getattr(params, k) != getattr(a.params, k) for k in _SOLVE_FIELDS
         )
 
-    def _show_preview(self, a, params, factor):
-        """One frame of ``a`` in the player (``factor`` times smaller), until its clip."""
+    def _show_preview(self, a, params):
+        """One frame of ``a`` at half size in the player, until its clip comes."""
         cache = self._preview_cache_for(a)
-        picture = preview_frame(a, params, factor=factor, cache=cache)
-        png = _png(picture)
+        png = _png(preview_frame(a, params, factor=_PREVIEW_FACTOR, cache=cache))
         if self.assignment is not a:
             return  # a newer one is on its way
-        size = "at half size" if factor == 2 else "at full size" if factor == 1 else "small"
-        follows = "rendering the clip…" if factor == 1 else "the clip follows when the slider rests"
+        follows = "rendering the clip…" if self.running else "the clip follows when it rests"
         note = (
-            f"preview: frame {a.db.params.N // 2 + 1} {size} (σ = {a.params.sigma:.3g}, "
+            f"preview: frame {a.db.params.N // 2 + 1} at half size (σ = {a.params.sigma:.3g}, "
             f"λ = {a.params.lam:.3g}, ρ = {a.params.rho:.3g}); {follows}"
         )
 
         def show():
             if self.assignment is not a or self._clip_is_current():
                 return
+            self._previewed = a
             if not self._previewing:
                 self._was_playing = self.player.playing
             self._previewing = True

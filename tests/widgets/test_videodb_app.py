@@ -591,17 +591,30 @@ def test_dragging_sigma_shows_the_map_and_a_preview_then_the_clip_when_it_rests(
     assert app.retrievals == 1  # all of it from the kept tables
 
 
-def test_a_rendering_setting_renders_again_when_it_rests(app):
+def test_a_rendering_setting_renders_again_when_it_rests(app, monkeypatch):
     draw_scene(app)
     app.run(timeout=120)
     app.wait_resolve()
     app.settle = 0.05
     renders, resolves = app.renders, app.resolves
+    shown = []
+    real = module.render
+
+    def watched(*args, **kwargs):  # what the player shows while the clip renders
+        shown.append(app.player.info.value)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(module, "render", watched)
     app.panel.set("shutter", 2.0)
     app.wait_live()
     assert app.renders == renders + 1
     assert app.resolves == resolves  # the assignment stays
     assert app.result.metadata["params"]["shutter"] == 2.0
+    # A first frame with the new setting is on screen before the clip is made.
+    assert len(shown) == 1
+    assert "preview" in shown[0]
+    assert "rendering the clip" in shown[0]
+    assert "preview" not in app.player.info.value
 
 
 def test_a_new_value_stops_the_render_of_the_old_one(app, monkeypatch):
