@@ -1030,9 +1030,9 @@ class VideoDBApp(App):
         # the preview's cache, so the first drag shows its preview at once.
         self.request_resolve()
         return (
-            f"done in {seconds:.1f} s: {plural(len(a.target), 'fragment')}, "
-            f"{a.candidates.shape[1]} candidates each, energy {a.solution.energy:.4g} after "
-            f"{plural(a.solution.sweeps, 'sweep')} (ICM {a.solution.icm_energy:.4g}); "
+            f"done in {seconds:.1f} s: {plural(len(a.target), 'fragment')}, K = "
+            f"{a.candidates.shape[1]}, E = {a.solution.energy:.4g} after "
+            f"{plural(a.solution.sweeps, 'sweep')} (ICM {a.solution.icm_energy:.4g}), "
             f"{plural(len(clip), 'frame')}"
         )
 
@@ -1136,11 +1136,11 @@ class VideoDBApp(App):
         if self.live_preview and (stale or not self._values_changed()):
             self._show_preview(new, params)
         if not self.running or self._live_render:
+            # One line (a second would move the app under the mouse while it drags).
+            # (σ, λ, ρ are on their sliders and under the energy plot.)
             self.say(
-                f"σ={new.params.sigma:.3g}, λ={new.params.lam:.3g}, ρ={new.params.rho:.3g}: "
-                f"re-solved from the kept tables in {solved:.2f} s, {changed} of "
-                f"{plural(len(new.labels), 'fragment')} changed; the clip follows when the "
-                "slider rests"
+                f"re-solved from the kept tables in {solved:.2f} s: {changed} of "
+                f"{plural(len(new.labels), 'fragment')} changed"
             )
         self._schedule_render()
 
@@ -1171,11 +1171,11 @@ class VideoDBApp(App):
         png = _png(preview_frame(a, params, factor=_PREVIEW_FACTOR, cache=cache))
         if self.assignment is not a:
             return  # a newer one is on its way
-        follows = "rendering the clip…" if self.running else "the clip follows when it rests"
-        note = (
-            f"preview: frame {a.db.params.N // 2 + 1} at half size (σ = {a.params.sigma:.3g}, "
-            f"λ = {a.params.lam:.3g}, ρ = {a.params.rho:.3g}); {follows}"
-        )
+        # One line under the picture (a longer one would push the map down); the rest
+        # in its tooltip.
+        follows = "rendering the clip" if self.running else "the clip follows when the values rest"
+        note = f"preview: σ = {a.params.sigma:.3g}, λ = {a.params.lam:.3g}, ρ = {a.params.rho:.3g}"
+        title = f"frame {a.db.params.N // 2 + 1} at half size, made in a moment; {follows}"
 
         def show():
             if self.assignment is not a or self._clip_is_current():
@@ -1190,8 +1190,8 @@ class VideoDBApp(App):
                 self.player.image.value = png
                 self.player.image.layout.display = None
                 self.player.info.value = (
-                    f"<span class='fluidnb-vdb-preview' style='opacity:0.85'>"
-                    f"{html.escape(note)}</span>"
+                    f"<span class='fluidnb-vdb-preview' title='{html.escape(title)}' "
+                    f"style='opacity:0.85;white-space:nowrap'>{html.escape(note)}</span>"
                 )
             self.previews += 1
 
@@ -1459,6 +1459,14 @@ def _strip_png(images):
     return buf.getvalue()
 
 
+def _tick(value):
+    """An axis label of at most 6 characters: 7738, 1.72e4, 0.0123 (the SVG's margin)."""
+    text = f"{value:.4g}"
+    if len(text) > 6:
+        text = f"{value:.2e}".replace("e+0", "e").replace("e-0", "e-").replace("e+", "e")
+    return text
+
+
 def _energy_svg(energies, icm, width=280, height=150):
     """A small line plot (inline SVG, theme colours) of the energy after each sweep."""
     left, right, top, bottom = 52, 10, 10, 26
@@ -1491,9 +1499,9 @@ def _energy_svg(energies, icm, width=280, height=150):
         f"<line x1='{left}' y1='{height - bottom}' x2='{width - right}' y2='{height - bottom}' "
         f"{axis}/>"
         f"<text x='{left - 4}' y='{y(hi - pad) + 3:.1f}' text-anchor='end' "
-        f"fill='currentColor'>{hi - pad:.4g}</text>"
+        f"fill='currentColor'>{_tick(hi - pad)}</text>"
         f"<text x='{left - 4}' y='{y(lo + pad) + 3:.1f}' text-anchor='end' "
-        f"fill='currentColor'>{lo + pad:.4g}</text>"
+        f"fill='currentColor'>{_tick(lo + pad)}</text>"
         f"<g fill='currentColor' fill-opacity='0.8'>{ticks}</g>"
         f"<text x='{width - right}' y='{height - 1}' text-anchor='end' fill='currentColor' "
         "fill-opacity='0.8'>sweep</text>"
