@@ -30,6 +30,8 @@ from tests.browser.helpers import (
     drag,
     drag_slider,
     img_rgba,
+    inside,
+    notebook_view,
     open_app,
     poll,
     read_json,
@@ -88,15 +90,6 @@ _WATCH_PLAYER = """() => {
     player, {subtree: true, childList: true, characterData: true, attributes: true});
 }"""
 
-# What is visible of the notebook: the page minus JupyterLab's bars.
-_NOTEBOOK_VIEW = """() => {
-  const o = window.jupyterapp.shell.currentWidget.node
-    .querySelector('.jp-WindowedPanel-outer').getBoundingClientRect();
-  return {x: Math.max(o.left, 0), y: Math.max(o.top, 0),
-          width: Math.min(o.right, innerWidth) - Math.max(o.left, 0),
-          height: Math.min(o.bottom, innerHeight) - Math.max(o.top, 0)};
-}"""
-
 STDERR = '.jp-RenderedText[data-mime-type="application/vnd.jupyter.stderr"]'
 
 
@@ -126,21 +119,12 @@ class Region:
         self.page.screenshot(path=path, clip=self.box)
 
 
-def inside(box, view, what):
-    """Fail unless ``box`` lies wholly inside ``view`` (a pixel of slack)."""
-    assert box is not None, f"{what} is not displayed"
-    assert box["x"] >= view["x"] - 1, (what, box, view)
-    assert box["y"] >= view["y"] - 1, (what, box, view)
-    assert box["x"] + box["width"] <= view["x"] + view["width"] + 1, (what, box, view)
-    assert box["y"] + box["height"] <= view["y"] + view["height"] + 1, (what, box, view)
-
-
 def check_layout(page, shot, suffix):
     """At 1400 x 900 with the app's top at the notebook's top, and no scrolling after:
     the canvas and the clip's picture in view, and the sigma slider with the map."""
     page.locator(".fluidnb-app").evaluate("el => el.scrollIntoView({block: 'start'})")
     page.wait_for_timeout(300)
-    view = page.evaluate(_NOTEBOOK_VIEW)
+    view = notebook_view(page)
     assert view["width"] > 1200, view  # the page really is 1400 wide
     shot(page, suffix)
     app = ".fluidnb-app "
