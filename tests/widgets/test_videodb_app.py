@@ -696,3 +696,32 @@ def test_the_rendering_switch_is_a_toggle_bound_to_its_field(db):
         assert toggle.value == "flow"
     finally:
         app.close()
+
+
+def test_a_starter_database_built_on_first_use_fills_most_of_the_bar(db, monkeypatch, tmp_path):
+    # Issue 22, point 4: the first Run builds the starter database (minutes at full
+    # size); its progress must move the bar, not creep within its first 15 %.
+    seen = []
+
+    def building(kind, *, quick=None, progress=None):
+        for f in (0.0, 0.5, 1.0):
+            progress(f, f"building the {kind} database")
+            seen.append(app.progress.value)
+        return db
+
+    monkeypatch.setattr(module, "starter_database", building)
+    monkeypatch.setattr(module, "starter_path", lambda kind, quick=None: tmp_path / "none")
+    app = VideoDBApp("stream", size=160, db="water", quick=True)
+    try:
+        app.panel.set("candidates", 20)
+        app.paint_matte([[ROW, 10], [ROW, 150]], radius=22)
+        assert app.run(timeout=120) is not None
+        assert seen == pytest.approx([0.0, 0.4, 0.8])
+        # Once built (cached), the database is quick to open: a thin slice of the bar.
+        seen.clear()
+        monkeypatch.setattr(module, "starter_path", lambda kind, quick=None: tmp_path)
+        app._databases.clear()
+        app.run(timeout=120)
+        assert seen == pytest.approx([0.0, 0.075, 0.15])
+    finally:
+        app.close()
