@@ -670,8 +670,12 @@ class VideoDBApp(App):
         return canvas
 
     def _wire_canvas(self, canvas):
-        # The canvas column as wide as the canvas, with room for the tools.
-        self.drawing_width = f"{max(canvas.canvas.width, 440)}px"
+        # The canvas column as wide as the canvas (with room for the tools), narrower
+        # on a narrower page -- the canvas shrinks with it -- so the clip, the map and
+        # the panel stay beside it (at 1280 px they wrapped under it). 700 px: the
+        # clip-and-map column and the panel, with their margins.
+        widest = max(canvas.canvas.width, 440)
+        self.drawing_width = f"clamp(360px, calc(100% - 700px), {widest}px)"
         canvas.observe(self._drawing_changed, "version")
         canvas.observe(lambda _: self._sync_brush(), ["tool", "layer"])
         self._field_key = self._field = None

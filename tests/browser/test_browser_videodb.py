@@ -389,7 +389,7 @@ def test_the_lessons_databases_show_bars_and_its_app_the_one_layout(notebook, pa
     cells = lesson_cells("07a_videodb_database.ipynb", [1, 23])
     assert "progress_bar(" in cells[0]
     assert "VideoDBApp(" in cells[1]
-    nb = notebook(['import os\nos.environ["FLUIDNB_QUICK"] = "1"\n', *cells])
+    notebook(['import os\nos.environ["FLUIDNB_QUICK"] = "1"\n', *cells])
     bars = page.locator(".fluidnb-progressbar")
     poll("the databases' bars", lambda: bars.count() == 2, timeout=30)
     for i, kind in enumerate(("water", "smoke")):
@@ -406,7 +406,17 @@ def test_the_lessons_databases_show_bars_and_its_app_the_one_layout(notebook, pa
     frame = page.locator(".fluidnb-app .fluidnb-player .fluidnb-frame")
     poll("the clip's first frame", lambda: img_rgba(frame) is not None)
     check_layout(page, shot, "lesson-07a")
-    assert nb.folder.exists()
+    # At 1280 px too the three columns stay side by side (the canvas narrows).
+    page.set_viewport_size({"width": 1280, "height": 900})
+    page.wait_for_timeout(500)
+    app = ".fluidnb-app "
+    canvas = page.locator(app + ".fluidnb-canvas").bounding_box()
+    amap = page.locator(".fluidnb-vdb-map").bounding_box()
+    sigma = page.locator(app + ".fluidnb-param-sigma").bounding_box()
+    assert canvas["x"] + canvas["width"] <= amap["x"] < sigma["x"], (canvas, amap, sigma)
+    assert sigma["y"] < canvas["y"] + canvas["height"], "the panel wrapped under the canvas"
+    assert canvas["width"] >= 360
+    shot(page, "lesson-07a-1280")
 
 
 PHOTOS = """\
