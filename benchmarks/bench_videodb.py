@@ -30,6 +30,14 @@ candidate pairs per edge), half an hour for rendering -- over a water database o
 - ``interactive``: on the starter water database, a 320 x 180 target assigned (goal
   < 1 s), re-solved after a sigma, lambda or rho change (goal < 0.5 s), rendered (goal
   < 3 s); rounds interleaved, fastest and median.
+- ``rendering``: the flow rendering (beyond the paper) against the paper's, on the
+  starter water database with the stream at 320 x 180, a stroke left to right and a
+  painted speed of 2 and 0.5 px/frame: the output's optical flow (OpenCV DIS, preset
+  MEDIUM, between consecutive frames, mean over the matte) against the painted speed
+  and the stroke's direction, the share of neighbouring target fragments that play the
+  same fragment in sync before and after the temporal offsets, and the time of each
+  rendering's stages (rounds interleaved); goal (issue 24): 0.65-1.35x the painted
+  speed, within 20 degrees, a 24-frame render under 0.25 s.
 - ``solver``: alpha-expansion (``solve``) against ICM on the real assignments, and on a
   metric sub-case (shared labels = direction / speed bins of the candidates' mean
   motion, Potts or truncated L1) side by side with gco-wrapper (``gco.cut_grid_graph_
@@ -67,7 +75,16 @@ import numpy as np
 # fluidnb is imported inside the functions: the peer part of this script runs in the
 # peers' interpreter, which does not have it.
 
-PARTS = ("starter", "throughput", "store", "paper", "interactive", "solver", "findings")
+PARTS = (
+    "starter",
+    "throughput",
+    "store",
+    "paper",
+    "interactive",
+    "rendering",
+    "solver",
+    "findings",
+)
 KINDS = ("water", "smoke", "fire")
 PAPER_FRAGMENTS = 240_000
 QUICK_FRAGMENTS = 24_000
@@ -720,6 +737,90 @@ def _met(lo, med, goal):
     if med < goal:
         return "yes"
     return "fastest only" if lo < goal else "no"
+
+
+# --------------------------------------------------------------- 5b. rendering
+
+
+def dis_flow(frames, mask):
+    """Mean (dy, dx) of OpenCV DIS (MEDIUM) between consecutive frames, over ``mask``."""
+    import cv2
+
+    from fluidnb import to_uint8
+
+    dis = cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM)
+    grey = [cv2.cvtColor(to_uint8(f), cv2.COLOR_RGB2GRAY) for f in frames]
+    flows = [dis.calc(a, b, None)[mask][:, ::-1].mean(axis=0) for a, b in zip(grey, grey[1:])]
+    return np.mean(flows, axis=0)
+
+
+def part_rendering(ctx):
+    from fluidnb.videodb import assign, render, sync_share
+
+    print("\n## Renderings: the flow rendering (beyond the paper) against the paper's")
+    load0 = load()
+    db = ctx.starter("water")
+    img, matte = stream_target((180, 320))
+    h, w = matte.shape
+    stroke = np.array([[0.5 * h, 0.05 * w], [0.5 * h, 0.95 * w]])
+    fluid = matte > 0.5
+    rows, out = [], {}
+    rounds = 2 if ctx.quick else 5
+    for painted in (2.0, 0.5):
+        speed = np.where(fluid, painted, 0.0).astype(np.float32)
+        a = assign(img, matte, db, direction=[stroke], speed=speed)
+        params = {r: a.params.replace(rendering=r) for r in ("paper", "flow")}
+        anims, secs, stages = {}, {r: [] for r in params}, {r: {} for r in params}
+        for p in params.values():
+            render(a, p)  # warm-up
+        for _ in range(rounds):
+            for r, p in params.items():
+                t0 = now()
+                anims[r] = render(a, p)
+                secs[r].append(now() - t0)
+                for k, v in anims[r].timings.items():
+                    if not k.startswith("assign_") and k != "render":
+                        stages[r].setdefault(k, []).append(v)
+        for r, anim in anims.items():
+            flow = dis_flow(anim.clip.frames, fluid)
+            mag = float(np.hypot(*flow))
+            angle = float(np.degrees(np.arctan2(flow[0], flow[1])))  # the stroke: 0 degrees
+            sync = (
+                sync_share(a.fragments, a.target.positions),
+                sync_share(
+                    a.fragments, a.target.positions, anim.stages["offsets"], anim.stages["mirrors"]
+                ),
+            )
+            rows.append(
+                [
+                    f"{painted:g} px/frame",
+                    r,
+                    f"{mag:.2f} ({mag / painted:.2f}x)",
+                    f"{angle:+.0f}",
+                    f"{sync[0]:.2f} -> {sync[1]:.2f}",
+                    str(len(anim.clip)),
+                    fm(secs[r]),
+                    ", ".join(f"{k} {fm(v)}" for k, v in stages[r].items()),
+                ]
+            )
+            out[f"{painted}:{r}"] = {
+                "flow": flow,
+                "ratio": mag / painted,
+                "angle": angle,
+                "sync": sync,
+                "frames": len(anim.clip),
+                "seconds": secs[r],
+                "stages": stages[r],
+            }
+    print(
+        f"stream 320 x 180 + its matte, a stroke left to right, {rounds} interleaved rounds "
+        f"after a warm-up; load avg {load0:.1f} -> {load():.1f}"
+    )
+    table(
+        ["painted", "rendering", "measured", "angle", "in sync", "frames", "render", "stages"],
+        rows,
+    )
+    ctx.results["rendering"] = out
 
 
 # ------------------------------------------------------------------ 6. solver

@@ -20,10 +20,14 @@ def register(sub):
             "most like it (histogram intersection of visual words, Eq. 1), choose among "
             "them by alpha-expansion on an MRF whose smoothness term compares the "
             "neighbours' motion spectra and textureness (Eq. 4-6: sigma, lambda, rho), "
-            "then render: the chosen fragments' difference frames blended by Laplacian "
-            "pyramids over a motion-blurred photo, histogram-matched to it and composited "
-            "through the matte. --db water|smoke|fire uses a starter database (built on "
-            "first use, about a minute, and cached); a folder uses your own database "
+            "then render. --rendering flow (the default, beyond the paper) moves the photo "
+            "itself along the chosen fragments' motion (at the painted speed where you "
+            "painted one) in a seamless loop and adds their difference frames on top; "
+            "--rendering paper blends the difference frames by Laplacian pyramids over a "
+            "motion-blurred photo (Okabe et al., sec. 6). Both are histogram-matched to "
+            "the photo and composited through the matte. --db water|smoke|fire uses a "
+            "starter database (built on first use, about a minute, and cached); a folder "
+            "uses your own database "
             "(`fluidnb videodb build`). Only the matte's region moves."
         ),
         epilog=(

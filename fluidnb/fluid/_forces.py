@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from .._validation import check_array, check_range, check_vector_field
@@ -43,8 +44,8 @@ def buoyancy(temperature, params):
     >>> T = np.zeros((3, 2))
     >>> T[2] = 1.0  # the bottom row is hot
     >>> buoyancy(T, FluidParams(kappa_b=0.1))[..., 0]
-    array([[-0.  , -0.  ],
-           [-0.  , -0.  ],
+    array([[ 0.  ,  0.  ],
+           [ 0.  ,  0.  ],
            [-0.05, -0.05]])
     """
     params = _check_params(params)
@@ -53,20 +54,36 @@ def buoyancy(temperature, params):
 
 
 def _buoyancy(t, params):
+    t = _f64(t)
     f = np.empty((*t.shape, 2))
-    kappa_b, t_amb, wind = float(params.kappa_b), float(params.T_amb), float(params.wind)
-    _kernels.forces(f, _f64(t), kappa_b, t_amb, wind, 0.0, 1.0, True, f, False)
+    zero = np.zeros(t.shape)  # no confinement push
+    _kernels.face_forces(t, zero, zero, float(params.kappa_b), float(params.T_amb),
+                         float(params.wind), f)  # fmt: skip
     return f
 
 
-def _add_forces(v, t, params):
-    """``v += dt * (buoyancy + confinement)`` in place, one fused pass over the faces.
+def _padded(v):
+    """The wall-padded planes of a staggered velocity (see _kernels._pad_row)."""
+    h, w = v.shape[:2]
+    qy, qx = np.empty((h + 1, w)), np.empty((h, w + 1))
+    _kernels.pad(v, qy, qx)
+    return qy, qx
 
-    The confinement is computed from ``v`` itself (before the update).
+
+def _push(qy, qx, shape, epsilon, parts=None):
+    """The confinement push epsilon (N x omega) at the centres, from padded planes.
+
+    Zeros for ``epsilon == 0`` or a grid of a single row or column (no curl).
+    ``parts``: chunks of rows, one per thread (numba's count if not given).
     """
-    p = params
-    args = (float(p.kappa_b), float(p.T_amb), float(p.wind), float(p.epsilon), float(p.dt))
-    _kernels.forces(v, t, *args, True, v, True)
+    h, w = shape
+    if epsilon == 0 or h < 2 or w < 2:
+        zero = np.zeros((h, w))
+        return zero, zero
+    fy, fx = np.empty((h, w)), np.empty((h, w))
+    parts = numba.get_num_threads() if parts is None else parts
+    _kernels.confinement(qy, qx, float(epsilon), parts, fy, fx)
+    return fy, fx
 
 
 def vorticity_confinement(velocity, epsilon):
@@ -104,8 +121,10 @@ def vorticity_confinement(velocity, epsilon):
     v = check_vector_field("velocity", velocity)
     epsilon = check_range("epsilon", epsilon, 0)
     v = _f64(v)
+    t = np.zeros(v.shape[:2])
+    fy, fx = _push(*_padded(v), t.shape, epsilon)
     f = np.empty(v.shape)
-    _kernels.forces(v, np.zeros(v.shape[:2]), 0.0, 0.0, 0.0, float(epsilon), 1.0, False, f, False)
+    _kernels.face_forces(t, fy, fx, 0.0, 0.0, 0.0, f)
     return f
 
 
@@ -160,8 +179,20 @@ def _cool(t, c_r, t_amb, dt, t_max=None):
         return t.copy()
     t = _f64(t)
     out = np.empty(t.shape)
-    _kernels.cool(t, float(t_amb), float(span), float(3.0 * c_r * dt / span), out)
+    _kernels.cool(t, float(t_amb), float(span), *_cooling_rate(c_r, dt, span), out)
     return out
+
+
+#: The cooling rate ``k`` is capped here: beyond it every cell above ambient cools to
+#: ambient within 1e-100 of the span in one step anyway, and an infinite k (a span
+#: of a few 1e-308) would turn 0 * k into NaN.
+_MAX_RATE = 1e300
+
+
+def _cooling_rate(c_r, dt, span):
+    """``k = 3 C_r dt / span`` of the exact cooling step, and ``k ** (-1/3)``."""
+    k = min(3.0 * c_r * dt / span, _MAX_RATE)
+    return k, 1.0 / float(np.cbrt(k))
 
 
 def source_mask(shape, params):

@@ -121,9 +121,20 @@ def divergence(velocity):
 
 
 def _divergence(v):
+    vy, vx = _planes(v)
     div = np.empty(v.shape[:2])
-    _kernels.divergence(_f64(v), div)
+    _kernels.divergence(vy, vx, _in_order(v.shape[1]), div)
     return div
+
+
+def _planes(v):
+    """The two components of an (H, W, 2) field as C-contiguous float64 planes."""
+    return _f64(v[..., 0]), _f64(v[..., 1])
+
+
+def _in_order(w):
+    """The column map of a field stored in its natural order (see _kernels.divergence)."""
+    return np.arange(w, dtype=np.uint64)
 
 
 def curl(velocity):
@@ -158,13 +169,10 @@ def curl(velocity):
            [0.2, 0.2, 0.2, 0.2]])
     """
     v = check_vector_field("velocity", velocity)
-    return _curl(_centres(np.asarray(v, dtype=np.float64)))
-
-
-def _curl(c):
-    out = np.zeros(c.shape[:2])
-    if min(c.shape[:2]) >= 2:  # np.gradient's rule: one-sided needs two samples
-        _kernels.curl(_f64(c[..., 0]), _f64(c[..., 1]), out)
+    v = _f64(v)
+    out = np.zeros(v.shape[:2])
+    if min(out.shape) >= 2:  # np.gradient's rule: one-sided needs two samples
+        _kernels.curl(v, out)
     return out
 
 
@@ -174,8 +182,13 @@ def _project(v, boundary, method="fast"):
     h, w = v.shape[:2]
     if h * w == 1 and boundary == "closed":
         return np.zeros((h, w))
-    p = poisson_solver((h, w), boundary, method).solve(_divergence(v))
-    _kernels.subtract_gradient(v, p, boundary == "open_top")
+    solver = poisson_solver((h, w), boundary, method)
+    vy, vx = _planes(v)
+    if method == "fast":
+        p, p0 = solver.project(vy, vx, v)
+        return p[:, solver.pos] - p0
+    p = solver.solve(_divergence(v))
+    _kernels.subtract_gradient(vy, vx, p, _in_order(w), boundary == "open_top", 0.0, v)
     return p
 
 

@@ -21,6 +21,17 @@ MAX_PUSH_PX = 16.0
 #: ``1 + epsilon dt`` a step; measured, 2 stays bounded and 3 diverges.
 MAX_EPSILON_DT = 2.0
 
+#: The largest magnitude of a temperature parameter (``T_amb``, ``source_T``): wide
+#: enough for kelvins, and with it every field and force stays far from overflow.
+MAX_TEMPERATURE = 1e4
+
+#: The largest strength of a force coefficient (``kappa_b``, ``epsilon``, ``|wind|``)
+#: and of the cooling and smoke rates (``C_r``, ``density_rate``), per frame. The
+#: cross-field rules of :meth:`FluidParams.check` bound the forces more tightly; these
+#: close the doors they leave open (a tiny ``dt`` let ``kappa_b = 1e12`` through) and
+#: keep a long run's smoke finite (``density_rate`` times the frames).
+MAX_RATE = 100.0
+
 
 @dataclass(frozen=True)
 class FluidParams(Params):
@@ -33,6 +44,10 @@ class FluidParams(Params):
 
     Units: lengths in pixels (grid cells), time in frames (``dt = 1`` is one frame),
     velocities in pixels per frame, as everywhere in fluidnb.
+
+    Every parameter has a range that keeps the simulation finite (temperatures within
+    ``MAX_TEMPERATURE``, rates and force coefficients within ``MAX_RATE``), and
+    :meth:`check` bounds how far the forces may carry the gas in one step.
 
     Attributes
     ----------
@@ -88,7 +103,7 @@ class FluidParams(Params):
     >>> FluidParams(C_r=-1)
     Traceback (most recent call last):
     ...
-    ValueError: C_r must be >= 0, got -1
+    ValueError: C_r must be in [0, 100], got -1
     """
 
     dt: float = param(
@@ -106,6 +121,7 @@ class FluidParams(Params):
     kappa_b: float = param(
         0.15,
         lo=0,
+        hi=MAX_RATE,
         symbol=r"\kappa_b",
         eq="Eq. (4)",
         doc="buoyancy per unit temperature",
@@ -115,6 +131,7 @@ class FluidParams(Params):
     epsilon: float = param(
         0.4,
         lo=0,
+        hi=MAX_RATE,
         symbol=r"\epsilon",
         eq="Eq. (5)",
         doc="vorticity confinement strength",
@@ -124,6 +141,7 @@ class FluidParams(Params):
     C_r: float = param(
         0.05,
         lo=0,
+        hi=MAX_RATE,
         symbol=r"C_r",
         eq="Eq. (3)",
         doc="radiative cooling constant",
@@ -132,6 +150,8 @@ class FluidParams(Params):
     )
     T_amb: float = param(
         0.0,
+        lo=-MAX_TEMPERATURE,
+        hi=MAX_TEMPERATURE,
         symbol=r"T_{amb}",
         eq="Eq. (3), (4)",
         doc="ambient temperature",
@@ -146,16 +166,28 @@ class FluidParams(Params):
         0.05, lo=0, hi=0.5, doc="source radius, fraction of the width (0 = off)", step=0.005
     )
     source_T: float = param(
-        1.0, doc="temperature imposed by the source", ui_range=(0.0, 3.0), step=0.05
+        1.0,
+        lo=-MAX_TEMPERATURE,
+        hi=MAX_TEMPERATURE,
+        doc="temperature imposed by the source",
+        ui_range=(0.0, 3.0),
+        step=0.05,
     )
     source_flicker: float = param(
         0.5, lo=0, hi=1, doc="random variation of the source temperature (0 = steady)", step=0.05
     )
     density_rate: float = param(
-        0.0, lo=0, doc="smoke density added per frame in the source", ui_range=(0, 0.5), step=0.01
+        0.0,
+        lo=0,
+        hi=MAX_RATE,
+        doc="smoke density added per frame in the source",
+        ui_range=(0, 0.5),
+        step=0.01,
     )
     wind: float = param(
         0.0,
+        lo=-MAX_RATE,
+        hi=MAX_RATE,
         doc="side wind on the hot gas (> 0 to the right)",
         unit="px/frame^2",
         ui_range=(-0.1, 0.1),

@@ -22,7 +22,10 @@ So a DCT along x turns :math:`A p = r` into W independent tridiagonal systems al
 :math:`(L_y + \lambda_k I)\,\hat p_k = \hat r_k`, solved exactly by the Thomas algorithm
 in O(H) each; an inverse DCT brings :math:`p` back. Exact to round-off, O(HW log W),
 and the only setup per grid shape is the Thomas algorithm's elimination factors,
-cached (scipy.fft caches its own DCT plans).
+cached (scipy.fft caches its own FFT plans). Each DCT is a real FFT of the row read
+in another order (Makhoul 1980), the reordering and the FFT's turns done by the
+kernels on either side; see :class:`_FastPoisson`. (The readable version,
+:func:`fluidnb.fluid._reference.pressure`, calls scipy's DCT.)
 
 A closed box determines :math:`p` up to a constant: the k = 0 system is singular. Both
 solvers fix the constant the same way, :math:`p = 0` in cell (0, 0) (the top-left).
@@ -42,6 +45,8 @@ import scipy.fft
 import scipy.sparse as sp
 from numba import njit, prange
 from scipy.sparse.linalg import splu
+
+from . import _kernels
 
 __all__ = ["METHODS", "poisson_solver"]
 
@@ -67,12 +72,22 @@ def _row_diagonals(n, open_start):
 
 
 class _FastPoisson:
-    r"""DCT along x, one tridiagonal (Thomas) solve per x-mode along y.
+    r"""A cosine transform along x, one tridiagonal (Thomas) solve per x-mode along y.
+
+    The cosine transform (DCT-II) of a row is done with one real FFT of the same
+    length (Makhoul 1980): the row is read in the order ``x[0], x[2], x[4], ...,
+    x[5], x[3], x[1]`` (``pos`` maps column j to its place), and bin k of its FFT,
+    turned by :math:`e^{-i\pi k / 2W}`, holds the coefficients of modes k (real part)
+    and W - k (minus the imaginary part). The inverse runs the same way back. The
+    reordering is done by the kernels on either side (the divergence writes in that
+    order, the gradient reads it), and the turns by the tridiagonal solve, which
+    takes each FFT bin's two modes together: no pass over the grid of its own.
 
     The Thomas factors are computed once here, for all W modes at once: for each
     mode k the forward sweep of :math:`(L_y + \lambda_k I)` is
     ``p'_i = (r_i + p'_{i-1}) * inv[i, k]`` and the back substitution
-    ``p_i = p'_i - up[i, k] * p_{i+1}``.
+    ``p_i = p'_i - up[i, k] * p_{i+1}``; ``inv_a``, ``up_a`` are bin k's first mode
+    (k), ``inv_b``, ``up_b`` its second (W - k).
     """
 
     def __init__(self, shape, boundary):
@@ -86,7 +101,7 @@ class _FastPoisson:
         upper[-1] = 0.0
         if self.pin:
             # Mode 0 of a closed box is singular: replace its first equation by
-            # p_hat[0] = 0 (the constant is fixed again after the inverse DCT).
+            # p_hat[0] = 0 (the constant is fixed again after the inverse transform).
             diag[0, 0], upper[0, 0] = 1.0, 0.0
         inv = np.empty((h, w))
         up = np.empty((h, w))
@@ -95,47 +110,121 @@ class _FastPoisson:
             inv[i] = 1.0 / (diag[i] + prev)  # sub-diagonal is -1: b_i - a_i c'_{i-1}
             up[i] = upper[i] * inv[i]
             prev = up[i]
-        self.inv = inv
-        self.up = up
+        bins = np.arange(w // 2 + 1)
+        partner = (w - bins) % w  # bin 0 has no second mode: its own, fed zeros
+        self.inv_a, self.up_a = inv[:, bins].copy(), up[:, bins].copy()
+        self.inv_b, self.up_b = inv[:, partner].copy(), up[:, partner].copy()
+        angle = np.pi * bins / (2 * w)
+        self.cos, self.sin = np.cos(angle), np.sin(angle)
+        if w % 2 == 0:
+            # The Nyquist bin's two modes are one: equal weights keep them equal.
+            self.sin[-1] = self.cos[-1]
+        pos = np.empty(w, dtype=np.uint64)
+        pos[0::2] = np.arange((w + 1) // 2)
+        pos[1::2] = w - 1 - np.arange(w // 2)
+        self.pos = pos
+
+    def _solve_ordered(self, r, parts=None):
+        """The pressure (in ``pos`` order) for a right-hand side in ``pos`` order.
+
+        ``parts``: runs of FFT bins for the tridiagonal solves, one per thread.
+        """
+        w = self.shape[1]
+        # The FFTs run on one thread: a second worker measured slower at 128 x 128
+        # on a busy machine (its thread pool wakes for 30 microseconds of work), and
+        # how the rows are shared out then cannot change a bit on any CPU.
+        z = scipy.fft.rfft(r, axis=1)
+        _thomas(z.view(np.float64), self.cos, self.sin, self.inv_a, self.up_a,
+                self.inv_b, self.up_b, self.pin,
+                numba.get_num_threads() if parts is None else parts)  # fmt: skip
+        return scipy.fft.irfft(z, n=w, axis=1, overwrite_x=True)
 
     def solve(self, div):
         """Pressure p with ``A p = -div``; ``p[0, 0] = 0`` for a closed box."""
-        # The transforms use as many threads as the kernels (one for a small grid).
-        workers = numba.get_num_threads()
-        r = scipy.fft.dct(div, type=2, axis=1, norm="ortho", workers=workers)
-        if self.pin:
-            r[0, 0] = 0.0
-        _thomas(r, self.inv, self.up)
-        p = scipy.fft.idct(r, type=2, axis=1, norm="ortho", overwrite_x=True, workers=workers)
+        r = np.empty(self.shape)
+        r[:, self.pos] = div
+        p = self._solve_ordered(r)[:, self.pos]
         if self.pin:
             p -= p[0, 0]
         return p
 
+    def pressure(self, r, parts=None):
+        """The pressure (``pos`` order) for a divergence in ``pos`` order, and ``p0``.
+
+        ``p0`` is the constant to take from it (a closed box's ``p[0, 0]``, else 0).
+        """
+        p = self._solve_ordered(r, parts)
+        return p, (float(p[0, 0]) if self.pin else 0.0)  # cell (0, 0) is in place 0
+
+    def project(self, vy, vx, out):
+        """``out`` = the velocity (planes ``vy``, ``vx``, walls zero) minus grad p.
+
+        Returns the pressure in ``pos`` order and the constant ``p0`` to take from it.
+        """
+        r = np.empty(self.shape)
+        _kernels.divergence(vy, vx, self.pos, r)
+        p, p0 = self.pressure(r)
+        _kernels.subtract_gradient(vy, vx, p, self.pos, self.boundary == "open_top", p0, out)
+        return p, p0
+
 
 @njit(cache=True, nogil=True, parallel=True, error_model="numpy")
-def _thomas(r, inv, up):
-    """Solve every column's system for the right-hand side ``-r``, in place.
+def _thomas(z, cos, sin, inv_a, up_a, inv_b, up_b, pin, parts):
+    """Every x-mode's tridiagonal solve, in place on the row FFTs ``z`` (re, im pairs).
 
-    Factors from _FastPoisson.
+    Factors and turns from _FastPoisson. Bin k is read as modes k and W - k
+    (``a = Re(e^{-i pi k/2W} z)``, ``b = -Im(...)``), both solved for the right-hand
+    side ``-a``, ``-b`` (A p = -div: the sign is folded into the sweep), and written
+    back as ``e^{i pi k/2W} (p_a - i p_b)``, what the inverse FFT needs -- one row
+    behind the back substitution, which still reads the row below untouched.
 
-    The columns (x-modes) are independent: split among the threads in blocks, each
-    thread runs the sweeps down and up its own columns, so the result does not depend
-    on the number of threads.
+    The bins are independent: split into ``parts`` runs (one per thread), each thread
+    runs the sweeps down and up its own bins (the inner loops run across bins, so they
+    vectorise); no bin's arithmetic depends on how they are split, so the result does
+    not depend on the number of threads.
     """
-    h, w = r.shape
-    block = 32
-    for b in prange((w + block - 1) // block):
-        lo = b * block
-        hi = min(lo + block, w)
-        # The right-hand side is -r (A p = -div): the sign is folded into the sweep.
-        for k in range(lo, hi):
-            r[0, k] = -r[0, k] * inv[0, k]
+    h = z.shape[0]
+    n_bins = z.shape[1] // 2
+    parts = max(min(parts, n_bins), 1)
+    two = np.uint64(2)
+    one = np.uint64(1)
+    for part in prange(parts):
+        lo = part * n_bins // parts
+        hi = (part + 1) * n_bins // parts
+        # Unsigned indices into row views: no wrap-around guards, so the loops across
+        # bins vectorise.
+        row, ia, ib = z[0], inv_a[0], inv_b[0]
+        for kk in range(lo, hi):
+            k = np.uint64(kk)
+            c, s = cos[k], sin[k]
+            re, im = row[two * k], row[two * k + one]
+            row[two * k] = -(c * re + s * im) * ia[k]
+            row[two * k + one] = -(s * re - c * im) * ib[k]
+        if pin and lo == 0:
+            row[0] = 0.0  # p_hat = 0 for the closed box's constant mode
         for i in range(1, h):
-            for k in range(lo, hi):
-                r[i, k] = (r[i - 1, k] - r[i, k]) * inv[i, k]
+            row, prev, ia, ib = z[i], z[i - 1], inv_a[i], inv_b[i]
+            for kk in range(lo, hi):
+                k = np.uint64(kk)
+                c, s = cos[k], sin[k]
+                re, im = row[two * k], row[two * k + one]
+                row[two * k] = (prev[two * k] - (c * re + s * im)) * ia[k]
+                row[two * k + one] = (prev[two * k + one] - (s * re - c * im)) * ib[k]
         for i in range(h - 2, -1, -1):
-            for k in range(lo, hi):
-                r[i, k] -= up[i, k] * r[i + 1, k]
+            row, nxt, ua, ub = z[i], z[i + 1], up_a[i], up_b[i]
+            for kk in range(lo, hi):
+                k = np.uint64(kk)
+                c, s = cos[k], sin[k]
+                pa, pb = nxt[two * k], nxt[two * k + one]
+                row[two * k] -= ua[k] * pa
+                row[two * k + one] -= ub[k] * pb
+                nxt[two * k], nxt[two * k + one] = c * pa + s * pb, s * pa - c * pb
+        row = z[0]
+        for kk in range(lo, hi):
+            k = np.uint64(kk)
+            c, s = cos[k], sin[k]
+            pa, pb = row[two * k], row[two * k + one]
+            row[two * k], row[two * k + one] = c * pa + s * pb, s * pa - c * pb
 
 
 class _SparsePoisson:

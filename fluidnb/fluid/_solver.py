@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 
+import numba
 import numpy as np
 
 from .._validation import (
@@ -15,9 +16,11 @@ from .._validation import (
     check_vector_field,
 )
 from . import _kernels
-from ._forces import _add_forces, _check_params, source_mask
-from ._grid import _centres, _f64, _project
+from ._forces import _check_params, _cooling_rate, _push, source_mask
+from ._grid import _centres, _f64
 from ._params import FluidParams
+from ._poisson import poisson_solver
+from ._threads import CHOOSER
 
 __all__ = ["FluidState", "advect_velocity", "step"]
 
@@ -158,20 +161,34 @@ def advect_velocity(velocity, dt=1.0):
 
 
 def _advect_velocity(v, dt):
-    # The compiled kernel reads the bottom (dy) and right (dx) walls' unstored faces
-    # as zero; see fluidnb.fluid._kernels.advect_velocity for why.
     v = _f64(v)
+    h, w = v.shape[:2]
+    ay, ax = _advected(v, dt)
     new = np.empty(v.shape)
-    _kernels.advect_velocity(v, float(dt), np.empty(v.shape), new)
+    new[..., 0] = ay[:h]
+    new[..., 1] = ax[:, :w]
     return new
 
 
+def _advected(v, dt):
+    """The self-advected velocity as its wall-padded planes (see _kernels._pad_row)."""
+    h, w = v.shape[:2]
+    size_y, size_x = (h + 1, w), (h, w + 1)
+    ay, ax = np.empty(size_y), np.empty(size_x)
+    _kernels.advect_velocity(v, float(dt), np.empty(size_y), np.empty(size_x), ay, ax)
+    return ay, ax
+
+
 @lru_cache(maxsize=16)
-def _mask(shape, source_x, source_y, source_radius):
-    """The source's footprint and the flat indices of its cells (where noise is drawn)."""
+def _source(shape, source_x, source_y, source_radius):
+    """The source's cells (flat indices, row-major: where noise is drawn) and weights."""
     params = FluidParams(source_x=source_x, source_y=source_y, source_radius=source_radius)
-    m = _frozen(source_mask(shape, params))
-    return m, _frozen(np.flatnonzero(m))
+    m = source_mask(shape, params)
+    cells = np.flatnonzero(m)
+    return _frozen(cells), _frozen(m.ravel()[cells])
+
+
+_NO_NOISE = _frozen(np.zeros(0))
 
 
 def step(state, params, *, rng=None):
@@ -219,10 +236,13 @@ def step(state, params, *, rng=None):
 
     Notes
     -----
-    The per-cell work runs in numba-compiled kernels (fused passes, no whole-grid
-    temporaries); the cosine transforms are scipy's. The very first call on a machine
-    compiles them (several seconds) and caches them on disk; later processes load
-    them in a fraction of a second.
+    The per-cell work runs in numba-compiled kernels (six fused passes, no whole-grid
+    temporaries; see :mod:`fluidnb.fluid._kernels`); the FFTs are scipy's. The very
+    first call on a machine compiles them (about 20 s on a busy 2-core machine) and
+    caches them on disk; later processes load them in a fraction of a second. A step
+    runs on one thread or on numba's (``numba.get_num_threads()``), whichever measured
+    faster on this grid (:mod:`fluidnb.fluid._threads`; ``numba.set_num_threads(1)``
+    pins one); the result is the same bit for bit either way.
 
     References
     ----------
@@ -252,56 +272,65 @@ def step(state, params, *, rng=None):
             "pass the same generator to every step (an int would replay the same "
             "noise on every step)"
         )
-    with _kernels.threads_for(state.shape):
-        return _step(state, params, rng)
+    with CHOOSER.step(state.shape) as threads:
+        return _step(state, params, rng, threads)
 
 
-def _step(state, params, rng):
-    """The body of :func:`step`, on checked arguments."""
-    dt = params.dt
+def _step(state, params, rng, threads=None):
+    """The body of :func:`step`, on checked arguments: the numbered steps in order.
+
+    ``threads``: numba's thread count for this step (looked up if not given).
+    """
+    p, dt = params, float(params.dt)
     v = _f64(state.velocity)
     t = _f64(state.temperature)
     d = _f64(state.density)
     shape = t.shape
-
+    # Chunks of rows for the kernels that run bottom-up: one per thread.
+    parts = numba.get_num_threads() if threads is None else threads
     # 1. Self-advection.
-    new = _advect_velocity(v, dt)
-
-    # 2. Forces, added in place: buoyancy and (epsilon > 0) confinement.
-    _add_forces(new, t, params)
-
-    # 3. Projection (walls enforced inside).
-    _project(new, params.boundary)
-
-    # 4. Scalars ride the divergence-free velocity, both in one pass, which also
-    # measures T_max for step 5.
-    t_new, d_new = np.empty(shape), np.empty(shape)
-    t_max = _kernels.advect_scalars(t, d, new, float(dt), np.empty(new.shape), t_new, d_new)
-    t, d = t_new, d_new
-
-    # 5. Radiative cooling with T_max measured now, and 6. the source: one pass.
-    c_r, t_amb = params.C_r, params.T_amb
-    span = t_max - t_amb
-    cooling = c_r != 0 and dt != 0 and span > 0
-    k = 3.0 * c_r * dt / span if cooling else 0.0
-    heat = params.source_radius > 0
-    hot = params.source_T - t_amb
-    noisy = heat and params.source_flicker > 0 and hot > 0
-    if heat:
-        m, cells = _mask(shape, params.source_x, params.source_y, params.source_radius)
-    else:
-        m = _frozen(np.zeros((1, 1)))  # unused; read-only like _mask's, one compilation
-    if noisy:
-        # Only the source's cells read the noise: draw it there alone (row-major order),
-        # not over the whole grid (which cost as much as a cosine transform).
-        noise = np.zeros(shape)
-        gen = np.random.default_rng() if rng is None else rng
-        noise.ravel()[cells] = gen.uniform(-1.0, 1.0, size=cells.size)
-    else:
-        noise = np.zeros((1, 1))
-    _kernels.cool_and_heat(
-        t, d, cooling, float(t_amb), float(span), float(k), m, heat, float(params.source_T),
-        noisy, float(hot), float(params.source_flicker), noise,
-        float(params.density_rate * dt) if params.density_rate > 0 else 0.0,
+    ay, ax = _advected(v, dt)
+    # 2. Forces: the confinement push from the advected velocity, then, in one pass
+    # with the walls and the divergence, buoyancy and the push added on the faces.
+    fy, fx = _push(ay, ax, shape, p.epsilon, parts)
+    solver = poisson_solver(shape, p.boundary, "fast")
+    by, bx, div = np.empty(shape), np.empty(shape), np.empty(shape)
+    _kernels.forces_and_divergence(
+        ay, ax, t, fy, fx, dt, float(p.kappa_b), float(p.T_amb), float(p.wind),
+        p.boundary == "closed", solver.pos, parts, by, bx, div,
     )  # fmt: skip
-    return FluidState._trusted(new, t, d, state.frame + 1)
+    # 3. The pressure, and 4. in one pass its gradient subtracted and the scalars
+    # carried along the divergence-free velocity (measuring T_max for 5).
+    pressure, p0 = solver.pressure(div, parts)
+    vy, vx, t_new, d_new = (np.empty(shape) for _ in range(4))
+    new = np.empty((*shape, 2))
+    t_max = _kernels.gradient_and_scalars(
+        by, bx, pressure, solver.pos, p.boundary == "open_top", p0, t, d, dt, parts,
+        vy, vx, new, t_new, d_new,
+    )  # fmt: skip
+    # 5. Radiative cooling with T_max measured now, in place.
+    span = t_max - p.T_amb
+    if p.C_r != 0 and dt != 0 and span > 0:
+        k, k_root = _cooling_rate(p.C_r, dt, span)
+        _kernels.cool(t_new, float(p.T_amb), float(span), float(k), float(k_root), t_new)
+    # 6. The source, over its own cells.
+    if p.source_radius > 0:
+        _heat(t_new, d_new, p, rng)
+    return FluidState._trusted(new, t_new, d_new, state.frame + 1)
+
+
+def _heat(t, d, p, rng):
+    """Step 6 in place on ``t`` and ``d``: the source disc's heat and smoke."""
+    cells, weights = _source(t.shape, p.source_x, p.source_y, p.source_radius)
+    hot = p.source_T - p.T_amb
+    noisy = p.source_flicker > 0 and hot > 0
+    noise = _NO_NOISE
+    if noisy:
+        # One number per source cell, row-major (a whole-grid draw cost as much as a
+        # cosine transform).
+        gen = np.random.default_rng() if rng is None else rng
+        noise = gen.uniform(-1.0, 1.0, size=cells.size)
+    _kernels.heat(
+        t, d, cells, weights, float(p.source_T), noisy, float(p.T_amb), float(hot),
+        float(p.source_flicker), noise, float(p.density_rate * p.dt),
+    )  # fmt: skip

@@ -201,7 +201,7 @@ def sample_flows(n_frames=200, *, scale=1, progress=None):
     return _sample_flows(n_frames, scale, Progress(progress))
 
 
-_SAMPLE_VERSION = 1  # bump when the scene or the solver changes what the pair holds
+_SAMPLE_VERSION = 2  # bump when the scene or the solver changes what the pair holds
 
 
 def _sample_flows(n_frames, scale, progress):

@@ -30,8 +30,12 @@ One idea per module, in the order of the method:
   :class:`Assignment`);
 - the rendering (sec. 6): ``_blend`` (multi-band blending of the differences),
   ``_appearance`` (motion blur, histogram matching), ``_composite`` (moving matte,
-  background, loop, composite), ``_render`` (the pipeline), ``_animate`` (the entry
-  point), ``_preview`` (one quick low-resolution frame, for live previews);
+  background, loop, composite), ``_fill`` (exemplar-based fill of the background,
+  beyond the paper), ``_desync`` (neighbours sharing a fragment play it at
+  different times, beyond the paper), ``_flow_render`` (the flow rendering's motion
+  field and Eulerian loop, beyond the paper), ``_render`` (the pipeline: the paper's
+  rendering or the flow rendering), ``_animate`` (the entry point), ``_preview``
+  (one quick low-resolution frame, for live previews);
 - ``_reference`` (the plain versions) and ``_figures`` (the lesson's pictures).
 """
 
@@ -49,6 +53,7 @@ from ._augment import (
 from ._blend import blend_differences, fragment_weights
 from ._build import add_clips, build_database, clip_fragments
 from ._composite import composite, dynamic_matte, inpaint_background, loop_crossfade
+from ._desync import mirror_axes, stagger, sync_share, temporal_offsets
 from ._features import motion_spectra, textureness, window_features
 from ._figures import (
     assignment_figure,
@@ -64,16 +69,27 @@ from ._figures import (
     version_label,
     versions_figure,
 )
+from ._fill import exemplar_fill
 from ._flow import optical_flow
 from ._flow_map import flow_map_texture
+from ._flow_render import (
+    displacement_maps,
+    eulerian_loop,
+    extend_outside,
+    flow_field,
+    flow_timing,
+    loop_phases,
+)
 from ._geometry import ANGLES, FRAGMENT, SCALES, STRIDE, VERSIONS
 from ._lock import DatabaseBusy
 from ._mrf import MRFSolution, alpha_expansion, brute_force, energy, grid_edges, icm, solve
-from ._params import AUGMENTATIONS, FLOW_BACKENDS, AnimateParams, DatabaseParams
+from ._params import AUGMENTATIONS, FLOW_BACKENDS, RENDERINGS, AnimateParams, DatabaseParams
 from ._preview import preview_frame
 from ._reference import (
     reference_blend_differences,
     reference_dense_sift,
+    reference_eulerian_loop,
+    reference_fill,
     reference_match_histograms_cells,
     reference_pair_tables,
     reference_quantise,
@@ -97,6 +113,7 @@ __all__ = [
     "AUGMENTATIONS",
     "FLOW_BACKENDS",
     "FRAGMENT",
+    "RENDERINGS",
     "SCALES",
     "STARTER_KINDS",
     "STRIDE",
@@ -128,10 +145,16 @@ __all__ = [
     "composite",
     "cut_target",
     "dense_sift",
+    "displacement_maps",
     "dynamic_matte",
     "energy",
+    "eulerian_loop",
+    "exemplar_fill",
+    "extend_outside",
     "fit_codebook",
+    "flow_field",
     "flow_map_texture",
+    "flow_timing",
     "fragment_figure",
     "fragment_motion",
     "fragment_weights",
@@ -140,7 +163,9 @@ __all__ = [
     "inpaint_background",
     "intersection",
     "loop_crossfade",
+    "loop_phases",
     "match_histograms_cells",
+    "mirror_axes",
     "motion_arrows",
     "motion_blur",
     "motion_spectra",
@@ -153,6 +178,8 @@ __all__ = [
     "read_video",
     "reference_blend_differences",
     "reference_dense_sift",
+    "reference_eulerian_loop",
+    "reference_fill",
     "reference_match_histograms_cells",
     "reference_pair_tables",
     "reference_quantise",
@@ -165,11 +192,14 @@ __all__ = [
     "sample_version",
     "solve",
     "spectra_figure",
+    "stagger",
     "starter_clips",
     "starter_database",
     "starter_params",
     "starter_path",
     "sweep_figure",
+    "sync_share",
+    "temporal_offsets",
     "textureness",
     "transform_flow",
     "transform_vectors",

@@ -1016,12 +1016,15 @@ def rendering_figure(animation, *, frame=None, figsize=(13, 7.6)):
     Returns
     -------
     matplotlib.figure.Figure
-        2 x 3 panels: the target with its matte's outline; the blended difference
-        frame :math:`D_i` (Laplacian-pyramid blend of the assigned fragments', grey:
-        red brighter, blue darker); the approximate mean image (the target blurred
-        along the assigned motion); mean + :math:`D_i` before the histogram matching;
-        the final frame (matched cell by cell, composited through the matte); the
-        matte :math:`B_i` used for it (static, or dynamic for ``tau > 0``).
+        2 x 3 panels. The paper's rendering: the target with its matte's outline; the
+        blended difference frame :math:`D_i` (Laplacian-pyramid blend of the assigned
+        fragments', grey: red brighter, blue darker); the approximate mean image (the
+        target blurred along the assigned motion); mean + :math:`D_i` before the
+        histogram matching; the final frame (matched cell by cell, composited through
+        the matte); the matte :math:`B_i` used for it (static, or dynamic for
+        ``tau > 0``). The flow rendering (beyond the paper): the target with the
+        motion field's arrows; the two advected phases with their ages and weights;
+        :math:`D_i`; their cross-fade + :math:`D_i` before matching; the final frame.
     """
     if not isinstance(animation, Animation):
         raise ValueError(f"animation must be an Animation, got {type(animation).__name__}")
@@ -1038,6 +1041,9 @@ def rendering_figure(animation, *, frame=None, figsize=(13, 7.6)):
     ax[0, 0].imshow(target.image)
     ax[0, 0].contour(matte, levels=[0.5], colors="yellow", linewidths=1)
     ax[0, 0].set_title("target and its matte α", fontsize=9)
+    if "velocity" in st:
+        _flow_panels(ax, animation, frame, d, top)
+        return fig
     ax[0, 1].imshow(d, cmap="RdBu_r", vmin=-top, vmax=top)
     ax[0, 1].set_title(
         f"blended differences $D_{{{frame}}}$ (pyramid blend, ±{top:.2f})", fontsize=9
@@ -1055,3 +1061,51 @@ def rendering_figure(animation, *, frame=None, figsize=(13, 7.6)):
     for a in ax.ravel():
         _off(a)
     return fig
+
+
+def _flow_panels(ax, animation, frame, d, top):
+    """The flow rendering's panels of :func:`rendering_figure`."""
+    st = animation.stages
+    v = st["velocity"]
+    h, w = v.shape[:2]
+    step = max(8, min(h, w) // 12)
+    yy, xx = np.mgrid[step // 2 : h : step, step // 2 : w : step]
+    matte = animation.assignment.target.matte
+    speed = np.hypot(v[..., 0], v[..., 1])
+    typical = float(np.median(speed[matte > 0.5])) if (matte > 0.5).any() else 0.0
+    fastest = float(speed.max())
+    ax[0, 0].quiver(
+        xx,
+        yy,
+        v[yy, xx, 1],
+        v[yy, xx, 0],
+        angles="xy",
+        scale_units="xy",
+        scale=fastest / (0.9 * step) if fastest > 0 else 1.0,
+        color="cyan",
+        width=0.004,
+        pivot="middle",
+    )
+    ax[0, 0].set_title(
+        f"target, matte and motion field v (median {typical:.2f} px/frame)", fontsize=9
+    )
+    ages, weights = st["ages"][frame], st["weights"][frame]
+    photo = animation.assignment.target.image
+    m = matte[..., None]
+    for k, (name, key) in enumerate((("a", "phase_a"), ("b", "phase_b"))):
+        # Inside the matte: the advected phase; outside, the photo dimmed (the layer
+        # there is only what may flow in).
+        shown = m * np.clip(st[key][frame], 0, 1) + (1 - m) * 0.4 * photo
+        ax[0, 1 + k].imshow(shown)
+        ax[0, 1 + k].set_title(
+            f"phase {name}: photo advected {ages[k]:+.1f} frames, weight {weights[k]:.2f}",
+            fontsize=9,
+        )
+    ax[1, 0].imshow(d, cmap="RdBu_r", vmin=-top, vmax=top)
+    ax[1, 0].set_title(f"blended differences $D_{{{frame}}}$ (±{top:.2f})", fontsize=9)
+    ax[1, 1].imshow(m * st["unmatched"][frame] + (1 - m) * 0.4 * photo)
+    ax[1, 1].set_title(f"cross-fade + $D_{{{frame}}}$, before matching", fontsize=9)
+    ax[1, 2].imshow(animation.clip.frames[frame])
+    ax[1, 2].set_title(f"frame {frame}: histograms matched, composited", fontsize=9)
+    for a in ax.ravel():
+        _off(a)

@@ -238,7 +238,7 @@ def test_draw_run_drag_sigma_and_export_in_jupyterlab(notebook, page, shot, lab_
     page.locator(".fluidnb-app .fluidnb-cancel:not([disabled])").wait_for(timeout=10_000)
     state = nb.state("state.json", lambda s: s["frames"] and s["retrievals"] == 1, timeout=240)
     ran = time.monotonic()
-    # The flow rendering (where the library has it) makes whole repeats of N - loop = 24.
+    # The flow rendering (default since issue 24): whole repeats of the N - loop = 24.
     assert state["frames"] % 24 == 0
     assert state["inside_change"] > 2e-3, state["inside_change"]
     assert state["outside_change"] == 0.0
@@ -306,7 +306,7 @@ def test_draw_run_drag_sigma_and_export_in_jupyterlab(notebook, page, shot, lab_
     poll("the GIF file", lambda: path.exists() and path.stat().st_size > 0)
     with Image.open(path) as gif:
         assert gif.size == (SHAPE[1], SHAPE[0])
-        assert gif.n_frames % 24 == 0
+        assert gif.n_frames % 24 == 0  # whole repeats of N - loop (the flow rendering)
     exported = time.monotonic()
 
     # A click on the map shows the database fragment that animates that place.

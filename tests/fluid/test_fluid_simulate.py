@@ -195,6 +195,56 @@ def test_forces_that_outrun_the_grid_are_refused(changes, name):
         FluidParams(**changes)
 
 
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        # Each was accepted before and ran to huge or unbounded values.
+        ({"density_rate": 1e30}, r"density_rate must be in \[0, 100\], got 1e\+30"),
+        ({"C_r": 1e30}, r"C_r must be in \[0, 100\], got 1e\+30"),
+        ({"kappa_b": 1e12, "dt": 1e-6}, r"kappa_b must be in \[0, 100\], got 1e\+12"),
+        ({"epsilon": 1e30, "dt": 1e-30}, r"epsilon must be in \[0, 100\], got 1e\+30"),
+        ({"wind": 1e30, "source_T": 0.0}, r"wind must be in \[-100, 100\], got 1e\+30"),
+        ({"kappa_b": 0.0, "source_T": 1e30}, r"source_T must be in \[-10000, 10000\]"),
+        ({"T_amb": -1e300, "source_T": 0.0}, r"T_amb must be in \[-10000, 10000\], got -1e"),
+    ],
+)
+def test_every_parameter_has_a_range_that_keeps_the_run_finite(changes, message):
+    with pytest.raises(ValueError, match=message):
+        FluidParams(**changes)
+
+
+def test_the_far_corners_of_the_ranges_stay_finite():
+    from fluidnb.fluid._params import MAX_RATE, MAX_TEMPERATURE
+
+    hot = 2 * MAX_TEMPERATURE * 1.5  # source_T - T_amb, with the flicker
+    params = FluidParams(
+        T_amb=-MAX_TEMPERATURE,
+        source_T=MAX_TEMPERATURE,
+        kappa_b=16.0 / hot,  # the strongest push check() allows
+        wind=-16.0 / hot,
+        epsilon=2.0,
+        C_r=MAX_RATE,
+        density_rate=MAX_RATE,
+        source_radius=0.5,
+    )
+    sim = simulate(params, 60, shape=(32, 32), seed=0)
+    for a in (sim.velocity, sim.temperature, sim.density):
+        assert np.all(np.isfinite(a))
+    assert sim.temperature.max() <= params.T_amb + hot
+    assert sim.density.max() <= MAX_RATE * 60 * (1 + 1e-12)
+
+
+def test_warmup_is_bounded_like_the_frames():
+    # warmup=10**7 ran for minutes (the frames are bounded by the memory they take).
+    with pytest.raises(
+        ValueError, match=r"warmup must be an integer in \[0, 10000\], got 10000000"
+    ):
+        simulate(FluidParams(), 3, shape=(8, 8), warmup=10**7)
+    with pytest.raises(ValueError, match="warmup"):
+        simulate(FluidParams(), 3, shape=(8, 8), warmup=-1)
+    assert simulate(FluidParams(), 1, shape=(8, 8), seed=0, warmup=10_000).n_frames == 1
+
+
 def test_the_strongest_allowed_forces_keep_the_flow_bounded():
     from fluidnb.fluid._params import MAX_EPSILON_DT, MAX_PUSH_PX
 
@@ -214,3 +264,21 @@ def test_a_run_too_large_for_memory_is_refused_and_told_what_fits(monkeypatch):
         simulate(FluidParams(), 120, shape=(4096, 4096), seed=0)
     with pytest.raises(ValueError, match="method='fast'"):
         project(np.zeros((1024, 1024, 2)), method="lu")
+
+
+def test_a_failed_save_keeps_the_file_that_was_there(tmp_path, monkeypatch):
+    first = simulate(FluidParams(), 2, shape=(10, 12), seed=1)
+    path = tmp_path / "run.npz"
+    first.save(path)
+    before = path.read_bytes()
+
+    def disk_full(file, **arrays):
+        with open(file, "wb") as f:
+            f.write(b"half a zip")
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(np, "savez", disk_full)
+    with pytest.raises(OSError, match=r"run\.npz.*No space left"):
+        simulate(FluidParams(), 3, shape=(10, 12), seed=2).save(path)
+    assert path.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.npz"]  # no partial left

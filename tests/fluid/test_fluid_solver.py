@@ -18,7 +18,7 @@ from fluidnb.fluid import (
     step,
     vorticity_confinement,
 )
-from fluidnb.fluid import _kernels as K
+from fluidnb.fluid._threads import fixed
 
 QUIET = {"kappa_b": 0.0, "C_r": 0.0, "source_radius": 0.0, "density_rate": 0.0}
 
@@ -283,23 +283,21 @@ def test_no_flow_through_the_walls_during_a_run(boundary):
 
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two numba threads")
 @pytest.mark.parametrize("boundary", ["open_top", "closed"])
-def test_one_and_two_threads_give_the_same_run_bit_for_bit(boundary, monkeypatch):
-    # The parallel kernels split the grid by rows and each thread writes only its
-    # own rows (the maximum of the temperature is taken per row, then over rows):
-    # nothing depends on how the rows are shared out.
-    monkeypatch.setattr(K, "PARALLEL_MIN_CELLS", 0)  # the small grid runs parallel too
+@pytest.mark.parametrize("shape", [(37, 29), (70, 66)])
+def test_one_and_two_threads_give_the_same_run_bit_for_bit(boundary, shape):
+    # The parallel kernels split the grid by rows (the Poisson solve by FFT bins) and
+    # each thread writes only its own (the maximum of the temperature is taken per
+    # row, then over rows); the transforms run on as many workers: nothing depends on
+    # how the work is shared out. fixed() overrides the thread choice (and the rule
+    # that a small grid runs on one thread).
     params = FluidParams(boundary=boundary, density_rate=0.1, wind=0.02)
     runs = []
-    before = numba.get_num_threads()
-    try:
-        for threads in (1, 2):
-            numba.set_num_threads(threads)
-            s, g = FluidState.zeros((37, 29), params), np.random.default_rng(5)
+    for threads in (1, 2):
+        with fixed(threads):
+            s, g = FluidState.zeros(shape, params), np.random.default_rng(5)
             for _ in range(25):
                 s = step(s, params, rng=g)
-            runs.append(s)
-    finally:
-        numba.set_num_threads(before)
+        runs.append(s)
     assert np.abs(runs[0].velocity).max() > 0.1
     assert runs[0] == runs[1]
 

@@ -187,15 +187,18 @@ def test_a_painted_speed_picks_fast_or_slow_fragments(db, photo):
     assert (s_slow < 1.4).all()
 
 
-@pytest.fixture(scope="module")
-def anim(db, photo):
-    return animate(*photo, db, FEW.replace(loop=2), seed=5)
+@pytest.fixture(scope="module", params=["paper", "flow"])
+def anim(db, photo, request):
+    return animate(*photo, db, FEW.replace(loop=2, rendering=request.param), seed=5)
 
 
 def test_the_clip_moves_inside_the_matte_and_nowhere_else(anim, photo):
     img, matte = photo
     frames = anim.clip.frames
-    assert frames.shape == (8 - 2, 80, 110, 3)
+    # The paper's rendering: N - loop frames; the flow rendering: whole repeats of them.
+    assert frames.shape[1:] == (80, 110, 3)
+    assert len(frames) == 8 - 2 or (anim.clip.metadata["params"]["rendering"] == "flow")
+    assert len(frames) % (8 - 2) == 0
     change = np.abs(frames - img[None]).max(axis=(0, 3))
     assert (change[matte == 0] == 0).all()  # exactly the untouched image outside
     inside = matte > 0.99
@@ -218,23 +221,31 @@ def test_the_clip_keeps_the_targets_appearance(anim, photo):
 
 
 def test_same_seed_same_clip(anim, db, photo):
-    again = animate(*photo, db, FEW.replace(loop=2), seed=5)
+    params = AnimateParams.from_dict(anim.clip.metadata["params"])
+    again = animate(*photo, db, params, seed=5)
     np.testing.assert_array_equal(again.clip.frames, anim.clip.frames)
     assert again.clip.metadata["seed"] == 5
     # seed=None still records the int used (fluidnb.resolve_seed), so the clip can be remade
-    assert isinstance(animate(*photo, db, FEW.replace(loop=2)).clip.metadata["seed"], int)
+    assert isinstance(animate(*photo, db, params).clip.metadata["seed"], int)
     meta = anim.clip.metadata
     assert meta["method"] == "videodb"
-    assert meta["params"] == FEW.replace(loop=2).to_dict()
+    assert meta["params"] == FEW.replace(loop=2, rendering=params.rendering).to_dict()
 
 
 def test_the_lesson_pictures_are_there(anim, photo):
     img, _ = photo
     s = anim.stages
-    assert s["differences"].shape == (6, 80, 110)
-    assert s["mean"].shape == img.shape
-    assert s["matte"].shape == (6, 80, 110)
+    t = len(anim.clip)
+    assert s["differences"].shape == (t, 80, 110)
+    assert s["matte"].shape == (t, 80, 110)
     assert abs(float(s["differences"].mean())) < 0.05  # D_i = F_i - A: zero-mean
+    if anim.clip.metadata["params"]["rendering"] == "paper":
+        assert s["mean"].shape == img.shape
+    else:
+        assert s["velocity"].shape == (80, 110, 2)
+        assert s["phase_a"].shape == s["phase_b"].shape == (t, 80, 110, 3)
+        assert s["advected"].shape == (t, 80, 110, 3)
+        np.testing.assert_allclose(s["weights"].sum(axis=1), 1.0)
 
 
 def test_a_dynamic_matte_keeps_its_area(db, photo):

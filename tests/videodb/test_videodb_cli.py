@@ -68,7 +68,8 @@ def test_build_errors_are_one_clear_line(tmp_path, capsys):
     assert "not a fluidnb video database" in capsys.readouterr().err
 
 
-def test_animate_a_photo_with_strokes_and_speed(store, tmp_path, capsys):
+@pytest.mark.parametrize("rendering", ["paper", "flow", None])
+def test_animate_a_photo_with_strokes_and_speed(store, tmp_path, capsys, rendering):
     gen = np.random.default_rng(3)
     photo = ndi.gaussian_filter(gen.random((80, 110)), 2.0)
     photo = (photo - photo.min()) / (photo.max() - photo.min())
@@ -101,10 +102,18 @@ def test_animate_a_photo_with_strokes_and_speed(store, tmp_path, capsys):
         "-o",
         str(out),
     ]
+    if rendering is not None:
+        argv += ["--rendering", rendering]
     assert main(argv) == 0
     assert "wrote" in capsys.readouterr().out
     clip = load_clip(out)
-    assert clip.frames.shape == (6, 80, 110, 3)
+    # --rendering round-trips into the clip's parameters; flow is the default.
+    assert clip.metadata["params"]["rendering"] == (rendering or "flow")
+    if rendering == "paper":
+        assert clip.frames.shape == (6, 80, 110, 3)  # N - loop
+    else:  # whole repeats of the N - loop frames of the differences
+        assert clip.frames.shape[1:] == (80, 110, 3)
+        assert len(clip.frames) % 6 == 0
     assert clip.metadata["params"]["lam"] == 0.02
     assert clip.metadata["params"]["candidates"] == 20
     assert clip.metadata["seed"] == 1

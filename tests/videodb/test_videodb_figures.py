@@ -360,8 +360,23 @@ def test_sweep_figure_zooms_on_the_fragments_and_refuses_another_target(assignme
 # ------------------------------------------------------------------------- rendering
 
 
-def test_rendering_figure_shows_the_stages_of_one_frame(assignment):
+def test_rendering_figure_shows_the_flow_renderings_stages(assignment):
     anim = render(assignment, AnimateParams(candidates=12, loop=2))
+    t = 3
+    axes = drawn(rendering_figure(anim, frame=t))
+    st = anim.stages
+    np.testing.assert_array_equal(image(axes[0]), assignment.target.image)
+    m = assignment.target.matte[..., None]
+    dim = (1 - m) * 0.4 * assignment.target.image
+    np.testing.assert_allclose(image(axes[1]), m * np.clip(st["phase_a"][t], 0, 1) + dim)
+    np.testing.assert_allclose(image(axes[2]), m * np.clip(st["phase_b"][t], 0, 1) + dim)
+    np.testing.assert_array_equal(image(axes[3]), st["differences"][t])
+    np.testing.assert_allclose(image(axes[4]), m * st["unmatched"][t] + dim)
+    np.testing.assert_array_equal(image(axes[5]), anim.clip.frames[t])
+
+
+def test_rendering_figure_shows_the_stages_of_one_frame(assignment):
+    anim = render(assignment, AnimateParams(candidates=12, loop=2, rendering="paper"))
     t = 1
     axes = drawn(rendering_figure(anim, frame=t))
     st = anim.stages

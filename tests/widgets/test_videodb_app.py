@@ -59,7 +59,18 @@ def draw_scene(app):
 
 def test_the_panel_has_the_papers_sliders_with_symbols_and_equations(app):
     controls = app.panel.controls
-    assert {"sigma", "lam", "rho", "candidates", "shutter", "tau", "loop"} <= set(controls)
+    assert set(controls) == {
+        "sigma",
+        "lam",
+        "rho",
+        "candidates",
+        "shutter",
+        "tau",
+        "loop",
+        "rendering",  # issue 24: flow (beyond the paper) or paper, and the flow's two
+        "travel",
+        "detail",
+    }
     defaults = AnimateParams()
     assert (defaults.sigma, defaults.lam, defaults.rho) == (100.0, 0.01, 1e4)
     for name, eq in (("sigma", "Eq. (2)"), ("lam", "Eq. (4)"), ("rho", "Eq. (6)")):
