@@ -1199,7 +1199,9 @@ class VideoDBApp(App):
         # in its tooltip.
         follows = "rendering the clip" if self.running else "the clip follows when the values rest"
         note = f"preview: σ = {a.params.sigma:.3g}, λ = {a.params.lam:.3g}, ρ = {a.params.rho:.3g}"
-        title = f"frame {a.db.params.N // 2 + 1} at half size, made in a moment; {follows}"
+        title = (
+            f"one frame at half size, made in a moment (fluidnb.videodb.preview_frame); {follows}"
+        )
 
         def show():
             if self.assignment is not a or self._clip_is_current():
