@@ -274,15 +274,21 @@ class VideoDBApp(App):
       (:func:`fluidnb.sketch.save_strokes` JSON).
 
     The panel holds :math:`\sigma` (Eq. 2), :math:`\lambda` (Eq. 4), :math:`\rho`
-    (Eq. 6) on log scales at the paper's values, the candidate count, and the
-    rendering's shutter, :math:`\tau` and loop; ``N`` (frames per fragment) belongs
-    to the database and is shown beside it. **Run** retrieves candidates, solves the
-    MRF and renders the clip (:func:`fluidnb.videodb.assign` then
-    :func:`~fluidnb.videodb.render`, with progress and Cancel). After a run, moving
-    :math:`\sigma`, :math:`\lambda` or :math:`\rho` re-solves from the kept tables
-    (:meth:`~fluidnb.videodb.Assignment.resolve`: no new retrieval) and updates the
-    assignment map and the energy plot live (throttled, the latest value wins);
-    **Render** makes the clip of the current assignment.
+    (Eq. 6) on log scales over the decades the lessons sweep, at the paper's values,
+    and the candidate count; folded under them the rendering's settings (shutter,
+    :math:`\tau`, loop, and the flow rendering's travel and detail), the rendering
+    itself (flow or the paper's) being a toggle beside **Render**. ``N`` (frames per
+    fragment) belongs to the database and is shown beside it. **Run** retrieves
+    candidates, solves the MRF and renders the clip (:func:`fluidnb.videodb.assign`
+    then :func:`~fluidnb.videodb.render`, with progress and Cancel; a starter database
+    is built on the first Run). After a run, every value of a dragged :math:`\sigma`,
+    :math:`\lambda` or :math:`\rho` is re-solved from the kept tables
+    (:meth:`~fluidnb.videodb.Assignment.resolve`: no new retrieval; the latest value
+    wins) and redraws the assignment map and the energy plot, and a preview frame
+    (:func:`fluidnb.videodb.preview_frame`, one frame at half size) shows in the
+    player; once the values rest for :attr:`settle` seconds (the kernel hears no
+    "mouse released") the clip is rendered. A rendering setting renders again the
+    same way; **Render** renders on demand.
 
     Views: the clip in the player (play, loop, GIF/MP4 export); the assignment map
     (each fragment tinted by its source clip, with the assigned motion as arrows and
@@ -297,8 +303,8 @@ class VideoDBApp(App):
         app.paint_speed([[320, 100], [320, 200]], speed=3.0)  # px/frame
         app.panel.set("candidates", 50)
         clip = app.run(timeout=300)  # press Run and wait -> fluidnb.Clip
-        app.panel.set("sigma", 1e3)  # re-solves from the kept tables...
-        app.wait_resolve()  # ...in the background
+        app.panel.set("sigma", 1e3)  # re-solves from the kept tables (map, preview)...
+        app.wait_live()  # ...in the background, then renders the clip when it rests
         app.render_clip(timeout=120)  # press Render and wait -> Clip
         app.use_result_speed()  # the result's speed into the speed layer
         app.pick_fragment(300, 150)  # what a click on the map shows
@@ -307,8 +313,9 @@ class VideoDBApp(App):
     plus :meth:`select` (tool and layer), :meth:`matte`, :meth:`strokes`,
     :meth:`speed_map`, :meth:`direction_field`, :meth:`set_photo`,
     :meth:`set_database`, :meth:`save_strokes` / :meth:`load_strokes`,
-    :meth:`start` / :meth:`cancel` / :meth:`wait`, and the counters
-    :attr:`retrievals`, :attr:`resolves`, :attr:`renders`.
+    :meth:`start` / :meth:`cancel` / :meth:`wait`, :meth:`wait_live` (re-solves,
+    previews and the render on rest), and the counters :attr:`retrievals`,
+    :attr:`resolves`, :attr:`renders`, :attr:`previews`.
 
     Parameters
     ----------
