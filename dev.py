@@ -6,6 +6,11 @@
 
 Only Python >= 3.10 and the package registries are needed. Both commands are
 idempotent: a re-run skips the install unless pyproject.toml changed.
+
+``lab`` also starts building the video-database lessons' starter databases in a
+background process (water, smoke, fire; 15-30 s each on two cores, cached; a log in
+the cache folder), so that they are ready, or nearly, when a lesson asks for them;
+``FLUIDNB_PREBUILD=0`` turns that off.
 Arguments after the job go to JupyterLab (lab) or pytest (test), e.g.
 ``python3 dev.py lab --no-browser --port 8899`` or ``python3 dev.py test -k clip``.
 """
@@ -99,8 +104,69 @@ def chromium():
     )
 
 
+def cache_dir():
+    """fluidnb's cache folder (as ``fluidnb._cache.cache_dir``, which dev.py cannot import)."""
+    env = os.environ.get("FLUIDNB_CACHE_DIR")
+    if env:
+        return Path(env)
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "fluidnb"
+
+
+def _running(pid):
+    if os.name == "nt":
+        return False  # not checked there: a second builder only waits on the first's locks
+    try:
+        os.kill(pid, 0)
+    except (OSError, ValueError):
+        return False
+    return True
+
+
+def prebuild():
+    """Start building the starter video databases in a detached background process.
+
+    The first run of the video-database lessons would otherwise spend minutes in
+    their first cell. ``python -m fluidnb.videodb`` builds the ones missing from the
+    cache (water first), each under the cache's lock: a notebook that asks for one
+    meanwhile waits for it and then opens it. It outlives this command (JupyterLab
+    replaces it), writes its log to ``<cache>/videodb/prebuild.log`` and its pid to
+    ``prebuild.pid``. Returns the process, or None when it is off or already running.
+    """
+    if os.environ.get("FLUIDNB_PREBUILD", "1").strip().lower() in ("0", "no", "false", "off"):
+        return None
+    folder = cache_dir() / "videodb"
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        pid_file = folder / "prebuild.pid"
+        if pid_file.is_file() and _running(int(pid_file.read_text().strip() or 0)):
+            say("the starter video databases are being built already (see prebuild.log)")
+            return None
+        log = open(folder / "prebuild.log", "ab")  # noqa: SIM115 - the child keeps it
+    except (OSError, ValueError) as exc:  # an unwritable cache: the lessons build them
+        say(f"not building the starter video databases in the background: {exc}")
+        return None
+    if os.name == "nt":
+        flags = subprocess.DETACHED_PROCESS | subprocess.CREATE_NEW_PROCESS_GROUP
+        detach = {"creationflags": flags}
+    else:
+        detach = {"start_new_session": True}
+    with log:
+        proc = subprocess.Popen(
+            [str(PY), "-m", "fluidnb.videodb"],
+            stdin=subprocess.DEVNULL,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            cwd=ROOT,
+            **detach,
+        )
+    pid_file.write_text(str(proc.pid))
+    say(f"building the starter video databases in the background (pid {proc.pid}, log {log.name})")
+    return proc
+
+
 def lab(args):
     setup("")
+    prebuild()
     cmd = [BIN / "jupyter", "lab", "--notebook-dir", ROOT / "notebooks"]
     if hasattr(os, "geteuid") and os.geteuid() == 0 and "--allow-root" not in args:
         cmd.append("--allow-root")

@@ -14,9 +14,10 @@ candidate pairs per edge), half an hour for rendering -- over a water database o
 ~240,000 fragments (151 videos). The parts (``--part``, repeatable; ``build`` = starter
 + throughput):
 
-- ``starter``: each starter database (water, smoke, fire) built from scratch: making
-  its clips, then ``build_database`` (ingest, fragments, codebook, words); goal: each
-  under 2 minutes on 2 cores.
+- ``starter``: each starter database (water, smoke, fire) built from scratch, as a user
+  gets it (``starter_database`` in an empty cache: its clips made, each stored and cut
+  into fragments as soon as it is made, codebook, words); goal: each under 15 s on 2
+  cores (the spec's bound: 2 minutes), and the same database as the cache's.
 - ``throughput``: fragments/s of ``build_database`` on the first two starter water
   clips with each flow backend (OpenCV DIS, scikit-image TV-L1), one flow pair's time,
   and the projected time to build a paper-sized database (240,000 fragments) here.
@@ -222,41 +223,57 @@ PHOTOS = {
 # ------------------------------------------------------------------ 1. starter
 
 
-def part_starter(ctx):
-    from fluidnb.videodb import build_database, starter_clips, starter_params, starter_path
+#: starter_database's progress messages that end its stages (the clips are made and
+#: stored while the first ones are already cut into fragments: "clips read" is when
+#: the last clip is stored).
+STARTER_MARKS = ("clips read", "fragments done", "codebook ready", "database ready")
+
+
+def _same_database(a, b):
+    """Same codebook and, clip for clip, the same arrays (the manifest's checksums)."""
     from fluidnb.videodb._store import read_manifest
 
-    print("\n## Starter databases built from scratch (starter_clips + build_database)")
+    ma, mb = read_manifest(a)[0], read_manifest(b)[0]
+    return ma["codebook"] == mb["codebook"] and [c["checksum"] for c in ma["clips"]] == [
+        c["checksum"] for c in mb["clips"]
+    ]
+
+
+def part_starter(ctx):
+    from fluidnb.videodb import starter_database, starter_path
+
+    print(
+        "\n## Starter databases built from scratch (starter_database in an empty cache: "
+        "clips made, stored, cut into fragments, codebook, words)"
+    )
     rows, out, total = [], [], 0.0
     tmp = Path(tempfile.mkdtemp(prefix="bench-videodb-build-"))
+    saved = os.environ.get("FLUIDNB_CACHE_DIR")
     try:
         for kind in KINDS:
+            cached = starter_path(kind, quick=ctx.quick)  # the cache of this run, if any
+            os.environ["FLUIDNB_CACHE_DIR"] = str(tmp / kind)
+            ends = {}
             load0 = load()
-            t0 = now()
-            clips = starter_clips(kind, quick=ctx.quick, seed=0)
-            make = now() - t0
-            clock = StageClock()
-            t0 = now()
-            db = build_database(
-                clips, tmp / kind, kind=kind, params=starter_params(), seed=0, progress=clock
-            )
-            build = now() - t0
-            stages = clock.durations()
-            try:
-                cached = read_manifest(starter_path(kind, quick=ctx.quick))[0]["fragments"]
-            except ValueError:
-                cached = None
-            n = db.n_fragments
-            total += make + build
+            t0, c0 = now(), time.process_time()
+
+            def clock(fraction, message="", ends=ends, t0=t0):
+                if message in STARTER_MARKS and message not in ends:
+                    ends[message] = now() - t0
+
+            db = starter_database(kind, quick=ctx.quick, progress=clock)
+            seconds, cpu = now() - t0, time.process_time() - c0
+            same = _same_database(db.path, cached) if (cached / "manifest.json").is_file() else None
+            total += seconds
+            marks = [ends.get(m) for m in STARTER_MARKS]
             rec = {
                 "kind": kind,
                 "clips": len(db.clips),
-                "fragments": n,
-                "make_clips_s": make,
-                "build_s": build,
-                "stages_s": stages,
-                "total_s": make + build,
-                "same_as_cached": cached == n if cached is not None else None,
+                "fragments": db.n_fragments,
+                "total_s": seconds,
+                "cpu_s": cpu,
+                "marks_s": dict(zip(STARTER_MARKS, marks)),
+                "same_as_cached": same,
                 "load": (load0, load()),
             }
             out.append(rec)
@@ -264,49 +281,47 @@ def part_starter(ctx):
                 [
                     kind,
                     len(db.clips),
-                    f"{n:,}",
-                    fmt_s(make),
-                    fmt_s(stages["ingest"]),
-                    fmt_s(stages["fragments"]),
-                    fmt_s(stages["codebook"]),
-                    fmt_s(stages["words"]),
-                    fmt_s(make + build),
-                    f"{n / build:.0f}",
+                    f"{db.n_fragments:,}",
+                    *(fmt_s(m) for m in marks),
+                    f"**{fmt_s(seconds)}**",
+                    fmt_s(cpu),
+                    "-" if same is None else ("yes" if same else "NO"),
                     f"{load0:.1f} -> {load():.1f}",
                 ]
             )
+            del db
             shutil.rmtree(tmp / kind, ignore_errors=True)
-            print(f"  {kind}: {n} fragments in {make + build:.1f} s", flush=True)
+            print(f"  {kind}: {rec['fragments']} fragments in {seconds:.1f} s", flush=True)
     finally:
+        if saved is None:
+            os.environ.pop("FLUIDNB_CACHE_DIR", None)
+        else:
+            os.environ["FLUIDNB_CACHE_DIR"] = saved
         shutil.rmtree(tmp, ignore_errors=True)
     table(
         [
             "kind",
             "clips",
             "fragments",
-            "make clips",
-            "ingest",
-            "fragments (flow, features, SIFT)",
+            "all clips made and stored",
+            "fragments done (flow, features, SIFT)",
             "codebook",
             "words + manifest",
-            "total",
-            "fragments/s (build)",
+            "total (opened)",
+            "CPU time",
+            "same database as the cache's",
             "load avg",
         ],
         rows,
     )
-    goal = 120.0  # spec: a starter database builds in under 2 minutes on 2 cores
+    goal = 15.0  # issue 25: each under 15 s on 2 cores (the spec's bound: 2 minutes)
     slowest = max(r["total_s"] for r in out)
     print(
-        f"\nslowest: {slowest:.0f} s (goal: each < {goal:.0f} s: "
-        f"{'met' if slowest < goal else 'NOT met'}, {slowest / goal:.2f}x the goal); "
-        f"all three one after the other: {total:.0f} s"
-        + (
-            "; fragment counts equal the cached starter databases': "
-            + ", ".join(f"{r['kind']} {r['same_as_cached']}" for r in out)
-            if any(r["same_as_cached"] is not None for r in out)
-            else ""
-        )
+        f"\nslowest: {slowest:.1f} s (goal: each < {goal:.0f} s: "
+        f"{'met' if slowest < goal else 'NOT met'}, {slowest / goal:.2f}x the goal; the "
+        f"spec's 2 minutes: {'met' if slowest < 120 else 'NOT met'}); all three one after "
+        f"the other: {total:.0f} s. Times are from the start (the stages overlap: a clip "
+        "is cut into fragments as soon as it is made)."
     )
     ctx.results["starter"] = {"kinds": out, "total_s": total}
 
@@ -544,38 +559,82 @@ def _frames_bytes(path):
 # ------------------------------------------------------------------- 4. paper
 
 
-def _assign_render(img, matte, db, params=None):
+def _assign_render(img, matte, db):
+    """Assign; render the paper's way with an empty frame cache, and again; the flow way.
+
+    Returns (assignment, the paper's animation, seconds): ``assign``, ``paper`` (the
+    first render, every fragment rebuilt), ``paper again`` (the same assignment again:
+    its fragments from the cache) and ``flow`` (the flow rendering, the default, also
+    with an empty cache).
+    """
     from fluidnb.videodb import assign, render
 
     t0 = now()
-    a = assign(img, matte, db, params)
-    t_assign = now() - t0
+    a = assign(img, matte, db)
+    secs = {"assign": now() - t0}
+    paper = a.params.replace(rendering="paper")
+    db.cache.clear()
     t0 = now()
-    r = render(a)
-    t_render = now() - t0
-    return a, r, t_assign, t_render
+    anim = render(a, paper)
+    secs["paper"] = now() - t0
+    t0 = now()
+    render(a, paper)
+    secs["paper again"] = now() - t0
+    db.cache.clear()
+    t0 = now()
+    render(a, a.params.replace(rendering="flow"))
+    secs["flow"] = now() - t0
+    return a, anim, secs
 
 
 def rebuild_anatomy(db, ids, margin=12):
-    """fragment_frames(ids, margin, grey=True) piece by piece: zarr reads, grey, resampling."""
-    from fluidnb.videodb._augment import _sample
-    from fluidnb.videodb._features import grey
+    """The render's rebuild of ``ids`` on one thread, piece by piece, with an empty cache.
+
+    What ``fluidnb.videodb._frames.rebuild_fragments`` does on each thread: a clip's
+    frames read once (decoded from the store's chunks), the luminance of the part of
+    each window its fragments read, each fragment re-sampled from it.
+    """
+    from fluidnb.videodb import _frames
 
     n, side = db.params.N, 48 + 2 * margin
-    keys = db.source[ids][:, [0, 2]]
-    out = {"windows": len(np.unique(keys, axis=0)), "read": 0.0, "grey": 0.0, "sample": 0.0}
-    for key in np.unique(keys, axis=0):
+    uniq = np.unique(ids)
+    src = db.source[uniq]
+    out = {"fragments": len(uniq), "windows": len(np.unique(src[:, [0, 2]], axis=0))}
+    out.update(frames=0, read=0.0, grey=0.0, sample=0.0)
+    db.cache.clear()
+    for clip in np.unique(src[:, 0]):
+        mine = src[src[:, 0] == clip]
+        starts = np.unique(mine[:, 2])
+        wanted = np.unique(starts[:, None] + np.arange(n))
         t0 = now()
-        frames = db.clip_frames(int(key[0]), int(key[1]), int(key[1]) + n)
-        t1 = now()
-        g = grey(frames)
-        t2 = now()
-        for s in np.flatnonzero((keys == key).all(axis=1)):
-            _, version, _, row, col = (int(v) for v in db.source[ids[s]])
-            _sample(g, version, (row - margin, col - margin), (side, side))
-        out["read"] += t1 - t0
-        out["grey"] += t2 - t1
-        out["sample"] += now() - t2
+        runs = np.split(wanted, np.flatnonzero(np.diff(wanted) != 1) + 1)
+        frames = {}
+        for run in runs:
+            block = _frames._read_frames(db, int(clip), int(run[0]), int(run[-1]) + 1)
+            frames.update(zip(run.tolist(), block))
+        out["read"] += now() - t0
+        out["frames"] += len(wanted)
+        shape = next(iter(frames.values())).shape[:2]
+        for start in starts:
+            rows = mine[mine[:, 2] == start]
+            plans = [
+                _frames._plan(shape, int(v), int(r) - margin, int(c) - margin, side)
+                for _, v, _, r, c in rows
+            ]
+            box = (
+                min(p["top"] for p in plans),
+                max(p["bottom"] for p in plans),
+                min(p["left"] for p in plans),
+                max(p["right"] for p in plans),
+            )
+            t0 = now()
+            part = np.stack([frames[start + t][box[0] : box[1], box[2] : box[3]] for t in range(n)])
+            planes = _frames._pixel_major(part, True)
+            t1 = now()
+            for plan in plans:
+                _frames._sample_planned(planes, box, plan, n, side, True)
+            out["grey"] += t1 - t0
+            out["sample"] += now() - t1
     return out
 
 
@@ -604,9 +663,14 @@ def part_paper(ctx):
     rounds = 1 if ctx.quick else max(2, ctx.rounds // 2)
     for r in range(rounds):
         for c, (img, matte) in cases.items():
-            a, anim, ta, tr = _assign_render(img, matte, db)
-            runs[c].append((a, anim, ta, tr))
-            print(f"  round {r + 1} {c}: assign {ta:.1f} s, render {tr:.1f} s", flush=True)
+            a, anim, secs = _assign_render(img, matte, db)
+            runs[c].append((a, anim, secs))
+            print(
+                f"  round {r + 1} {c}: assign {secs['assign']:.1f} s, render {secs['paper']:.1f} s "
+                f"(again, from the cache: {secs['paper again']:.1f} s; the flow rendering "
+                f"{secs['flow']:.1f} s); load {load():.1f}",
+                flush=True,
+            )
     out = {}
     for c, rs in runs.items():
         a = rs[-1][0]
@@ -616,12 +680,18 @@ def part_paper(ctx):
         rows = []
         for s in stages_a:
             rows.append([f"assign: {s}", fm([x[0].timings[s] for x in rs])])
-        rows.append(["**assignment**", fm([x[2] for x in rs])])
+        rows.append(["**assignment**", fm([x[2]["assign"] for x in rs])])
         for s in stages_r:
             rows.append([f"render: {s}", fm([x[1].timings[s] for x in rs])])
-        rows.append(["**rendering**", fm([x[3] for x in rs])])
-        total = [x[2] + x[3] for x in rs]
+        rows.append(
+            ["**rendering**, the paper's (empty frame cache)", fm([x[2]["paper"] for x in rs])]
+        )
+        total = [x[2]["assign"] + x[2]["paper"] for x in rs]
         rows.append(["**end to end**", fm(total)])
+        rows.append(
+            ["rendering again (fragments from the cache)", fm([x[2]["paper again"] for x in rs])]
+        )
+        rows.append(["the flow rendering (empty frame cache)", fm([x[2]["flow"] for x in rs])])
         sol = a.solution
         print(
             f"\n### {c}: {len(a.target)} target fragments, {len(a.edges)} edges, "
@@ -633,25 +703,26 @@ def part_paper(ctx):
         table([f"stage (fastest / median of {len(rs)})", "time"], rows)
         best = min(total)
         paper = PAPER_ASSIGN_S + PAPER_RENDER_S
-        fast_a, fast_r = min(x[2] for x in rs), min(x[3] for x in rs)
+        fast_a, fast_r = min(x[2]["assign"] for x in rs), min(x[2]["paper"] for x in rs)
         print(
-            f"end to end {best:.1f} s (median {np.median(total):.1f} s): goal < 60 s "
+            f"end to end {best:.1f} s (median {np.median(total):.1f} s): goal < 4 s (issue 25) "
+            f"{_met(best, float(np.median(total)), 4)}, < 60 s (spec) "
             f"{_met(best, float(np.median(total)), 60)}; paper ~{paper / 60:.0f} min -> "
             f"{paper / best:.0f}x faster (assignment {PAPER_ASSIGN_S / fast_a:.0f}x, "
             f"rendering {PAPER_RENDER_S / fast_r:.0f}x)"
         )
         anatomy = rebuild_anatomy(db, a.fragments)
         print(
-            "render's rebuild, once more piece by piece: "
-            f"{anatomy['windows']} (clip, window) pairs read for {len(a.fragments)} fragments: "
-            f"zarr reads {fmt_s(anatomy['read'])}, to grey {fmt_s(anatomy['grey'])}, resampling "
-            f"{fmt_s(anatomy['sample'])}"
+            "render's rebuild on one thread, piece by piece (empty cache): "
+            f"{anatomy['fragments']} fragments from {anatomy['windows']} (clip, window) pairs, "
+            f"{anatomy['frames']} frames: reading {fmt_s(anatomy['read'])}, luminance "
+            f"{fmt_s(anatomy['grey'])}, resampling {fmt_s(anatomy['sample'])} (the render "
+            "runs it on two threads)"
         )
         out[c] = {
             "nodes": len(a.target),
             "edges": len(a.edges),
-            "assign_s": [x[2] for x in rs],
-            "render_s": [x[3] for x in rs],
+            "seconds": [x[2] for x in rs],
             "assign_stages": {s: [x[0].timings[s] for x in rs] for s in stages_a},
             "render_stages": {s: [x[1].timings[s] for x in rs] for s in stages_r},
             "solve_parts": sol.timings,
@@ -660,7 +731,11 @@ def part_paper(ctx):
         }
     opens = ctx.results.get("store", {}).get("open_s")
     if opens:
-        first = min(opens) + index_s + min(min(x[2] + x[3] for x in rs) for rs in runs.values())
+        first = (
+            min(opens)
+            + index_s
+            + min(min(x[2]["assign"] + x[2]["paper"] for x in rs) for rs in runs.values())
+        )
         print(
             f"\nthe first animation after opening the store adds open {fmt_s(min(opens))} + index "
             f"{fmt_s(ctx.results['store']['index_s'])}: ~{first:.0f} s"
@@ -680,8 +755,11 @@ def part_interactive(ctx):
     db = ctx.starter("water")
     img, matte = stream_target((180, 320))
     render(assign(img, matte, db))  # warm-up: kernels, the database's index
-    names = ["assign", "resolve sigma x10", "resolve lambda x10", "resolve rho x10", "render"]
+    renders = ("render (empty frame cache)", "render again", "render after the sigma x10 re-solve")
+    names = ["assign", "resolve sigma x10", "resolve lambda x10", "resolve rho x10"]
+    names += [f"{r}, {how}" for how in ("paper", "flow") for r in renders]
     secs = {k: [] for k in names}
+    frames = {}  # frames per clip: the flow rendering's slow motion makes longer clips
     stages = {k: [] for k in ("describe", "retrieval", "tables", "solve")}
     rstages = {k: [] for k in ("rebuild", "blend", "mean", "match", "composite")}
     rounds = 3 if ctx.quick else ctx.rounds
@@ -692,45 +770,124 @@ def part_interactive(ctx):
         for k in stages:
             stages[k].append(a.timings[k])
         p = a.params
+        solved = {}
         for name, change in (
             ("resolve sigma x10", {"sigma": 10 * p.sigma}),
             ("resolve lambda x10", {"lam": 10 * p.lam}),
             ("resolve rho x10", {"rho": 10 * p.rho}),
         ):
             t0 = now()
-            a.resolve(**change)
+            solved[name] = a.resolve(**change)
             secs[name].append(now() - t0)
-        t0 = now()
-        anim = render(a)
-        secs["render"].append(now() - t0)
-        for k in rstages:
-            rstages[k].append(anim.timings[k])
+        for how in ("paper", "flow"):
+            q = p.replace(rendering=how)
+            db.cache.clear()  # the first render of a database opened afresh
+            t0 = now()
+            anim = render(a, q)
+            secs[f"{renders[0]}, {how}"].append(now() - t0)
+            frames[f"{renders[0]}, {how}"] = len(anim.clip)
+            if how == "paper":
+                for k in rstages:
+                    rstages[k].append(anim.timings[k])
+            t0 = now()
+            again = render(a, q)  # Render pressed again (or after moving only shutter, tau...)
+            secs[f"{renders[1]}, {how}"].append(now() - t0)
+            t0 = now()
+            after = render(solved["resolve sigma x10"], q)  # the app: move sigma, then Render
+            secs[f"{renders[2]}, {how}"].append(now() - t0)
+            frames[f"{renders[1]}, {how}"] = len(again.clip)
+            frames[f"{renders[2]}, {how}"] = len(after.clip)
     ctx.assignments["interactive: stream 320x180 + matte"] = a
-    goals = {"assign": 1.0, "render": 3.0}
+    changed = int((solved["resolve sigma x10"].fragments != a.fragments).sum())
+    goals = {"assign": 0.3}
     print(
         f"{len(a.target)} target fragments, {len(a.edges)} edges, {db.n_fragments:,} fragments, "
-        f"{rounds} interleaved rounds after a warm-up; load avg {load0:.1f} -> {load():.1f}"
+        f"{rounds} interleaved rounds after a warm-up; load avg {load0:.1f} -> {load():.1f}; "
+        f"sigma x10 changes {changed} of {len(a.target)} fragments"
     )
     rows = []
     for k in names:
-        goal = goals.get(k, 0.5)
+        goal = goals.get(k, 0.25 if k.startswith("render") else 0.05)
         lo, med = fastest_median(secs[k])
-        rows.append([k, fmt_s(lo), fmt_s(med), f"< {goal:g} s", _met(lo, med, goal)])
-    table(["case", "fastest", "median", "goal", "met"], rows)
+        n = frames.get(k)
+        each = f"{n} frames: {fmt_s(lo * 24 / n)}" if n else "-"
+        rows.append([k, fmt_s(lo), fmt_s(med), each, f"< {goal:g} s", _met(lo, med, goal)])
+    table(["case", "fastest", "median", "per 24 frames", "goal (issue 25)", "met"], rows)
     print(
+        "goals: issue 25 (assign < 0.3 s, re-solve kept at 30-40 ms, render < 0.25 s); the "
+        "spec's (assign < 1 s, re-solve < 0.5 s, render < 3 s)\n"
         "assign stages (fastest / median): "
         + ", ".join(f"{k} {fm(v)}" for k, v in stages.items())
-        + "\nrender stages: "
+        + "\nthe paper's render stages (empty cache): "
         + ", ".join(f"{k} {fm(v)}" for k, v in rstages.items())
     )
+    app = _app_render(ctx, rounds)
     ctx.results["interactive"] = {
         "nodes": len(a.target),
         "edges": len(a.edges),
         "seconds": secs,
         "assign_stages": stages,
         "render_stages": rstages,
+        "resolve_changed": changed,
+        "app": app,
         "load": (load0, load()),
     }
+
+
+def _app_render(ctx, rounds):
+    """The app's Render button, headless, at the app's own working size (as the user sees it).
+
+    ``VideoDBApp`` (widgets) works on the photo at 480 px on its longer side (256 in
+    quick mode): the stream photo is 480 x 376 there, four times the pixels of the
+    320 x 180 rows above. The matte is the whole photo; the rendering the app's
+    default (flow). Timed: from pressing Render to the clip in the player (its first
+    frame encoded), the worker thread's status included; not the browser's drawing.
+    """
+
+    from fluidnb.widgets import VideoDBApp
+
+    load0 = load()
+    app = VideoDBApp("stream", db="water", quick=ctx.quick)
+    try:
+        h, w = app.photo.shape[:2]
+        app.set_matte(np.ones((h, w), np.float32))
+        t0 = now()
+        app.run(timeout=600)
+        run_s = now() - t0
+        a = app.assignment
+        first, again = [], []
+        for _ in range(rounds):
+            a.db.cache.clear()
+            t0 = now()
+            app.render_clip(timeout=600)
+            first.append(now() - t0)
+            t0 = now()
+            app.render_clip(timeout=600)
+            again.append(now() - t0)
+        rows = [
+            ["Run (assign + render + show), first", fmt_s(run_s), "-", "-", "-"],
+            [
+                "Render (empty frame cache)",
+                *(fmt_s(x) for x in fastest_median(first)),
+                "< 0.5 s",
+                _met(*fastest_median(first), 0.5),
+            ],
+            [
+                "Render again (fragments cached)",
+                *(fmt_s(x) for x in fastest_median(again)),
+                "< 0.5 s",
+                _met(*fastest_median(again), 0.5),
+            ],
+        ]
+        print(
+            f"\n### The app's Render button (VideoDBApp, headless): the stream at {w} x {h}, "
+            f"whole-frame matte, {len(a.target)} fragments; load avg {load0:.1f} -> {load():.1f}"
+        )
+        table(["case", "fastest", "median", "goal (issue 25)", "met"], rows)
+        return {"shape": [h, w], "fragments": len(a.target), "run_s": run_s,
+                "render_s": first, "render_again_s": again}  # fmt: skip
+    finally:
+        app.close()
 
 
 def _met(lo, med, goal):

@@ -1,4 +1,5 @@
-"""The README's main command (dev.py lab) starts JupyterLab on the notebooks."""
+"""The README's main command (dev.py lab) starts JupyterLab on the notebooks, and the
+starter video databases' build in the background."""
 
 import json
 import os
@@ -11,6 +12,8 @@ import urllib.request
 
 import pytest
 
+from fluidnb.videodb import STARTER_KINDS
+from fluidnb.videodb._starter import _VERSION
 from tests.support.envs import ROOT
 
 pytestmark = pytest.mark.slow
@@ -28,9 +31,21 @@ def _get(url, method="GET"):
         return resp.status, resp.read()
 
 
+def _alive(pid):
+    try:
+        os.kill(pid, 0)
+    except OSError:
+        return False
+    return True
+
+
 def test_lab_command_serves_the_notebooks(tmp_path):
     port, token = _free_port(), "fluidnb-test"
     env = dict(os.environ)
+    # The quick starter databases (seconds), into this test's own cache.
+    cache = tmp_path / "cache"
+    env.update(FLUIDNB_CACHE_DIR=str(cache), FLUIDNB_QUICK="1")
+    env.pop("FLUIDNB_PREBUILD", None)
     for var in ("CONFIG", "RUNTIME", "DATA"):
         env[f"JUPYTER_{var}_DIR"] = str(tmp_path / var.lower())
     env["JUPYTERLAB_SETTINGS_DIR"] = str(tmp_path / "settings")
@@ -66,10 +81,34 @@ def test_lab_command_serves_the_notebooks(tmp_path):
         status, page = _get(f"{base}/lab?token={token}")
         assert status == 200
         assert b"JupyterLab" in page
+        # Meanwhile the starter databases are built in the background, into the cache.
+        pid = int((cache / "videodb" / "prebuild.pid").read_text())
+        built = [cache / "videodb" / f"{kind}-v{_VERSION}-quick" for kind in STARTER_KINDS]
+        deadline = time.monotonic() + 300
+        while not all((p / "manifest.json").is_file() for p in built):
+            assert time.monotonic() < deadline, (cache / "videodb" / "prebuild.log").read_text()
+            time.sleep(0.5)
         _get(f"{base}/api/shutdown?token={token}", method="POST")
         proc.wait(timeout=30)
+        deadline = time.monotonic() + 60
+        while _alive(pid) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert not _alive(pid)
+        assert (
+            "starter databases built: water, smoke, fire"
+            in (cache / "videodb" / "prebuild.log").read_text()
+        )
     finally:
         if proc.poll() is None:
             proc.send_signal(signal.SIGTERM)
             proc.wait(timeout=30)
         log.close()
+
+
+def test_lab_command_can_leave_the_starter_databases_alone(tmp_path, monkeypatch):
+    import dev
+
+    monkeypatch.setenv("FLUIDNB_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("FLUIDNB_PREBUILD", "0")
+    assert dev.prebuild() is None
+    assert not (tmp_path / "videodb").exists()

@@ -21,7 +21,8 @@ One idea per module, in the order of the method:
   ``_video`` (reading clips), ``_flow`` (optical flow), ``_augment`` (the versions'
   pixels and motion), ``_features`` (mean image, motion spectra, textureness),
   ``_sift`` (dense SIFT), ``_words`` (codebook, visual words, pyramid histograms,
-  Eq. 1), ``_build`` and ``_store`` (building and reading the zarr store),
+  Eq. 1), ``_build`` and ``_store`` (building and reading the zarr store), ``_frames``
+  (rebuilding fragments' frames for rendering, the frame cache),
   ``_starter_clips``, ``_flow_map`` and ``_starter`` (the starter databases' clips and
   their cache);
 - the assignment (sec. 5): ``_target`` (the target cut into fragments, the user's
@@ -80,6 +81,7 @@ from ._flow_render import (
     flow_timing,
     loop_phases,
 )
+from ._frames import FrameCache
 from ._geometry import ANGLES, FRAGMENT, SCALES, STRIDE, VERSIONS
 from ._lock import DatabaseBusy
 from ._mrf import MRFSolution, alpha_expansion, brute_force, energy, grid_edges, icm, solve
@@ -90,7 +92,9 @@ from ._reference import (
     reference_dense_sift,
     reference_eulerian_loop,
     reference_fill,
+    reference_fragment_frames,
     reference_match_histograms_cells,
+    reference_motion_blur,
     reference_pair_tables,
     reference_quantise,
     reference_sample_version,
@@ -101,7 +105,7 @@ from ._render import Animation, render
 from ._retrieval import HistogramIndex
 from ._sift import dense_sift
 from ._smoothness import TEXTURE_SCALE, PairTables, pair_tables
-from ._starter import starter_database, starter_params, starter_path
+from ._starter import prebuild_starters, starter_database, starter_params, starter_path
 from ._starter_clips import STARTER_KINDS, starter_clips
 from ._store import VideoDatabase, open_database, verify_database
 from ._target import Target, cut_target, fragment_motion
@@ -124,6 +128,7 @@ __all__ = [
     "Assignment",
     "DatabaseBusy",
     "DatabaseParams",
+    "FrameCache",
     "HistogramIndex",
     "MRFSolution",
     "PairTables",
@@ -172,6 +177,7 @@ __all__ = [
     "open_database",
     "optical_flow",
     "pair_tables",
+    "prebuild_starters",
     "preview_frame",
     "pyramid_histograms",
     "quantise",
@@ -180,7 +186,9 @@ __all__ = [
     "reference_dense_sift",
     "reference_eulerian_loop",
     "reference_fill",
+    "reference_fragment_frames",
     "reference_match_histograms_cells",
+    "reference_motion_blur",
     "reference_pair_tables",
     "reference_quantise",
     "reference_sample_version",

@@ -14,13 +14,13 @@ is the same in plain numpy.
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from numba import njit
 from scipy import ndimage as ndi
 
 from .._validation import check_array, check_int, check_range, check_vector_field
-from ..fields import backward_warp
 
 __all__ = ["HISTOGRAM_BINS", "match_histograms_cells", "motion_blur"]
 
@@ -132,19 +132,79 @@ def motion_blur(image, velocity, *, shutter, denoise):
     shutter = check_range("shutter", shutter, 0)
     denoise = check_range("denoise", denoise, 0)
     speed = np.hypot(v[..., 0], v[..., 1])
-    length = shutter * float(speed.max())
     out = img
-    if length > 0:
-        n = math.ceil(length / _BLUR_STEP) + 1
-        acc = np.zeros_like(img, dtype=np.float64)
-        # Trapezoid rule: the samples stand for a continuous box average over the
-        # shutter, so the two end samples count half.
-        for j, t in enumerate(np.linspace(-shutter / 2, shutter / 2, n)):
-            acc += (0.5 if j in (0, n - 1) else 1.0) * backward_warp(img, np.float32(t) * v)
-        out = (acc / (n - 1)).astype(np.float32)
+    times, weights = _shutter_samples(shutter, float(speed.max()))
+    if len(times):
+        flat = img.reshape(*img.shape[:2], -1)
+        blurred = np.empty_like(flat)
+        bounds = np.linspace(0, flat.shape[0], _THREADS + 1).astype(int)
+        _each_frame(
+            lambda k: _line_average(flat, v, times, weights, bounds[k], bounds[k + 1], blurred),
+            _THREADS,
+        )  # bands of rows on the cores
+        out = blurred.reshape(img.shape)
     if denoise > 0:
         out = _variable_blur(out, denoise * speed)
     return out  # _check_image made img a copy
+
+
+def _shutter_samples(shutter, top_speed):
+    """Times (frames, float32) and trapezoid weights of the motion blur's samples.
+
+    ``n = ceil(shutter * top_speed / 0.5) + 1`` samples from ``-shutter / 2`` to
+    ``shutter / 2`` (at most half a pixel apart where the motion is fastest), the two
+    end ones weighing half: they stand for a continuous box average over the shutter.
+    None (empty arrays) when nothing moves.
+    """
+    length = shutter * top_speed
+    if not length > 0:
+        return np.zeros(0, np.float32), np.zeros(0, np.float32)
+    n = math.ceil(length / _BLUR_STEP) + 1
+    times = np.linspace(-shutter / 2, shutter / 2, n).astype(np.float32)
+    weights = np.ones(n, np.float32)
+    weights[[0, -1]] = 0.5
+    return times, weights
+
+
+@njit(cache=True, nogil=True)
+def _line_average(img, v, times, weights, row0, row1, out):
+    """The pseudo motion blur, one pixel at a time: all samples along its line at once.
+
+    ``out(x) = sum_j w_j img(x + t_j v(x)) / (n - 1)`` for the rows ``row0:row1``
+    (the samples may read any row): each sample is
+    :func:`fluidnb.fields.backward_warp`'s bilinear value (the displacement
+    ``t_j v`` in float32, positions in float64 clamped at the border, the weights in
+    float32, ``top + fy (bottom - top)``), summed in float64 in the order of ``j``,
+    so the result equals :func:`fluidnb.videodb.reference_motion_blur`'s bit for bit,
+    without its n whole-image warps and temporaries.
+    """
+    h, w, n_ch = img.shape
+    acc = np.empty(n_ch)
+    last_r = np.float64(h - 1)
+    last_c = np.float64(w - 1)
+    count = np.float64(times.shape[0] - 1)
+    for r in range(row0, row1):
+        for c in range(w):
+            acc[:] = 0.0
+            for j in range(times.shape[0]):
+                y = np.float64(times[j] * v[r, c, 0]) + r
+                x = np.float64(times[j] * v[r, c, 1]) + c
+                y = min(max(y, 0.0), last_r)
+                x = min(max(x, 0.0), last_c)
+                y0 = int(y)
+                x0 = int(x)
+                fy = np.float32(y - y0)
+                fx = np.float32(x - x0)
+                y1 = min(y0 + 1, h - 1)
+                x1 = min(x0 + 1, w - 1)
+                for ch in range(n_ch):
+                    v00 = img[y0, x0, ch]
+                    v10 = img[y1, x0, ch]
+                    top = (img[y0, x1, ch] - v00) * fx + v00
+                    bottom = (img[y1, x1, ch] - v10) * fx + v10
+                    acc[ch] += np.float64(weights[j] * ((bottom - top) * fy + top))
+            for ch in range(n_ch):
+                out[r, c, ch] = np.float32(acc[ch] / count)
 
 
 # --------------------------------------------------------------------------------------
@@ -210,19 +270,17 @@ class _Cells:
     def __init__(self, frames, reference, weight, cell):
         f, ref, w, cell = _check_histogram_args(frames, reference, weight, cell)
         self.grey = f.ndim == 3
-        f = f.astype(np.float32)
-        ref = ref.astype(np.float32)
+        f = np.ascontiguousarray(f, dtype=np.float32)  # read only: no copy needed
+        ref = np.ascontiguousarray(ref, dtype=np.float32)
         if self.grey:
             f, ref = f[..., None], ref[..., None]
         self.frames, self.reference, self.weight = f, ref, w
         n_ch = f.shape[3]
         h, w_px = f.shape[1:3]
-        # One channel at a time: numpy reduces several axes with the channel last
-        # ~10x more slowly.
-        lo = [min(float(f[..., c].min()), float(ref[..., c].min())) for c in range(n_ch)]
-        hi = [max(float(f[..., c].max()), float(ref[..., c].max())) for c in range(n_ch)]
-        self.lo = np.array(lo)
-        hi = np.array(hi)
+        lo_f, hi_f = _channel_range(f.reshape(-1, n_ch))
+        lo_r, hi_r = _channel_range(ref.reshape(-1, n_ch))
+        self.lo = np.minimum(lo_f, lo_r).astype(np.float64)
+        hi = np.maximum(hi_f, hi_r).astype(np.float64)
         self.step = np.where(hi > self.lo, (hi - self.lo) / HISTOGRAM_BINS, 1.0 / HISTOGRAM_BINS)
         # Values are binned by multiplying with the inverse (a division per value costs
         # several times as much in the kernels).
@@ -238,6 +296,130 @@ class _Cells:
 
     def result(self, out):
         return out[..., 0] if self.grey else out
+
+
+@njit(cache=True, nogil=True)
+def _channel_range(values):
+    """Smallest and largest value of each channel (column) of (n, C) float32, one pass."""
+    n_ch = values.shape[1]
+    lo = np.full(n_ch, np.inf, np.float32)
+    hi = np.full(n_ch, -np.inf, np.float32)
+    for i in range(values.shape[0]):
+        for c in range(n_ch):
+            v = values[i, c]
+            lo[c] = min(lo[c], v)
+            hi[c] = max(hi[c], v)
+    return lo, hi
+
+
+def colour_axes(image, matte):
+    """Mean colour and principal axes of the image's pixels inside the matte (Heeger & Bergen).
+
+    Returns
+    -------
+    centre : ndarray, shape (3,), float32
+    axes : ndarray, shape (3, 3), float32
+        Orthonormal columns, largest variance first: ``(x - centre) @ axes`` are a
+        colour's coordinates in them.
+    """
+    pix = image[matte > 0.5] if (matte > 0.5).any() else image.reshape(-1, 3)
+    centre = pix.mean(axis=0)
+    cov = np.cov((pix - centre).T.astype(np.float64)) + 1e-9 * np.eye(3)
+    _, vecs = np.linalg.eigh(cov)
+    return centre.astype(np.float32), vecs[:, ::-1].astype(np.float32)
+
+
+def frames_in_axes(mean, differences, centre, axes, *, unmatched=None):
+    """The frames ``mean + D_i`` in the colour axes: ``((A + D_i) - centre) @ axes``.
+
+    One compiled pass over (T, H, W) differences and an (H, W, 3) mean image, float32,
+    each coordinate summed as ``(g_0 a_0 + g_1 a_1) + g_2 a_2``; it differs from
+    numpy's matrix product (BLAS) by float32 rounding (measured 2.4e-7).
+
+    Parameters
+    ----------
+    unmatched : tuple of int, optional
+        ``(h, w)``: also return the frames themselves, ``clip(A + D_i, 0, 1)`` on
+        their top-left ``h x w`` pixels (the rendering's "before matching" picture),
+        made in the same pass.
+
+    Returns
+    -------
+    ndarray, shape (T, H, W, 3), float32
+        And, with ``unmatched``, the frames (T, h, w, 3).
+    """
+    d = np.ascontiguousarray(differences, dtype=np.float32)
+    a = np.ascontiguousarray(mean, dtype=np.float32)
+    out = np.empty(d.shape + (3,), np.float32)
+    h, w = (0, 0) if unmatched is None else unmatched
+    frames = np.empty((d.shape[0], h, w, 3), np.float32)
+    axes = np.ascontiguousarray(axes, np.float32)
+    _in_axes(a, d, centre.astype(np.float32), axes, out, frames)
+    return out if unmatched is None else (out, frames)
+
+
+def colours_in_axes(frames, centre, axes):
+    """Colours (..., 3) in the colour axes: ``(x - centre) @ axes`` (float32, one pass).
+
+    Each coordinate summed as ``(g_0 a_0 + g_1 a_1) + g_2 a_2``, as
+    :func:`frames_in_axes`.
+    """
+    x = np.ascontiguousarray(frames, dtype=np.float32)
+    out = np.empty_like(x)
+    _colours_in_axes(
+        x.reshape(-1, 3), centre.astype(np.float32), np.ascontiguousarray(axes, np.float32),
+        out.reshape(-1, 3),
+    )  # fmt: skip
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _colours_in_axes(x, centre, axes, out):
+    for i in range(x.shape[0]):
+        g0 = x[i, 0] - centre[0]
+        g1 = x[i, 1] - centre[1]
+        g2 = x[i, 2] - centre[2]
+        for k in range(3):
+            out[i, k] = (g0 * axes[0, k] + g1 * axes[1, k]) + g2 * axes[2, k]
+
+
+def frames_from_axes(coordinates, centre, axes):
+    """Colours back from the colour axes, in place: ``x @ axes.T + centre`` (float32)."""
+    x = np.ascontiguousarray(coordinates, dtype=np.float32)
+    _from_axes(x.reshape(-1, 3), centre.astype(np.float32), np.ascontiguousarray(axes, np.float32))
+    return x
+
+
+@njit(cache=True, nogil=True)
+def _in_axes(mean, d, centre, axes, out, frames):
+    n_t, h, w = d.shape
+    fh, fw = frames.shape[1:3]
+    for t in range(n_t):
+        for r in range(h):
+            for c in range(w):
+                delta = d[t, r, c]
+                f0 = mean[r, c, 0] + delta
+                f1 = mean[r, c, 1] + delta
+                f2 = mean[r, c, 2] + delta
+                if r < fh and c < fw:
+                    frames[t, r, c, 0] = min(max(f0, np.float32(0.0)), np.float32(1.0))
+                    frames[t, r, c, 1] = min(max(f1, np.float32(0.0)), np.float32(1.0))
+                    frames[t, r, c, 2] = min(max(f2, np.float32(0.0)), np.float32(1.0))
+                g0 = f0 - centre[0]
+                g1 = f1 - centre[1]
+                g2 = f2 - centre[2]
+                for k in range(3):
+                    out[t, r, c, k] = (g0 * axes[0, k] + g1 * axes[1, k]) + g2 * axes[2, k]
+
+
+@njit(cache=True, nogil=True)
+def _from_axes(x, centre, axes):
+    for i in range(x.shape[0]):
+        a0 = x[i, 0]
+        a1 = x[i, 1]
+        a2 = x[i, 2]
+        for k in range(3):
+            x[i, k] = ((a0 * axes[k, 0] + a1 * axes[k, 1]) + a2 * axes[k, 2]) + centre[k]
 
 
 def match_histograms_cells(frames, reference, weight, *, cell):
@@ -302,19 +484,43 @@ def match_histograms_cells(frames, reference, weight, *, cell):
     counts = np.zeros((f.shape[0] + 1, n_ch, cells.n_cells, bins))
     args = (cells.cid, cells.weight, cells.lo, cells.inv_step)
     _histogram_kernel(cells.reference, *args, counts[0])
-    for t in range(f.shape[0]):
-        _histogram_kernel(f[t], *args, counts[t + 1])
+    # Frames are independent: their histograms, and then their mapping, on the
+    # cores (the kernels release the GIL; each frame writes its own rows).
+    _each_frame(lambda t: _histogram_kernel(f[t], *args, counts[t + 1]), f.shape[0])
     q = np.empty(counts.shape[:3] + (_QUANTILES + 1,))
     _quantiles_kernel(counts, cells.lo, cells.step, q)
     luts = np.empty(counts.shape[:3] + (bins + 1,))
     _maps_kernel(q[1:], q[0], cells.lo, cells.step, np.array(_SLOPE_RANGE), luts[1:])
     out = np.empty_like(f)
-    for t in range(f.shape[0]):
-        _apply_kernel(
+    _each_frame(
+        lambda t: _apply_kernel(
             f[t], luts[t + 1], cells.lo, cells.inv_step, *cells.rows, *cells.cols, cells.mass,
             cells.nx, out[t],
-        )  # fmt: skip
+        ),
+        f.shape[0],
+    )  # fmt: skip
     return cells.result(out)
+
+
+#: Threads over the frames in :func:`match_histograms_cells`.
+_THREADS = 2
+
+
+def _each_frame(fn, n):
+    """``fn(t)`` for t in range(n), on up to :data:`_THREADS` threads (contiguous runs)."""
+    workers = min(_THREADS, n)
+    if workers <= 1:
+        for t in range(n):
+            fn(t)
+        return
+    bounds = np.linspace(0, n, workers + 1).astype(int)
+
+    def run(k):
+        for t in range(bounds[k], bounds[k + 1]):
+            fn(t)
+
+    with ThreadPoolExecutor(workers) as pool:
+        list(pool.map(run, range(workers)))
 
 
 # The compiled kernels below follow the numpy functions of

@@ -61,6 +61,9 @@ from ._geometry import FRAGMENT, STRIDE, VERSIONS
 
 __all__ = [
     "IDENTITY",
+    "VersionSampler",
+    "mirror_order",
+    "mirror_partner",
     "prefilter_sigma",
     "sample_version",
     "transform_flow",
@@ -289,6 +292,34 @@ def transform_flow(flow, version, *, origin=(0, 0), size=None):
     return _sample(arr, version, origin, size, version_matrix(version))
 
 
+def mirror_partner(version):
+    r"""The version whose mirror image (left-right) is ``version``, bit for bit.
+
+    A flipped version :math:`(F, s, \theta)` is the mirror image of the unflipped
+    :math:`(s, -\theta)`, and the other way round (:math:`F R(-\theta) = R(\theta) F`).
+
+    Examples
+    --------
+    >>> mirror_partner(7), mirror_partner(16), mirror_partner(0), mirror_partner(11)
+    (16, 7, 11, 0)
+    """
+    flip, s, angle = VERSIONS[check_int("version", version, 0, len(VERSIONS) - 1)]
+    return VERSIONS.index((not flip, s, -angle))
+
+
+def mirror_order(versions):
+    """``versions`` reordered so that each unflipped one comes just before its mirror.
+
+    The order in which :class:`VersionSampler` samples each mirror pair once.
+
+    Examples
+    --------
+    >>> mirror_order(range(18))[:6]
+    [0, 11, 1, 10, 2, 9]
+    """
+    return sorted(versions, key=lambda v: (min(v, mirror_partner(v)), v))
+
+
 def valid_positions(shape, version):
     """Top-left corners of the version's fragments that lie wholly inside the source.
 
@@ -419,55 +450,167 @@ def _corners(coord, n):
 
 def _sample(arr, version, origin, size, matrix=None):
     """Sample a window of a version; with ``matrix``, also carry (dy, dx) pairs by it."""
-    t, h, w = arr.shape[:3]
+    h, w = arr.shape[1:3]
     (r0, c0), (hh, ww) = _window(h, w, version, origin, size)
-    channels = int(np.prod(arr.shape[3:], dtype=np.int64))
     if version == IDENTITY and (r0, c0, hh, ww) == (0, 0, h, w):
         return arr.copy() if matrix is None else _transform(arr, version)
-    y, x = _coordinates(h, w, version, r0, c0, hh, ww)
-    y, x = np.broadcast_arrays(y, x)
-    y0, y1, wy = _corners(y, h)
-    x0, x1, wx = _corners(x, w)
-    # The source rectangle the window reads, widened by the prefilter's reach and cut
-    # at the source's border (where the filter clamps, as it does on the whole frame):
-    # inside it every filtered value equals the whole frame's, bit for bit.
-    sigma = prefilter_sigma(version)
-    kernel = _gaussian_kernel(sigma)
-    reach = len(kernel) - 1
-    top, bottom = max(int(y0.min()) - reach, 0), min(int(y1.max()) + 1 + reach, h)
-    left, right = max(int(x0.min()) - reach, 0), min(int(x1.max()) + 1 + reach, w)
-    window = arr[:, top:bottom, left:right].reshape(t, bottom - top, right - left, channels)
-    if channels > 2:
-        # Colour and the like: the channels go through as extra frames (of the
-        # rectangle only: a small crop of a long clip moves only what it reads).
-        window = np.moveaxis(window, 3, 0).reshape(channels * t, bottom - top, right - left, 1)
-    # Pixel-major layout: each source pixel's values over all frames (and channels)
-    # are contiguous, so the kernels below run vectorised along them. Moving whole
-    # pixels (their channels as one opaque item) is 3-4x faster than moving floats.
-    per_item = 2 if channels == 2 else 1
-    item = np.uint64 if per_item == 2 else np.float32
-    n_planes = window.shape[0]
-    window = np.ascontiguousarray(window).view(item)[..., 0]
-    src = np.ascontiguousarray(np.moveaxis(window, 0, 2)).view(np.float32)
-    src = src.reshape(bottom - top, right - left, n_planes * per_item)
-    if reach:
-        src = _blur(src, kernel)
-    sw = right - left
-    src = src.reshape((bottom - top) * sw, n_planes * per_item)
-    # Each pixel reads rows k, k + ox, k + oy and k + oy + ox of the source window.
-    k = ((y0 - top) * sw + (x0 - left)).ravel().astype(np.uint32)
-    ox = (x1 - x0).ravel().astype(np.uint32)
-    oy = ((y1 - y0) * sw).ravel().astype(np.uint32)
-    fx = wx.ravel().astype(np.float32)
-    fy = wy.ravel().astype(np.float32)
-    out = np.empty((n_planes, hh * ww), item)
-    matrix = _NO_MATRIX if matrix is None else matrix.astype(np.float32)
-    _gather(src, k, ox, oy, fx, fy, matrix, out)
-    out = out.view(np.float32)
-    if channels > 2:
-        out = np.moveaxis(out.reshape(channels, t, hh, ww), 0, 3)
-        return np.ascontiguousarray(out).reshape(t, hh, ww, *arr.shape[3:])
-    return out.reshape(t, hh, ww, *arr.shape[3:])
+    plan = _Plan(h, w, version, r0, c0, hh, ww)
+    layout = _Layout(arr.shape)
+    src = layout.pixel_major(arr[:, plan.top : plan.bottom, plan.left : plan.right])
+    if len(plan.kernel) > 1:
+        src = _blur(src, plan.kernel)
+    out = np.empty((layout.n_planes, hh * ww), layout.item)
+    _gather(plan.source_rows(src), *plan.indices, _matrix(matrix), out)
+    return layout.frame_major(out.view(np.float32), hh, ww)
+
+
+def _matrix(matrix):
+    return _NO_MATRIX if matrix is None else matrix.astype(np.float32)
+
+
+class _Plan:
+    """Where a window of a version reads the source: its rectangle and bilinear indices."""
+
+    def __init__(self, h, w, version, r0, c0, hh, ww):
+        y, x = _coordinates(h, w, version, r0, c0, hh, ww)
+        y, x = np.broadcast_arrays(y, x)
+        y0, y1, wy = _corners(y, h)
+        x0, x1, wx = _corners(x, w)
+        # The source rectangle the window reads, widened by the prefilter's reach and
+        # cut at the source's border (where the filter clamps, as it does on the whole
+        # frame): inside it every filtered value equals the whole frame's, bit for bit.
+        self.sigma = prefilter_sigma(version)
+        self.kernel = _gaussian_kernel(self.sigma)
+        reach = len(self.kernel) - 1
+        self.top, self.bottom = max(int(y0.min()) - reach, 0), min(int(y1.max()) + 1 + reach, h)
+        self.left, self.right = max(int(x0.min()) - reach, 0), min(int(x1.max()) + 1 + reach, w)
+        self.whole = (self.top, self.bottom, self.left, self.right) == (0, h, 0, w)
+        sw = self.right - self.left
+        # Each pixel reads rows k, k + ox, k + oy and k + oy + ox of the source window.
+        k = ((y0 - self.top) * sw + (x0 - self.left)).ravel().astype(np.uint32)
+        ox = (x1 - x0).ravel().astype(np.uint32)
+        oy = ((y1 - y0) * sw).ravel().astype(np.uint32)
+        self.indices = (k, ox, oy, wx.ravel().astype(np.float32), wy.ravel().astype(np.float32))
+
+    def source_rows(self, src):
+        """The (pixels, values) view of a pixel-major source window the indices read."""
+        return src.reshape((self.bottom - self.top) * (self.right - self.left), src.shape[2])
+
+
+class _Layout:
+    """Frames (T, H, W[, C]) moved to and from the pixel-major layout the kernels use.
+
+    Pixel-major: each source pixel's values over all frames (and channels) are
+    contiguous, so the kernels run vectorised along them. A (dy, dx) pair moves as one
+    uint64 item (3-4x faster than moving floats); colour and the like go through as
+    extra frames, channel-major.
+    """
+
+    def __init__(self, shape):
+        self.shape = tuple(shape)
+        self.t = shape[0]
+        self.channels = int(np.prod(shape[3:], dtype=np.int64))
+        self.per_item = 2 if self.channels == 2 else 1
+        self.item = np.uint64 if self.per_item == 2 else np.float32
+        self.n_planes = self.t * (self.channels if self.channels > 2 else 1)
+
+    def pixel_major(self, window):
+        """(T, h, w[, C]) -> (h, w, values) float32, contiguous."""
+        t, hh, ww = window.shape[:3]
+        window = window.reshape(t, hh, ww, self.channels)
+        if self.channels > 2:
+            # (a small crop of a long clip moves only what it reads)
+            window = np.moveaxis(window, 3, 0).reshape(self.channels * t, hh, ww, 1)
+        window = np.ascontiguousarray(window).view(self.item)[..., 0]
+        src = np.ascontiguousarray(np.moveaxis(window, 0, 2)).view(np.float32)
+        return src.reshape(hh, ww, self.n_planes * self.per_item)
+
+    def frame_major(self, out, hh, ww):
+        """(planes, points) float32 -> (T, hh, ww[, C])."""
+        if self.channels > 2:
+            out = np.moveaxis(out.reshape(self.channels, self.t, hh, ww), 0, 3)
+            return np.ascontiguousarray(out).reshape(self.t, hh, ww, *self.shape[3:])
+        return out.reshape(self.t, hh, ww, *self.shape[3:])
+
+
+class VersionSampler:
+    r"""Every whole version of one clip (or window of frames), prepared once.
+
+    A build samples all 18 versions of each window of each clip: its grey frames, its
+    mean image and its flow. :func:`sample_version` and :func:`transform_flow` prepare
+    the source for every call (the pixel-major copy, the prefilter); this prepares it
+    once -- one pixel-major copy, blurred once per scale -- and makes each flipped
+    version as the mirror image of the unflipped one at the opposite angle:
+    :math:`F R(-\theta) = R(\theta) F`, so version :math:`(F, s, \theta)`'s pixel
+    :math:`(r, c)` reads the source at the very numbers version
+    :math:`(s, -\theta)`'s pixel :math:`(r, W_v - 1 - c)` does, and a vector's dx
+    comes out negated (the matrices' rows agree up to sign). The results are, bit for
+    bit, :func:`sample_version`'s and :func:`transform_flow`'s, pixel-major.
+
+    Parameters
+    ----------
+    frames : ndarray, shape (T, H, W) or (T, H, W, C), float
+        As for :func:`sample_version`; a flow (C = 2) with ``vectors=True``.
+    vectors : bool
+        The frames are (dy, dx) vectors, carried into each version as
+        :func:`transform_flow` does.
+    """
+
+    def __init__(self, frames, *, vectors=False):
+        arr = _check_frames("frames", frames)
+        if vectors and (arr.ndim != 4 or arr.shape[-1] != 2):
+            raise ValueError(f"frames must have shape (T, H, W, 2) as (dy, dx), got {arr.shape}")
+        self.vectors = bool(vectors)
+        self.layout = _Layout(arr.shape)
+        self.shape = arr.shape[1:3]
+        self._arr = arr
+        self._src = {0.0: self.layout.pixel_major(arr)}
+        self._last = None
+
+    def __call__(self, version):
+        """Version ``version``, pixel-major: ``(Hv, Wv, values)`` float32, contiguous.
+
+        ``values`` are the frames (grey: ``T``), the (dy, dx) pairs of each frame
+        (``2 T``) or the channels of each frame, channel-major (``C T``).
+        """
+        partner = mirror_partner(version)
+        if partner < version:
+            # The mirror image of its unflipped partner, kept from the call before when
+            # that was the partner (ask for versions in mirror_order() to get it free).
+            cached = self._last is not None and self._last[0] == partner
+            out = self._last[1] if cached else self._unflipped(partner)
+            out = np.ascontiguousarray(out[:, ::-1])
+            if self.vectors:
+                out[..., 1::2] *= np.float32(-1)
+            return out
+        out = self._unflipped(version)
+        self._last = (version, out)
+        return out
+
+    def _unflipped(self, version):
+        h, w = self.shape
+        hv, wv = version_shape((h, w), version)
+        src = self._src[0.0]
+        if version == IDENTITY:
+            out = src.copy()
+            if self.vectors:
+                matrix = version_matrix(version).astype(np.float32)
+                _apply_matrix(out.reshape(-1, 2), matrix, out.reshape(-1, 2))
+            return out
+        plan = _Plan(h, w, version, 0, 0, hv, wv)
+        if plan.whole:  # always, for a whole version: its prefilter is shared by scale
+            if plan.sigma not in self._src:
+                self._src[plan.sigma] = _blur(src, plan.kernel) if plan.sigma else src
+            src = self._src[plan.sigma]
+        else:  # pragma: no cover - kept for safety: read the rectangle as _sample does
+            src = self.layout.pixel_major(
+                self._arr[:, plan.top : plan.bottom, plan.left : plan.right]
+            )
+            src = _blur(src, plan.kernel) if len(plan.kernel) > 1 else src
+        out = np.empty((hv * wv, src.shape[2]), np.float32)
+        matrix = version_matrix(version) if self.vectors else None
+        _gather_pixels(plan.source_rows(src), *plan.indices, _matrix(matrix), out)
+        return out.reshape(hv, wv, src.shape[2])
 
 
 @cache
@@ -516,18 +659,40 @@ def _correlate(src, kernel, axis, out):
                     o[v] += kernel[d] * (a[v] + b[v])
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _bilinear(src, i, ox, oy, a, b, matrix, r):
+    """One point's samples of every value: ``r[v]`` from source rows around row ``i``.
+
+    ``top + fy * (bottom - top)`` rather than a four-weight sum: a fraction of 0
+    returns the sample bit for bit and a constant stays exactly constant (the form of
+    fluidnb.fields.advect and the fluid kernels). With a (2, 2) ``matrix``, each sampled
+    (dy, dx) pair is replaced by ``(m00 dy + m01 dx, m10 dy + m11 dx)``, as
+    :func:`_apply_matrix` computes it.
+    """
+    s00 = src[i]
+    s01 = src[i + ox]
+    s10 = src[i + oy]
+    s11 = src[i + oy + ox]
+    for v in range(r.shape[0]):
+        top = s00[v] + a * (s01[v] - s00[v])
+        bottom = s10[v] + a * (s11[v] - s10[v])
+        r[v] = top + b * (bottom - top)
+    if matrix.shape[0] == 2:
+        for v in range(0, r.shape[0], 2):
+            dy = r[v]
+            dx = r[v + 1]
+            r[v] = matrix[0, 0] * dy + matrix[0, 1] * dx
+            r[v + 1] = matrix[1, 0] * dy + matrix[1, 1] * dx
+
+
 @njit(cache=True, nogil=True)
 def _gather(src, k, ox, oy, fx, fy, matrix, out):
-    """Bilinear samples of all frames at the same points (the module's hot loop).
+    """Bilinear samples of all frames at the same points (frame-major output).
 
     ``src`` is (source pixels, frames x channels) float32; ``out`` is (frames, points)
     of items: float32 for one channel, or uint64 holding a float32 pair for two
-    (so that a (dy, dx) vector moves as one item). ``top + fy * (bottom - top)``
-    rather than a four-weight sum: a fraction of 0 returns the sample bit for bit and
-    a constant stays exactly constant (the form of fluidnb.fields.advect and the fluid
-    kernels). Results go through a small buffer so that both the reads and the writes
-    are contiguous. With a (2, 2) ``matrix``, each sampled (dy, dx) pair is replaced by
-    ``(m00 dy + m01 dx, m10 dy + m11 dx)``, as :func:`_apply_matrix` computes it.
+    (so that a (dy, dx) vector moves as one item). Results go through a small buffer
+    so that both the reads and the writes are contiguous.
     """
     n_frames, n = out.shape
     m = src.shape[1]
@@ -538,28 +703,18 @@ def _gather(src, k, ox, oy, fx, fy, matrix, out):
         size = min(block, n - p0)
         for q in range(size):
             p = p0 + q
-            i = k[p]
-            s00 = src[i]
-            s01 = src[i + ox[p]]
-            s10 = src[i + oy[p]]
-            s11 = src[i + oy[p] + ox[p]]
-            a = fx[p]
-            b = fy[p]
-            r = buf[q]
-            for v in range(m):
-                top = s00[v] + a * (s01[v] - s00[v])
-                bottom = s10[v] + a * (s11[v] - s10[v])
-                r[v] = top + b * (bottom - top)
-            if matrix.shape[0] == 2:
-                for v in range(0, m, 2):
-                    dy = r[v]
-                    dx = r[v + 1]
-                    r[v] = matrix[0, 0] * dy + matrix[0, 1] * dx
-                    r[v + 1] = matrix[1, 0] * dy + matrix[1, 1] * dx
+            _bilinear(src, k[p], ox[p], oy[p], fx[p], fy[p], matrix, buf[q])
         for f in range(n_frames):
             o = out[f]
             for q in range(size):
                 o[p0 + q] = items[q, f]
+
+
+@njit(cache=True, nogil=True)
+def _gather_pixels(src, k, ox, oy, fx, fy, matrix, out):
+    """:func:`_gather`'s samples, pixel-major: ``out`` is (points, values) float32."""
+    for p in range(out.shape[0]):
+        _bilinear(src, k[p], ox[p], oy[p], fx[p], fy[p], matrix, out[p])
 
 
 def _transform(vectors, version):

@@ -26,10 +26,14 @@ per fragment, as one would first write it, with the float64 pyramids.
 
 from __future__ import annotations
 
+from collections import deque
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
+from numba import njit
 
 from .._validation import check_array, check_int, check_range
-from ..fields import collapse, gaussian_pyramid, laplacian_pyramid
+from ..fields._pyramid import _collapse32, _gaussian32, _laplacian32
 from ._geometry import FRAGMENT, STRIDE
 
 __all__ = [
@@ -58,6 +62,8 @@ FEATHER = 8
 #: fragments bring (their margin) and lean on the fill.
 BLEND_LEVELS = 4
 
+# Threads building the phase layers' pyramids.
+_THREADS = 2
 # Same-phase fragments of the stride-24 grid are _PHASES * STRIDE = 72 pixels apart.
 _PHASES = 3
 #: The context (pixels) around a fragment's 48 x 48 core that the blend uses: with it,
@@ -249,23 +255,44 @@ def _window(r, c, m, size, shape):
 def _fill(d, pos, m, shape):
     """Feathered average of all fragments' data windows, (Hc, Wc, N) float32.
 
-    It stands in wherever a phase layer has no fragment of its own; it is the data
-    itself where the fragments agree, so identical inputs blend back exactly.
+    ``d`` is pixel-major, (P, 48 + 2m, 48 + 2m, N). It stands in wherever a phase
+    layer has no fragment of its own; it is the data itself where the fragments agree,
+    so identical inputs blend back exactly.
     """
     s = FRAGMENT + 2 * m
     u = np.arange(s, dtype=np.float64) + 0.5
     tau = np.minimum(u, s - u)
     tau = np.outer(tau, tau).astype(np.float32)
-    n = d.shape[1]
+    n = d.shape[3]
     acc = np.zeros(shape + (n,), dtype=np.float32)
     den = np.zeros(shape, dtype=np.float32)
-    for k, (r, c) in enumerate(pos):
-        (rs, cs), (wr, wc) = _window(r, c, m, s, shape)
-        t = tau[wr, wc]
-        acc[rs, cs] += d[k][:, wr, wc].transpose(1, 2, 0) * t[..., None]
-        den[rs, cs] += t
+    _accumulate_windows(d, np.ascontiguousarray(pos, np.int64), m, tau, acc, den)
     np.divide(acc, den[..., None], out=acc, where=den[..., None] > 0)
     return acc
+
+
+@njit(cache=True, nogil=True)
+def _accumulate_windows(d, pos, m, tau, acc, den):
+    """``acc += tau * D_k`` and ``den += tau`` over every fragment's window (in order).
+
+    The window of :func:`_window` (the core and ``m`` pixels of context, cut to the
+    canvas): float32 products and sums in the order of the fragments, as the numpy
+    loop ``acc[rs, cs] += D_k[wr, wc] * tau`` gives them.
+    """
+    n = d.shape[3]
+    s = d.shape[1]
+    h, w = den.shape
+    for k in range(pos.shape[0]):
+        r0 = pos[k, 0] - m
+        c0 = pos[k, 1] - m
+        for i in range(max(0, -r0), min(s, h - r0)):
+            for j in range(max(0, -c0), min(s, w - c0)):
+                t = tau[i, j]
+                cell = acc[r0 + i, c0 + j]
+                src = d[k, i, j]
+                for f in range(n):
+                    cell[f] += src[f] * t
+                den[r0 + i, c0 + j] += t
 
 
 def _layers(pos):
@@ -364,42 +391,214 @@ def blend_differences(diffs, positions, canvas_shape, *, margin, levels=None, fe
             f"diffs must be {FRAGMENT} + 2 * margin = {FRAGMENT + 2 * m} pixels wide, "
             f"got shape {d.shape}"
         )
-    levels = _check_levels(levels)
-    raw = _raw_weights(_check_feather(feather)).astype(np.float32)
-    n = d.shape[1]
+    pixel_major = np.ascontiguousarray(np.moveaxis(d, 1, 3), dtype=np.float32)
+    return _blend(pixel_major, pos, shape, m, _check_levels(levels), _check_feather(feather))
+
+
+def _blend(d, pos, shape, m, levels, feather):
+    """:func:`blend_differences` on checked, pixel-major differences (P, s, s, N) float32.
+
+    The renderer's own differences come this way (:func:`difference_frames` writes
+    them so): each fragment's window is then pasted into its layer and the fill as
+    contiguous blocks.
+    """
+    raw = _raw_weights(feather).astype(np.float32)
+    n = d.shape[3]
     if len(pos) == 0:
         return np.zeros((n,) + shape, dtype=np.float32)
-    d = d.astype(np.float32, copy=False)
 
     fill = _fill(d, pos, m, shape)
     tile = FRAGMENT + 2 * min(m, MARGIN)
-    acc = None
-    wsum = None
-    for members in _layers(pos):
+
+    def pyramids(members):
+        """One phase layer's weighted bands G_l(W) L_l(X) and its weight's G_l(W)."""
         layer = fill.copy()
         weight = np.zeros(shape + (1,), dtype=np.float32)
         for k in members:
             r, c = pos[k]
             (rs, cs), (wr, wc) = _window(r, c, m, tile, shape)
-            layer[rs, cs] = d[k][:, wr, wc].transpose(1, 2, 0)
+            layer[rs, cs] = d[k, wr, wc]
             weight[r : r + FRAGMENT, c : c + FRAGMENT, 0] = raw
-        bands = laplacian_pyramid(layer, levels, precision="float32")
-        gw = gaussian_pyramid(weight, levels, precision="float32")
+        # The pyramids' float32 kernels themselves: the inputs are this function's.
+        bands, gw = _laplacian32(layer, levels), _gaussian32(weight, levels)
+        for b, g in zip(bands, gw):
+            b *= g
+        return bands, gw
+
+    acc = None
+    wsum = None
+    # The layers' pyramids on threads (OpenCV releases the GIL; a few layers in
+    # flight), summed here in layer order: the same sums as one thread's.
+    for bands, gw in _in_order(pyramids, _layers(pos)):
         if acc is None:
-            acc = [g * b for g, b in zip(gw, bands)]
-            wsum = gw
+            acc, wsum = bands, [g.copy() for g in gw]
         else:
             for a, g, b, s in zip(acc, gw, bands, wsum):
-                b *= g
                 a += b
                 s += g
     for a, s in zip(acc, wsum):
         np.divide(a, s, out=a, where=s > _TINY)
         a[np.broadcast_to(s <= _TINY, a.shape)] = 0.0
-    out = collapse(acc, precision="float32")
+    out = _collapse32(acc)
     covered = _weight_sum(pos, shape, np.ones((FRAGMENT, FRAGMENT))) > 0
     out *= covered[..., None]
     return np.ascontiguousarray(out.transpose(2, 0, 1))
+
+
+def difference_frames(frames, loop=0, *, out=None):
+    r"""A fragment's difference frames :math:`D_i = F_i - A`, cross-faded to loop, pixel-major.
+
+    :math:`A = \frac{1}{N} \sum_i F_i` in float32 (summed in frame order, as
+    ``frames.mean(axis=0)``), then, with ``loop`` > 0, :func:`loop_crossfade`'s
+    equal-power fade of the last ``loop`` frames into the first, in one pass (in
+    float64, as it does). Written pixel-major, as the blend reads them.
+
+    Parameters
+    ----------
+    frames : ndarray, shape (N, h, w), float32
+        A fragment's frames :math:`F_i`.
+    loop : int
+        Frames to cross-fade, in [0, N // 2].
+    out : ndarray, shape (h, w, N - loop), float32, optional
+
+    Returns
+    -------
+    ndarray, shape (h, w, N - loop), float32
+    """
+    f = np.ascontiguousarray(frames, dtype=np.float32)
+    loop = check_int("loop", loop, 0, f.shape[0] // 2)
+    if out is None:
+        out = np.empty((*f.shape[1:], f.shape[0] - loop), np.float32)
+    theta = 0.5 * np.pi * np.arange(1, loop + 1) / (loop + 1)
+    _difference_frames(f, np.sin(theta), np.cos(theta), out)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _difference_frames(f, sin, cos, out):
+    n = f.shape[0]
+    loop = sin.shape[0]
+    length = n - loop
+    h, w = f.shape[1:]
+    # A: the frames summed in order, whole frames at a time (numpy's float32 mean).
+    a = f[0].copy()
+    for i in range(1, n):
+        a += f[i]
+    a /= np.float32(n)
+    d = np.empty(n, np.float32)
+    for r in range(h):
+        for c in range(w):
+            ar = a[r, c]
+            for i in range(n):
+                d[i] = f[i, r, c] - ar
+            o = out[r, c]
+            for i in range(loop, length):
+                o[i] = d[i]
+            if loop == 0:
+                continue
+            # The fade's mean of D (zero but for rounding), in float64 as loop_crossfade.
+            m = np.float64(0.0)
+            for i in range(n):
+                m += np.float64(d[i])
+            m /= n
+            for j in range(loop):
+                head = np.float64(d[j]) - m
+                tail = np.float64(d[length + j]) - m
+                o[j] = np.float32(m + sin[j] * head + cos[j] * tail)
+
+
+def play_loops(loops, offsets, *, rates=None, n_frames=None, mirrors=None):
+    r"""Every fragment's loop played from its offset, mirrored, at its rate, pixel-major.
+
+    What :func:`fluidnb.videodb.stagger` does after making the loops, for loops
+    already made (:func:`difference_frames`, kept in the frame cache) and laid out as
+    the blend reads them: fragment ``p`` shows frame :math:`(o_p + r_p t) \bmod L` of
+    its loop at time :math:`t` (linear between frames at fractional times), flipped
+    across ``mirrors[p]`` (0: upside down, 1: left to right, -1: not). The times are
+    computed as ``stagger`` computes them and the interpolation is the same float32
+    ``a + f (b - a)``, so the frames are ``stagger``'s bit for bit (tested).
+
+    Parameters
+    ----------
+    loops : sequence of ndarray, shape (s, s, L), float32
+        Each fragment's loop, pixel-major.
+    offsets : ndarray, shape (P,)
+        :math:`o_p`, in frames.
+    rates : ndarray, shape (P,), optional
+        :math:`r_p`, frames of the loop played per frame (default 1).
+    n_frames : int, optional
+        Frames to make (default :math:`L`).
+    mirrors : ndarray, shape (P,), optional
+        Per fragment -1, 0 or 1 (default -1).
+
+    Returns
+    -------
+    ndarray, shape (P, s, s, n_frames), float32
+    """
+    p = len(loops)
+    offs = np.asarray(offsets, np.float64)
+    if offs.shape != (p,):
+        raise ValueError(f"offsets must have shape ({p},), got {offs.shape}")
+    if p == 0:
+        return np.zeros((0, FRAGMENT, FRAGMENT, 0 if n_frames is None else n_frames), np.float32)
+    side, length = loops[0].shape[0], loops[0].shape[2]
+    n_frames = length if n_frames is None else check_int("n_frames", n_frames, 1)
+    r = np.ones(p) if rates is None else np.asarray(rates, np.float64)
+    flips = np.full(p, -1, np.int64) if mirrors is None else np.asarray(mirrors, np.int64)
+    if r.shape != (p,) or flips.shape != (p,):
+        raise ValueError(f"rates and mirrors must have shape ({p},)")
+    # As stagger: times mod L in float64, the frame below and the fraction in float32.
+    times = np.mod(offs[:, None] + r[:, None] * np.arange(n_frames)[None, :], length)
+    i0 = np.floor(times).astype(np.int64)
+    frac = (times - i0).astype(np.float32)
+    out = np.empty((p, side, side, n_frames), np.float32)
+    for k in range(p):
+        _play_loop(
+            np.ascontiguousarray(loops[k], np.float32), i0[k] % length, (i0[k] + 1) % length,
+            frac[k], flips[k], out[k],
+        )  # fmt: skip
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _play_loop(loop, below, above, frac, mirror, out):
+    side = loop.shape[0]
+    for r in range(side):
+        rr = side - 1 - r if mirror == 0 else r
+        for c in range(side):
+            cc = side - 1 - c if mirror == 1 else c
+            src = loop[rr, cc]
+            dst = out[r, c]
+            for t in range(frac.shape[0]):
+                v = src[below[t]]
+                if frac[t] != 0:
+                    v = v + frac[t] * (src[above[t]] - v)
+                dst[t] = v
+
+
+def _in_order(fn, items):
+    """``fn(item)`` for every item, computed on threads, yielded in the items' order.
+
+    At most one more call than there are threads is in flight (each holds a layer's
+    pyramids).
+    """
+    items = list(items)
+    workers = min(_THREADS, len(items))
+    if workers <= 1:
+        yield from map(fn, items)
+        return
+    with ThreadPoolExecutor(workers) as pool:
+        pending = deque()
+        try:
+            for item in items:
+                pending.append(pool.submit(fn, item))
+                if len(pending) > workers:
+                    yield pending.popleft().result()
+            while pending:
+                yield pending.popleft().result()
+        finally:
+            for future in pending:
+                future.cancel()
 
 
 def blend_values(values, positions, canvas_shape):

@@ -48,7 +48,7 @@ import numpy as np
 
 from .._progress import Progress
 from .._validation import check_int
-from ._features import grey, window_features
+from ._features import grey
 from ._geometry import FRAGMENT
 from ._lock import database_lock, lock_files
 from ._params import DatabaseParams
@@ -103,8 +103,9 @@ def clip_fragments(frames, params=None, *, clip=0, versions=None):
 
     Windows of ``N`` frames follow each other every ``N - window_overlap`` frames;
     within each window the optical flow is computed once on the clip and carried to
-    every augmented version, whose fragments (48 x 48 on the stride-24 grid, wholly
-    inside the version) keep their features when at least one pixel moves.
+    every augmented version (:func:`transform_flow`), whose fragments (48 x 48 on the
+    stride-24 grid, wholly inside the version) keep their features
+    (:func:`window_features`) when at least one pixel moves.
 
     Parameters
     ----------
@@ -123,7 +124,8 @@ def clip_fragments(frames, params=None, *, clip=0, versions=None):
         :func:`window_features` plus ``source`` (k, 5) int32 and ``descriptors``
         (k, 9, 9, 128) uint8 (dense SIFT of the rounded mean images).
     """
-    from ._augment import sample_version, transform_flow, valid_positions
+    from ._augment import VersionSampler, mirror_order, valid_positions
+    from ._features import pixel_features
     from ._flow import optical_flow
     from ._sift import dense_sift
     from ._store import fragment_grey
@@ -141,24 +143,31 @@ def clip_fragments(frames, params=None, *, clip=0, versions=None):
         g = grey(window)
         flow = optical_flow(g, backend=params.flow)
         mean = window.astype(np.float32).mean(axis=0) / np.float32(255)
-        for v, pos in positions.items():
-            keep, feats = window_features(
-                sample_version(g, v),
-                sample_version(mean[None], v)[0],
-                transform_flow(flow, v),
-                pos,
+        # Every version sampled from one prepared copy of the window, each mirror pair
+        # once (VersionSampler): the same pixels as sample_version / transform_flow.
+        samplers = VersionSampler(g), VersionSampler(mean[None]), VersionSampler(flow, vectors=True)
+        batches = {}
+        for v in mirror_order(positions):
+            stack, colour, motion = (sample(v) for sample in samplers)
+            keep, feats = pixel_features(
+                stack,
+                colour,
+                motion,
+                positions[v],
                 threshold=params.motion_threshold,
                 n_bins=params.n_bins,
             )
             if feats is None:
                 continue
-            kept = pos[keep]
+            kept = positions[v][keep]
             source = np.empty((len(kept), 5), np.int32)
             source[:, 0], source[:, 1], source[:, 2] = clip, v, start
             source[:, 3:] = kept
             feats["source"] = source
             feats["descriptors"] = dense_sift(fragment_grey(feats["mean"]))
-            yield feats
+            batches[v] = feats
+        for v in sorted(batches):  # in the order of the versions
+            yield batches[v]
 
 
 class _ChunkWriter:
@@ -213,14 +222,16 @@ def _process_clip(root, index, params_dict, codebook):
         words_writer = None
     else:
         words_writer = _ChunkWriter(clip, {"words": layout["words"]})
+    from ._flow import opencv_single_threaded
     from ._words import quantise
 
-    for batch in clip_fragments(frames, params, clip=index):
-        writer.add({n: batch[n] for n in names})
-        if descs is not None:
-            descs.add({"d": batch["descriptors"]})
-        else:
-            words_writer.add({"words": quantise(batch["descriptors"], codebook)})
+    with opencv_single_threaded():  # the clips run side by side: one thread each
+        for batch in clip_fragments(frames, params, clip=index):
+            writer.add({n: batch[n] for n in names})
+            if descs is not None:
+                descs.add({"d": batch["descriptors"]})
+            else:
+                words_writer.add({"words": quantise(batch["descriptors"], codebook)})
     count = writer.close()
     if descs is not None:
         descs.close()
@@ -262,7 +273,9 @@ def build_database(
     sources : sequence
         The clips: video files, folders of frames, :class:`fluidnb.Clip` objects,
         ``(T, H, W[, 3])`` arrays, or ``(name, source)`` pairs (see
-        :func:`read_video`).
+        :func:`read_video`); or functions of no argument that return one, called
+        when the clip's turn comes (e.g. ``future.result`` of a clip still being
+        made: the clips before it are cut into fragments meanwhile).
     path : str or os.PathLike
         A new (or empty) folder for the database; with ``resume=True``, the folder of
         an interrupted build of the same sources.
@@ -318,22 +331,20 @@ def build_database(
         _pause("locked")
         resuming = _prepare_folder(root, resume)
         report = Progress(progress)
-        stage = report.split(0.15, 0.85, 0.95)
+        stage = report.split(0.85, 0.95)
         undo = functools.partial(_roll_back_build, root, created)
         with _failing_input(undo, kept="build" if resuming else None, root=root):
-            records = _ingest(root, sources, state, resuming, stage[0], params.max_side, base=0)
-        with _failing_input(undo):
-            counts = _run_clips(root, records, params, None, client, workers, stage[1])
+            ingest = _Ingest(root, sources, state, resuming, params.max_side, base=0)
+            records, counts = _ingest_and_run(ingest, params, None, client, workers, stage[0])
             if sum(counts.values()) == 0:
                 raise ValueError(f"no fragment: {_why(records)}")
-            codebook = _train_codebook(root, counts, params, seed, stage[2])
+            codebook = _train_codebook(root, counts, params, seed, stage[1])
             _pause("codebook")
-            stage[3](0.0, "visual words")
-            for i, count in counts.items():
-                _quantise_clip(root, i, count, codebook)
+            stage[2](0.0, "visual words")
+            _quantise_clips(root, counts, codebook, workers)
             manifest = _manifest(root, kind, params, seed, codebook, records, counts)
             _finish(root, manifest)
-        stage[3](1.0, "database ready")
+        stage[2](1.0, "database ready")
         return open_database(root)
 
 
@@ -341,13 +352,14 @@ def build_database(
 def _failing_input(undo, *, kept=None, root=None):
     """On a ValueError (the input's fault: retrying cannot help) call ``undo``.
 
-    With ``kept`` (a resume checking its sources against the state) the state stays
-    and the message says so: the right sources can still continue it.
+    With ``kept`` (a resume checking its sources against the state), a source that
+    is wrong (a :class:`_SourceError`) keeps the state and the message says so: the
+    right sources can still continue it.
     """
     try:
         yield
     except ValueError as exc:
-        if kept:
+        if kept and isinstance(exc, _SourceError):
             raise ValueError(
                 f"{exc} (the unfinished {kept} in {str(root)!r} is kept: continue it with "
                 "--resume (resume=True) and the right clips)"
@@ -406,7 +418,7 @@ def add_clips(db, sources, *, client=None, workers=None, resume=False, progress=
         if not pending:
             _roll_back_addition(root, base)  # what a finished or failed one left behind
         report = Progress(progress)
-        stage = report.split(0.2, 0.95)
+        stage = report.split(0.95)
         known = {c["sha256"]: c["name"] for c in manifest["clips"]}
         state = {
             "mode": "add",
@@ -417,9 +429,8 @@ def add_clips(db, sources, *, client=None, workers=None, resume=False, progress=
         }
         undo = functools.partial(_roll_back_addition, root, base)
         with _failing_input(undo, kept="addition" if pending else None, root=root):
-            records = _ingest(root, sources, state, pending, stage[0], params.max_side, base, known)
-        with _failing_input(undo):
-            counts = _run_clips(root, records, params, codebook, client, workers, stage[1])
+            ingest = _Ingest(root, sources, state, pending, params.max_side, base, known)
+            records, counts = _ingest_and_run(ingest, params, codebook, client, workers, stage[0])
             if sum(counts.values()) == 0:
                 names = ", ".join(repr(r["name"]) for r in records)
                 raise ValueError(
@@ -436,45 +447,64 @@ def add_clips(db, sources, *, client=None, workers=None, resume=False, progress=
                 old_clips=manifest["clips"],
             )
             _finish(root, new)
-        stage[2](1.0, "database ready")
+        stage[1](1.0, "database ready")
         return open_database(root)
 
 
 # ---------------------------------------------------------------------- stages
 
 
-def _ingest(root, sources, state, resume, report, max_side, base, known=None):
-    """Store each source's frames as clips/<i>/frames; returns the clips' records."""
-    import zarr
+class _SourceError(ValueError):
+    """A source that cannot go in (unreadable, doubled, not the one a resume expects)."""
 
-    state_file = root / _BUILD / _STATE
-    old = None
-    if resume and state_file.is_file():
-        old = json.loads(state_file.read_text())
-        same = {k: old.get(k) for k in ("mode", "kind", "params", "seed", "base")}
-        if same != {k: state[k] for k in same}:
-            raise ValueError(
-                f"db: {str(root)!r} holds an unfinished build with other settings "
-                f"({same}); resume it with those, or start in a new folder"
-            )
-    (root / _BUILD).mkdir(parents=True, exist_ok=True)
-    group = zarr.open_group(str(root), mode="a", zarr_format=3)
-    records, seen = [], dict(known or {})
-    # The clips the interrupted run had stored, in order; the ones after may be new.
-    done_before = (old or {}).get("clips", [])
-    for k, src in enumerate(sources):
-        report(k / len(sources), f"reading clip {k + 1}/{len(sources)}")
-        index = base + k
+
+class _Ingest:
+    """Stores each source's frames as clips/<i>/frames, in order, and its record in the state.
+
+    :meth:`step` stores source ``k``; steps must run in order (each writes the state
+    with the records so far). Its errors are :class:`_SourceError`.
+    """
+
+    def __init__(self, root, sources, state, resume, max_side, base, known=None):
+        import zarr
+
+        self.root, self.sources, self.state = Path(root), sources, state
+        self.max_side, self.base = max_side, base
+        self.state_file = self.root / _BUILD / _STATE
+        self.old = None
+        if resume and self.state_file.is_file():
+            self.old = json.loads(self.state_file.read_text())
+            same = {k: self.old.get(k) for k in ("mode", "kind", "params", "seed", "base")}
+            if same != {k: state[k] for k in same}:
+                raise _SourceError(
+                    f"db: {str(root)!r} holds an unfinished build with other settings "
+                    f"({same}); resume it with those, or start in a new folder"
+                )
+        (self.root / _BUILD).mkdir(parents=True, exist_ok=True)
+        self.group = zarr.open_group(str(root), mode="a", zarr_format=3)
+        self.records, self.seen = [], dict(known or {})
+        # The clips the interrupted run had stored, in order; the ones after may be new.
+        self.done_before = (self.old or {}).get("clips", [])
+
+    def __len__(self):
+        return len(self.sources)
+
+    def step(self, k):
+        """Store source ``k`` (after sources 0 .. k - 1); returns its record."""
+        root, index = self.root, self.base + k
+        src = self.sources[k]
         try:
-            video = read_video(src, max_side=max_side)
+            if callable(src):  # a clip still in the making: wait for it
+                src = src()
+            video = read_video(src, max_side=self.max_side)
         except ValueError as exc:
-            raise ValueError(f"sources[{k}]: {exc}") from None
-        if video.sha256 in seen:
-            raise ValueError(
-                f"sources[{k}] ({video.name!r}) is the same clip as {seen[video.sha256]!r}: "
-                "each clip goes in once"
+            raise _SourceError(f"sources[{k}]: {exc}") from None
+        if video.sha256 in self.seen:
+            raise _SourceError(
+                f"sources[{k}] ({video.name!r}) is the same clip as "
+                f"{self.seen[video.sha256]!r}: each clip goes in once"
             )
-        seen[video.sha256] = video.name
+        self.seen[video.sha256] = video.name
         rec = {
             "index": index,
             "name": video.name,
@@ -486,31 +516,128 @@ def _ingest(root, sources, state, resume, report, max_side, base, known=None):
             "width": int(video.frames.shape[2]),
             "scaled": video.scaled,
         }
-        prev = done_before[k] if k < len(done_before) else None
+        prev = self.done_before[k] if k < len(self.done_before) else None
         if prev is not None and (prev["sha256"] != video.sha256 or prev["index"] != index):
-            raise ValueError(
+            raise _SourceError(
                 f"db: {str(root)!r}: sources[{k}] ({video.name!r}) is not the clip the "
                 "interrupted build had in that place; resume with the same sources in the "
                 "same order"
             )
-        if prev is None or not _frames_complete(root, group, index, video.frames.shape):
-            g = group.require_group(clip_group(index))
+        if prev is None or not _frames_complete(root, self.group, index, video.frames.shape):
+            g = self.group.require_group(clip_group(index))
             shape = video.frames.shape
             arr = create_array(g, "frames", shape, (1, *shape[1:]), "uint8", shuffle="bitshuffle")
             arr[...] = video.frames
             # The record goes into the state after the frames are on disk.
             _mark_ingested(root, index)
-        records.append(rec)
-        state["clips"] = records
-        write_json_atomically(state_file, state)
+        self.records.append(rec)
+        self.state["clips"] = self.records
+        write_json_atomically(self.state_file, self.state)
         _pause("ingested")
-    if old is not None and len(old.get("clips", [])) > len(records):
-        raise ValueError(
-            f"db: {str(root)!r}: the interrupted build had {len(old['clips'])} clips, "
-            f"resume was given {len(records)}; resume with the same sources"
-        )
-    report(1.0, "clips read")
-    return records
+        return rec
+
+    def finish(self):
+        """Check that a resume was given every clip the interrupted run had."""
+        if self.old is not None and len(self.old.get("clips", [])) > len(self.records):
+            raise _SourceError(
+                f"db: {str(self.root)!r}: the interrupted build had {len(self.old['clips'])} "
+                f"clips, resume was given {len(self.records)}; resume with the same sources"
+            )
+        return self.records
+
+
+def _ingest_and_run(ingest, params, codebook, client, workers, report):
+    """Every source stored (in order) and cut into fragments: ``(records, counts)``.
+
+    On the local scheduler both run in one dask graph: the clips are stored one after
+    the other (a chain of tasks, as the state lists them in order), and each clip is
+    cut into fragments as soon as it is stored, on another thread, while the next one
+    is read (or, for a starter database, still made). On a cluster the clips are
+    stored here first, then sent out.
+    """
+    n = len(ingest)
+    if client is not None:
+        read, run = report.split(0.15)
+        for k in range(n):
+            read(k / n, f"reading clip {k + 1}/{n}")
+            ingest.step(k)
+        read(1.0, "clips read")
+        records = ingest.finish()
+        return records, _run_clips(ingest.root, records, params, codebook, client, workers, run)
+    return _pipeline(ingest, params, codebook, workers, report)
+
+
+def _pipeline(ingest, params, codebook, workers, report):
+    """:func:`_ingest_and_run` on dask's local threaded scheduler."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    import dask
+    from dask.callbacks import Callback
+
+    root, n = ingest.root, len(ingest)
+    if codebook is None:  # the descriptors' groups are made here, once
+        import zarr
+
+        zarr.open_group(str(root), mode="a", zarr_format=3).require_group(_BUILD)
+    steps, cuts, tasks, previous = {}, {}, [], None
+    for k in range(n):
+        # ``previous`` orders the steps; each cut waits for its clip's step only.
+        step = dask.delayed(_ingest_step, pure=False)(ingest, k, previous)
+        cut = dask.delayed(_cut_clip, pure=False)(str(root), params.to_dict(), codebook, step)
+        steps[step.key], cuts[cut.key], previous = k, k, step
+        tasks.append(cut)
+    read = cut_done = 0
+
+    def tick(key):
+        # Reading a clip counts for 1, cutting it for 5: one bar, always forward.
+        nonlocal read, cut_done
+        if key in steps:
+            read += 1
+            message = "clips read" if read == n else f"read clip {read}/{n}"
+        else:
+            cut_done += 1
+            name = ingest.records[cuts[key]]["name"]
+            message = f"fragments: {cut_done}/{n} clips done ({name})"
+        report(min((read + 5 * cut_done) / (6 * n), 0.999), message)
+        if key in cuts:
+            _pause("fragments")
+
+    class _Tick(Callback):
+        def _posttask(self, key, result, dsk, state, worker_id):
+            if key in steps or key in cuts:
+                tick(key)
+
+    report(0.0, f"reading clip 1/{n}")
+    pool = ThreadPoolExecutor(workers, thread_name_prefix="fluidnb-videodb")
+    try:
+        with _Tick():
+            dask.compute(*tasks, scheduler="threads", pool=pool)
+    finally:
+        # On an error or a cancel, let the clips in flight finish writing before
+        # returning, so a resume never races a worker still writing.
+        pool.shutdown(wait=True, cancel_futures=True)
+    records = ingest.finish()
+    counts = {r["index"]: _read_done(root, r["index"]) for r in records}
+    report(1.0, "fragments done")
+    return records, counts
+
+
+def _ingest_step(ingest, k, previous):
+    """Store clip ``k`` (``previous``, the step before, only orders the steps)."""
+    return ingest.step(k)
+
+
+def _cut_clip(root, params_dict, codebook, record):
+    """One stored clip's fragments, unless a run before finished them; returns the count."""
+    index = record["index"]
+    done = _read_done(root, index)
+    if done is not None:
+        return done
+    if codebook is None:
+        import zarr
+
+        zarr.open_group(root, mode="a", zarr_format=3)[_BUILD].require_group(f"{index:05d}")
+    return _process_clip(root, index, params_dict, codebook)
 
 
 def _mark_ingested(root, index):
@@ -618,6 +745,30 @@ def _train_codebook(root, counts, params, seed, report):
     codebook = fit_codebook(sample, params.words, max_samples=params.codebook_samples, seed=seed)
     report(1.0, "codebook ready")
     return codebook
+
+
+def _quantise_clips(root, counts, codebook, workers):
+    """Every clip's visual words, clips side by side on ``workers`` threads.
+
+    Each thread's matrix products on one BLAS thread: OpenBLAS's own threads spin
+    while they wait, and beside ours (or other programs) they only slowed it down
+    (measured: 1.5-2x the wall time with two of them on two busy cores). The words
+    are the same whatever the threads (:func:`quantise` is exact).
+    """
+    from concurrent.futures import ThreadPoolExecutor
+
+    with _one_blas_thread(), ThreadPoolExecutor(max(1, min(workers, len(counts)))) as pool:
+        jobs = [pool.submit(_quantise_clip, root, i, n, codebook) for i, n in counts.items()]
+        for job in jobs:
+            job.result()
+
+
+def _one_blas_thread():
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - installed with scikit-learn
+        return contextlib.nullcontext()
+    return threadpool_limits(limits=1, user_api="blas")
 
 
 def _quantise_clip(root, index, count, codebook):

@@ -284,5 +284,8 @@ def composite(animated, background, matte):
         m = m[..., None]
     bg = bg.astype(np.float32)
     # bg + m (a - bg): where m == 0 this adds exactly zero, so the background comes
-    # through bit for bit.
-    return bg + m * (a.astype(np.float32) - bg)
+    # through bit for bit. In place in one new array (the same operations).
+    out = np.subtract(a, bg, dtype=np.float32)
+    out *= m
+    out += bg
+    return out

@@ -28,6 +28,7 @@ fragments share their overlapping values exactly.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from .._image import LUMA
 from ..fields import downsample, expand, laplacian_pyramid
@@ -40,7 +41,14 @@ from ._geometry import (
     TEXTURE_SIDE,
 )
 
-__all__ = ["block_mean", "grey", "motion_spectra", "textureness", "window_features"]
+__all__ = [
+    "block_mean",
+    "grey",
+    "motion_spectra",
+    "pixel_features",
+    "textureness",
+    "window_features",
+]
 
 
 def grey(frames):
@@ -126,12 +134,16 @@ def textureness(frames):
     ndarray, shape (4, H // 2, W // 2), float32
         Level ``l`` is :math:`\sum_i |L_l(F_i)|` resampled to the full grid.
     """
-    h, w = frames.shape[1:]
+    return _textureness(np.ascontiguousarray(np.moveaxis(frames, 0, -1), np.float32))
+
+
+def _textureness(stack):
+    """:func:`textureness` of the frames as the channels of one (H, W, N) image."""
+    h, w = stack.shape[:2]
     # The frames are the channels of one pyramid (channels never mix): N pyramids for
     # the price of one call, in float32 through OpenCV (the library's pyramid to
     # float32 round-off, ~15 times as fast as its float64 version).
-    frames = np.ascontiguousarray(np.moveaxis(frames, 0, -1), np.float32)
-    bands = laplacian_pyramid(frames, TEXTURE_LEVELS, precision="float32")
+    bands = laplacian_pyramid(stack, TEXTURE_LEVELS, precision="float32")
     levels = []
     for band in bands:
         # Summing over frames first is exact (resampling is linear) and N times cheaper;
@@ -170,7 +182,29 @@ def window_features(frames, colour_mean, flow, positions, *, threshold, n_bins):
         12, 12) float16, ``texture`` (k, 4, 24, 24) float16, ``moving`` (k,) the
         fraction of moving pixels.
     """
-    moving = np.sqrt(flow[..., 0] ** 2 + flow[..., 1] ** 2).mean(axis=0) > threshold
+    n, h, w = flow.shape[:3]
+    return pixel_features(
+        np.ascontiguousarray(np.moveaxis(frames, 0, -1), np.float32),
+        np.asarray(colour_mean, np.float32),
+        np.ascontiguousarray(np.moveaxis(flow, 0, 2), np.float32).reshape(h, w, 2 * n),
+        positions,
+        threshold=threshold,
+        n_bins=n_bins,
+    )
+
+
+def pixel_features(stack, colour_mean, flow, positions, *, threshold, n_bins):
+    """:func:`window_features` of pixel-major arrays (the build's layout, no copies).
+
+    ``stack`` is the grey frames as (Hv, Wv, N) and ``flow`` the flows as (Hv, Wv,
+    2 (N - 1)), each pixel's (dy, dx) pairs frame after frame
+    (:class:`~fluidnb.videodb._augment.VersionSampler`'s layout); the results are
+    :func:`window_features`'s, bit for bit.
+    """
+    h, w, m = flow.shape
+    moving = np.empty((h, w), bool)
+    blocks = np.empty((m // 2, h // SPECTRA_BLOCK, w // SPECTRA_BLOCK, 2), np.float32)
+    _moving_blocks(flow, np.float32(threshold), moving, blocks)
     # Everything per fragment comes from sums over 4 x 4-pixel blocks: a fragment is
     # 12 x 12 of them on a grid of step 6 blocks.
     count = _window_sums(block_mean(moving.astype(np.float32), SPECTRA_BLOCK), positions)
@@ -179,23 +213,78 @@ def window_features(frames, colour_mean, flow, positions, *, threshold, n_bins):
     if not keep.any():
         return keep, None
     positions, count = positions[keep], count[keep]
-    blocks = _flow_blocks(flow, moving)  # (n, 2, Hb, Wb)
+    blocks = np.moveaxis(blocks, -1, 1)  # (n, 2, Hb, Wb)
     sums = _window_sums(blocks, positions) * np.float32(SPECTRA_BLOCK**2)  # (n, 2, k)
     motion = (np.moveaxis(sums, -1, 0) / count[:, None, None]).astype(np.float32)
 
-    spectra = _power(blocks, n_bins)
-    texture = textureness(frames)
+    # Rounded to the stored types before being cut into fragments: the same values,
+    # converted once per block instead of once per overlapping fragment.
+    spectra = _power(blocks, n_bins).astype(np.float16)
+    texture = _textureness(stack).astype(np.float16)
+    mean = (np.clip(colour_mean, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
     spec = spectra[(slice(None), slice(None), *_windows(positions, SPECTRA_BLOCK, SPECTRA_SIDE))]
     tex = texture[(slice(None), *_windows(positions, TEXTURE_BLOCK, TEXTURE_SIDE))]
-    mean = colour_mean[_windows(positions, 1, FRAGMENT)]
     return keep, {
-        "mean": (np.clip(mean, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8),
+        "mean": mean[_windows(positions, 1, FRAGMENT)],
         "mean_motion": motion.mean(axis=1).astype(np.float32),
         "motion": motion,
-        "spectra": np.moveaxis(spec, 2, 0).astype(np.float16),
-        "texture": np.moveaxis(tex, 1, 0).astype(np.float16),
+        "spectra": np.ascontiguousarray(np.moveaxis(spec, 2, 0)),
+        "texture": np.ascontiguousarray(np.moveaxis(tex, 1, 0)),
         "moving": (count / FRAGMENT**2).astype(np.float32),
     }
+
+
+@njit(cache=True, nogil=True)
+def _moving_rows(flow, lo, hi, threshold, moving):
+    """``moving[i] = mean_t |flow[i, t]| > threshold`` for rows ``lo .. hi - 1``.
+
+    In float32, the frames summed in order and the sum divided by their number: the
+    operations of ``np.sqrt(dy ** 2 + dx ** 2).mean(axis=0) > threshold`` on (T, H, W)
+    arrays, so the same pixels move.
+    """
+    n = np.float32(flow.shape[2] // 2)
+    for i in range(lo, hi):
+        for j in range(flow.shape[1]):
+            f = flow[i, j]
+            acc = np.float32(0.0)
+            for q in range(0, f.shape[0], 2):
+                acc += np.sqrt(f[q] * f[q] + f[q + 1] * f[q + 1])
+            moving[i, j] = acc / n > threshold
+
+
+@njit(cache=True, nogil=True)
+def _moving_blocks(flow, threshold, moving, out):
+    """The moving pixels, and the flow's means over 4 x 4 blocks with the still ones at 0.
+
+    ``flow`` is pixel-major (H, W, 2 n); ``out`` (n, H // 4, W // 4, 2). Each block
+    mean is summed as OpenCV's area resize (``cv2.INTER_AREA`` at an integer factor)
+    sums it -- row by row, each row's four values left to right, then times 1/16 --
+    so it equals ``cv2.resize`` of the masked flow, frame by frame, bit for bit (the
+    tests check it), in one pass over the flow instead of a masked copy and a resize
+    per frame.
+    """
+    h, m = flow.shape[0], flow.shape[2]
+    hb, wb = out.shape[1], out.shape[2]
+    sixteenth = np.float32(1.0 / 16.0)
+    zero = np.float32(0.0)
+    acc = np.empty(m, np.float32)
+    for bi in range(hb):
+        _moving_rows(flow, 4 * bi, 4 * bi + 4, threshold, moving)
+        for bj in range(wb):
+            acc[:] = 0.0
+            for y in range(4 * bi, 4 * bi + 4):
+                x = 4 * bj
+                f0, f1, f2, f3 = flow[y, x], flow[y, x + 1], flow[y, x + 2], flow[y, x + 3]
+                k0, k1, k2, k3 = moving[y, x], moving[y, x + 1], moving[y, x + 2], moving[y, x + 3]
+                for q in range(m):
+                    v0 = f0[q] if k0 else zero
+                    v1 = f1[q] if k1 else zero
+                    v2 = f2[q] if k2 else zero
+                    v3 = f3[q] if k3 else zero
+                    acc[q] += ((v0 + v1) + v2) + v3
+            for q in range(m):
+                out[q // 2, bi, bj, q % 2] = acc[q] * sixteenth
+    _moving_rows(flow, 4 * hb, h, threshold, moving)
 
 
 def _windows(positions, block, side):

@@ -12,12 +12,14 @@ plain version                          fast path (tested against it)
 =====================================  =============================================
 :func:`reference_sample_version`       :func:`~fluidnb.videodb.sample_version`
 :func:`reference_transform_vectors`    :func:`~fluidnb.videodb.transform_vectors`
+:func:`reference_fragment_frames`      :meth:`~fluidnb.videodb.VideoDatabase.fragment_frames`
 :func:`reference_dense_sift`           :func:`~fluidnb.videodb.dense_sift`
 :func:`reference_quantise`             :func:`~fluidnb.videodb.quantise`
 :func:`reference_top_k`                :meth:`~fluidnb.videodb.HistogramIndex.top_k`
 :func:`reference_pair_tables`          :func:`~fluidnb.videodb.pair_tables`
 :func:`reference_blend_differences`    :func:`~fluidnb.videodb.blend_differences`
 :func:`reference_match_histograms_cells` :func:`~fluidnb.videodb.match_histograms_cells`
+:func:`reference_motion_blur`          :func:`~fluidnb.videodb.motion_blur`
 :func:`reference_eulerian_loop`        :func:`~fluidnb.videodb.eulerian_loop`
 :func:`reference_fill`                 :func:`~fluidnb.videodb.exemplar_fill`
 =====================================  =============================================
@@ -33,9 +35,17 @@ import math
 import numpy as np
 from scipy import ndimage as ndi
 
-from .._validation import check_int
+from .._validation import check_int, check_vector_field
 from ..fields import backward_warp, collapse, gaussian_pyramid, laplacian_pyramid
-from ._appearance import _QUANTILES, _SLOPE_RANGE, HISTOGRAM_BINS, _Cells
+from ._appearance import (
+    _QUANTILES,
+    _SLOPE_RANGE,
+    HISTOGRAM_BINS,
+    _Cells,
+    _check_image,
+    _shutter_samples,
+    _variable_blur,
+)
 from ._augment import _TRUNCATE, _window, prefilter_sigma, version_shape
 from ._blend import (
     _TINY,
@@ -66,7 +76,9 @@ __all__ = [
     "reference_dense_sift",
     "reference_eulerian_loop",
     "reference_fill",
+    "reference_fragment_frames",
     "reference_match_histograms_cells",
+    "reference_motion_blur",
     "reference_pair_tables",
     "reference_quantise",
     "reference_sample_version",
@@ -125,6 +137,35 @@ def reference_transform_vectors(vectors, version):
     for idx in np.ndindex(u.shape[:-1]):
         out[idx] = s * rot @ mirror @ u[idx]
     return out
+
+
+def reference_fragment_frames(db, ids, *, margin=0, grey=False):
+    r""":meth:`~fluidnb.videodb.VideoDatabase.fragment_frames` written out, one fragment at a time.
+
+    Each fragment's :math:`N` frames are read from its source clip (its own window,
+    every time), divided by 255 and, for ``grey``, made grey with the Rec. 709 weights
+    :math:`0.2125 R + 0.7154 G + 0.0721 B`, all in float64; then its version's pixels
+    with ``margin`` pixels of context are sampled by :func:`reference_sample_version`
+    and clipped to [0, 1]. No cache, no shared reads. Agrees with the fast path to
+    float32 round-off (its luminance and sampling are float32).
+
+    Returns
+    -------
+    ndarray, shape (n, N, 48 + 2 margin, 48 + 2 margin[, 3]), float32
+    """
+    n, side = db.params.N, FRAGMENT + 2 * margin
+    out = []
+    for fid in np.asarray(ids, np.int64).ravel().tolist():
+        clip, version, start, row, col = (int(v) for v in db.source[fid])
+        frames = db.clip_frames(clip, start, start + n).astype(np.float64) / 255.0
+        if grey:
+            frames = frames @ np.array([0.2125, 0.7154, 0.0721])
+        rebuilt = reference_sample_version(
+            frames, version, origin=(row - margin, col - margin), size=(side, side)
+        )
+        out.append(np.clip(rebuilt, 0.0, 1.0))
+    shape = (0, n, side, side) + (() if grey else (3,))
+    return np.stack(out).astype(np.float32) if out else np.zeros(shape, np.float32)
 
 
 # ------------------------------------------------------------ appearance (secs. 4-5, Eq. 1)
@@ -410,6 +451,31 @@ def reference_blend_differences(
         covered[r : r + FRAGMENT, c : c + FRAGMENT] = True
     out = collapse(blended) * covered[..., None]
     return np.ascontiguousarray(np.moveaxis(out, -1, 0)).astype(np.float32)
+
+
+def reference_motion_blur(image, velocity, *, shutter, denoise):
+    r""":func:`~fluidnb.videodb.motion_blur` as whole-image warps (Okabe et al., sec. 6).
+
+    The approximate mean image: the target averaged along its motion, sample by
+    sample, each sample a whole image warped by
+    :func:`fluidnb.fields.backward_warp` to ``x + t v(x)``, accumulated with the
+    trapezoid weights; then the speed-dependent Gaussian blur. The fast path gives the
+    same result bit for bit. Arguments and result as
+    :func:`~fluidnb.videodb.motion_blur`.
+    """
+    img = _check_image("image", image)
+    v = check_vector_field("velocity", velocity, shape=img.shape[:2]).astype(np.float32)
+    speed = np.hypot(v[..., 0], v[..., 1])
+    out = img
+    times, weights = _shutter_samples(shutter, float(speed.max()))
+    if len(times):
+        acc = np.zeros_like(img, dtype=np.float64)
+        for t, w in zip(times, weights):
+            acc += w * backward_warp(img, t * v)  # img(x + t v(x))
+        out = (acc / (len(times) - 1)).astype(np.float32)
+    if denoise > 0:
+        out = _variable_blur(out, denoise * speed)
+    return out
 
 
 def reference_match_histograms_cells(frames, reference, weight, *, cell):

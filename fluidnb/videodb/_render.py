@@ -18,12 +18,19 @@ import numpy as np
 from .._clip import Clip
 from .._image import as_image
 from .._progress import Progress
-from .._validation import check_shape_match
-from ._appearance import match_histograms_cells, motion_blur
+from .._validation import check_fps, check_shape_match
+from ._appearance import (
+    colour_axes,
+    colours_in_axes,
+    frames_from_axes,
+    frames_in_axes,
+    match_histograms_cells,
+    motion_blur,
+)
 from ._assign import Assignment, _check_params
-from ._blend import MARGIN, blend_differences, blend_values
+from ._blend import BLEND_LEVELS, FEATHER, MARGIN, _blend, blend_values, play_loops
 from ._composite import _restore_area, composite, dynamic_matte, inpaint_background
-from ._desync import mirror_axes, stagger, temporal_offsets
+from ._desync import mirror_axes, temporal_offsets
 from ._flow_render import (
     displacement_maps,
     eulerian_loop,
@@ -32,6 +39,7 @@ from ._flow_render import (
     flow_timing,
     loop_phases,
 )
+from ._frames import rebuild_fragments
 from ._geometry import FRAGMENT
 
 __all__ = ["Animation", "render"]
@@ -121,6 +129,7 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     if not isinstance(assignment, Assignment):
         raise ValueError(f"assignment must be an Assignment, got {type(assignment).__name__}")
     params = assignment.params if params is None else _check_params(params, assignment.db)
+    fps = check_fps(fps)
     db, target = assignment.db, assignment.target
     n = db.params.N
     if params.loop > n // 2:
@@ -139,33 +148,37 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     t = time.perf_counter()
     rebuild(0.0, f"rebuilding {len(target)} fragments from their source clips")
     ids = assignment.fragments
-    diffs = np.empty((len(ids), n, FRAGMENT + 2 * MARGIN, FRAGMENT + 2 * MARGIN), np.float32)
-    step = 32
-    for lo in range(0, len(ids), step):
-        frames = db.fragment_frames(ids[lo : lo + step], margin=MARGIN, grey=True)
-        diffs[lo : lo + step] = frames - frames.mean(axis=1, keepdims=True)  # D_i = F_i - A
-        rebuild(min(1.0, (lo + step) / len(ids)), "rebuilding fragments")
+    # Each fragment's D_i = F_i - A, with ``loop`` made a loop of its own (its end
+    # cross-faded into its start; difference_frames): made on the rebuild's threads,
+    # each fragment once, and kept in the database's cache for the next render.
+    looped = rebuild_fragments(
+        db, ids, margin=MARGIN, grey=True, differences=params.loop, progress=rebuild
+    )
     offsets = np.zeros(len(ids), np.int64)
     mirrors = np.full(len(ids), -1, np.int8)
+    rates = n_frames = None
     flow = _flow_plan(assignment, params, n) if params.rendering == "flow" else None
     if params.loop:
-        # Beyond the paper: each fragment loops on its own, and neighbours that share a
-        # database fragment start it at different times and mirrored (no tile pattern).
+        # Beyond the paper: neighbours that share a database fragment start its loop at
+        # different times and mirrored (no tile pattern).
         offsets = temporal_offsets(ids, target.positions, n - params.loop)
         mirrors = mirror_axes(ids, target.positions, db.mean_motion[ids])
-        rates = n_frames = None
         if flow is not None and not np.all(flow["rates"] == 1):
             # Fragments play at different rates: make all the clip's frames before the
             # blend. At rate 1 the blended loop is simply repeated (see _render_flow).
             rates, n_frames = flow["rates"], flow["n_frames"]
-        diffs = stagger(
-            diffs, offsets, overlap=params.loop, rates=rates, n_frames=n_frames, mirrors=mirrors
-        )
+    # Every fragment's loop played from its offset, mirrored, at its rate (what
+    # stagger does), pixel-major as the blend reads it.
+    diffs = play_loops(
+        [looped[f] for f in ids.tolist()], offsets, rates=rates, n_frames=n_frames, mirrors=mirrors
+    )
+    del looped
     clock["rebuild"] = time.perf_counter() - t
 
     t = time.perf_counter()
     blend(0.0, "blending the difference frames (Laplacian pyramids)")
-    d = blend_differences(diffs, target.positions, (hc, wc), margin=MARGIN)
+    # The private entry: these differences were made just above (finite, checked shape).
+    d = _blend(diffs, target.positions, (hc, wc), MARGIN, BLEND_LEVELS, FEATHER)
     del diffs
     clock["blend"] = time.perf_counter() - t
     if flow is not None:
@@ -179,12 +192,16 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     mean(0.0, "approximate mean image (pseudo motion blur)")
     velocity = blend_values(db.mean_motion[ids], target.positions, (hc, wc))
     approx = motion_blur(target.canvas, velocity, shutter=params.shutter, denoise=params.denoise)
-    frames = approx[None] + d[..., None]
     clock["mean"] = time.perf_counter() - t
 
     t = time.perf_counter()
     match(0.0, "matching histograms cell by cell")
-    matched = _match_to_target(frames, target, params.cell)
+    # The frames approx + D_i made straight in the colour axes, with the picture of
+    # them before matching, in one pass.
+    centre, axes = colour_axes(target.canvas, target.canvas_matte)
+    rotated, unmatched = frames_in_axes(approx, d, centre, axes, unmatched=(h, w))
+    matched = _match_in_axes(rotated, target, centre, axes, params.cell)
+    del rotated
     clock["match"] = time.perf_counter() - t
 
     t = time.perf_counter()
@@ -204,14 +221,14 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     else:
         matte = target.canvas_matte
         back = target.canvas
-    out = composite(matched, back, matte)[:, :h, :w]
+    out = composite(matched[:, :h, :w], back[:h, :w], matte[..., :h, :w])
     np.clip(out, 0.0, 1.0, out=out)
     clock["composite"] = time.perf_counter() - t
     comp(1.0, "done")
     stages = {
         "differences": d[:, :h, :w],
         "mean": np.clip(approx[:h, :w], 0, 1),
-        "unmatched": np.clip(frames[:, :h, :w], 0, 1),
+        "unmatched": unmatched,
         "matte": (matte if matte.ndim == 3 else np.broadcast_to(matte, (len(out), hc, wc)))[
             :, :h, :w
         ],
@@ -238,7 +255,9 @@ def _animation(assignment, params, out, stages, clock, desync, fps):
         },
         "energy": float(assignment.solution.energy),
     }
-    clip = Clip(out, fps=fps, metadata=meta)
+    # Trusted: the render's own fresh float32 frames, clipped to [0, 1] (Clip() would
+    # copy and check them again).
+    clip = Clip._trusted(np.ascontiguousarray(out, np.float32), fps, {}).with_metadata(**meta)
     return Animation(clip=clip, assignment=assignment, stages=stages, timings=timings)
 
 
@@ -349,20 +368,13 @@ def _match_to_target(frames, target, cell):
     PCA): matching R, G and B independently can mix hues the photo does not have (a
     white-hot flame turned lilac); matching decorrelated axes keeps its colours.
     """
-    centre, axes = _colour_axes(target.canvas, target.canvas_matte)
+    centre, axes = colour_axes(target.canvas, target.canvas_matte)
+    return _match_in_axes(colours_in_axes(frames, centre, axes), target, centre, axes, cell)
+
+
+def _match_in_axes(rotated, target, centre, axes, cell):
+    """:func:`_match_to_target` for frames already in the colour axes; back in RGB."""
     matched = match_histograms_cells(
-        (frames - centre) @ axes,
-        (target.canvas - centre) @ axes,
-        target.canvas_matte,
-        cell=cell,
+        rotated, (target.canvas - centre) @ axes, target.canvas_matte, cell=cell
     )
-    return matched @ axes.T + centre
-
-
-def _colour_axes(image, matte):
-    """Mean colour and principal axes (3, 3) of the image's pixels inside the matte."""
-    pix = image[matte > 0.5] if (matte > 0.5).any() else image.reshape(-1, 3)
-    centre = pix.mean(axis=0)
-    cov = np.cov((pix - centre).T.astype(np.float64)) + 1e-9 * np.eye(3)
-    _, vecs = np.linalg.eigh(cov)
-    return centre.astype(np.float32), vecs[:, ::-1].astype(np.float32)
+    return frames_from_axes(matched, centre, axes)

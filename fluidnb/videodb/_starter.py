@@ -3,9 +3,15 @@
 No real fluid footage ships with any package registry, so fluidnb makes its own
 (:func:`~fluidnb.videodb.starter_clips`): smoke from its fluid solver, fire from its
 fire method, water by advecting water textures along varied flows. The first call of
-:func:`starter_database` builds the database from those clips (about a minute on two
+:func:`starter_database` builds the database from those clips (15-30 s on two
 cores; seconds in quick mode) and keeps it in the cache folder
 (``$FLUIDNB_CACHE_DIR``, else ``~/.cache/fluidnb``); later calls open it.
+
+So that a lesson's first run does not wait for all of that, ``python3 dev.py lab``
+starts :func:`prebuild_starters` in a background process while JupyterLab opens
+(water first: the lessons' and the app's first need), and Binder builds them when it
+builds its image (``binder/postBuild``). A notebook asking for a database the
+background process is building waits for it (the cache's lock), then opens it.
 """
 
 from __future__ import annotations
@@ -14,6 +20,7 @@ import contextlib
 import os
 import shutil
 import tempfile
+import threading
 from pathlib import Path
 
 from .._cache import cache_dir
@@ -25,11 +32,17 @@ from ._params import DatabaseParams
 from ._starter_clips import STARTER_KINDS
 from ._store import folder_state, open_database
 
-__all__ = ["STARTER_KINDS", "starter_database", "starter_params", "starter_path"]
+__all__ = [
+    "STARTER_KINDS",
+    "prebuild_starters",
+    "starter_database",
+    "starter_params",
+    "starter_path",
+]
 
 
 # Bump when the clips or the build change what a starter database holds.
-_VERSION = 4  # 4: format version 2 (chunk checksums)
+_VERSION = 5  # 4: format version 2 (chunk checksums); 5: water clips whose motion changes in time
 
 
 def _quick(quick):
@@ -110,38 +123,107 @@ def starter_database(kind="water", *, quick=None, rebuild=False, progress=None):
     return open_database(path)
 
 
+def prebuild_starters(kinds=STARTER_KINDS, *, quick=None, progress=None):
+    """Build the starter databases missing from the cache, one after the other.
+
+    What ``python3 dev.py lab`` runs in a background process while JupyterLab starts
+    (``python -m fluidnb.videodb``): each kind is built, in the order given (water
+    first: what the lessons and the app ask for first), under the cache's lock, so a
+    notebook asking for it meanwhile waits and then opens it; a database already
+    cached is not opened, and one another process is building is waited for.
+
+    Parameters
+    ----------
+    kinds : sequence of str
+        The kinds, in the order to build them.
+    quick : bool, optional
+        The quick databases (default: as ``FLUIDNB_QUICK`` says).
+    progress : callable, optional
+        ``progress(fraction, message)`` over all of them.
+
+    Returns
+    -------
+    list of str
+        The kinds this call built (not those found in the cache).
+    """
+    kinds = [check_choice("kinds", kind, STARTER_KINDS) for kind in kinds]
+    parts = Progress(progress).split(*(i / len(kinds) for i in range(1, len(kinds))))
+    built = []
+    for kind, part in zip(kinds, parts):
+        path = starter_path(kind, quick=quick)
+        if folder_state(path) == "database":
+            part(1.0, f"starter {kind} database (cached)")
+            continue
+        starter_database(kind, quick=quick, progress=part)
+        built.append(kind)
+    return built
+
+
 def _build_starter(kind, quick, path, report):
-    """Build into ``<path>.partial`` (resuming what a killed process left), then move it."""
-    from ._starter_clips import starter_clips
+    """Build into ``<path>.partial`` (resuming what a killed process left), then move it.
+
+    The clips are made on threads of their own while the build cuts each into
+    fragments as soon as it is made (their futures are the build's sources).
+    """
+    from concurrent.futures import ThreadPoolExecutor
+
+    from ._starter_clips import submit_clips
 
     partial = path.parent / f"{path.name}.partial"
     if folder_state(partial) != "database":  # else: built, then killed before the move
         if folder_state(partial) in ("file", "foreign"):
             _remove(partial)
-        make, build = report.split(0.3)
-        clips = starter_clips(kind, quick=quick, seed=0, progress=make)
+        progress = _Blend(report, 0.3)
+        with ThreadPoolExecutor(os.cpu_count() or 1, thread_name_prefix="fluidnb-clips") as pool:
+            futures = submit_clips(pool, kind, quick=quick, seed=0, progress=progress.first)
+            try:
 
-        def run(resume):
-            build_database(
-                clips,
-                partial,
-                kind=kind,
-                params=starter_params(),
-                seed=0,
-                resume=resume,
-                progress=build,
-            )
+                def run(resume):
+                    build_database(
+                        [future.result for future in futures],
+                        partial,
+                        kind=kind,
+                        params=starter_params(),
+                        seed=0,
+                        resume=resume,
+                        progress=progress.second,
+                    )
 
-        try:
-            run(resume=True)  # an unfinished build of the same clips, or a fresh one
-        except ValueError:
-            if folder_state(partial) != "unfinished":
+                try:
+                    run(resume=True)  # an unfinished build of the same clips, or a fresh one
+                except ValueError:
+                    if folder_state(partial) != "unfinished":
+                        raise
+                    _remove(partial)  # an unfinished build of other clips: start afresh
+                    run(resume=False)
+            except BaseException:
+                for future in futures:
+                    future.cancel()
                 raise
-            _remove(partial)  # an unfinished build of other clips: start afresh
-            run(resume=False)
     if path.exists():
         _remove(path)
     os.replace(partial, path)
+
+
+class _Blend:
+    """One progress bar for two jobs running at once: ``w`` of the first, the rest the second."""
+
+    def __init__(self, report, weight):
+        self.report, self.weight = report, weight
+        self.fractions = [0.0, 0.0]
+        self.lock = threading.Lock()
+
+    def _part(self, i, fraction, message):
+        with self.lock:
+            self.fractions[i] = max(self.fractions[i], min(max(float(fraction), 0.0), 1.0))
+            a, b = self.fractions
+            self.report(self.weight * a + (1.0 - self.weight) * b, message)
+
+    def first(self, fraction, message=""):
+        self._part(0, fraction, message)
+
+    def second(self, fraction, message=""):
+        self._part(1, fraction, message)
 
 
 def _remove(path):

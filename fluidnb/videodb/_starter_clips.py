@@ -10,8 +10,10 @@ stand-ins, one set per kind of scene, from its own methods and bundled pictures:
   simulated temperature) for flames of different sizes, winds and turbulence;
 - water: water-only crops of the bundled photos (cascades, white water, a pool, a lake
   surface) and the procedural ripples, moved along uniform, shear, swirl and falling
-  flows by :func:`~fluidnb.videodb.flow_map_texture` (two flow-map phases cross-faded,
-  Neyret 2003).
+  flows that change in time -- gusts, eddies carried downstream, swaying waves, choppy
+  in places and calm in others, so that the motion has power beyond its mean as
+  filmed water's does -- by :func:`~fluidnb.videodb.flow_map_texture` (two flow-map
+  phases cross-faded, Neyret 2003).
 
 Nothing here is cached: :func:`fluidnb.videodb.starter_database` caches the databases.
 """
@@ -76,8 +78,8 @@ def starter_clips(kind, *, quick=False, seed=0, workers=None, progress=None):
     quick : bool
         The first two clips of the kind, small (96 x 160, 36 frames: one window of
         N = 32 frames; about a second a kind), instead of all of them (eight of water,
-        eight of smoke, six of fire; 180 x 320, 64 frames: two windows; 9-16 s a
-        kind on one core).
+        eight of smoke, six of fire; 180 x 320, 64 frames: two windows; 3-9 s a kind
+        on one core).
     seed : None, int or numpy.random.Generator
         Seeds every clip; the same seed gives the same clips, bit for bit.
     workers : int, optional
@@ -118,11 +120,30 @@ def starter_clips(kind, *, quick=False, seed=0, workers=None, progress=None):
     >>> clips[0][1].metadata["params"]["flow"]["type"]
     'shear'
     """
+    workers = (os.cpu_count() or 1) if workers is None else check_int("workers", workers, 1, 64)
+    with ThreadPoolExecutor(workers) as pool:
+        futures = submit_clips(pool, kind, quick=quick, seed=seed, progress=progress)
+        try:
+            return [f.result() for f in futures]
+        except BaseException:
+            for f in futures:
+                f.cancel()
+            raise
+
+
+def submit_clips(pool, kind, *, quick=False, seed=0, progress=None):
+    """:func:`starter_clips`' clips, each made by a task of ``pool``: their futures, in order.
+
+    Clips are independent (each has its own seed) and the solver's and synthesis'
+    compiled kernels release the GIL: made side by side on threads, whose results
+    are the same whatever their number. A starter build hands these futures to
+    :func:`~fluidnb.videodb.build_database` as they are, and starts cutting each
+    clip into fragments as soon as it is made (``future.result`` as a source).
+    """
     check_choice("kind", kind, STARTER_KINDS)
     if not isinstance(quick, (bool, np.bool_)):
         raise ValueError(f"quick must be True or False, got {quick!r}")
     size = _QUICK if quick else _FULL
-    workers = (os.cpu_count() or 1) if workers is None else check_int("workers", workers, 1, 64)
     report = Progress(progress)
     seed = resolve_seed(seed)
     gen = rng(seed)
@@ -163,19 +184,7 @@ def starter_clips(kind, *, quick=False, seed=0, workers=None, progress=None):
         return name, Clip(frames, fps=_FPS, metadata=metadata)
 
     report(0.0, f"making {len(chosen)} {kind} clips")
-    # Clips are independent (each has its own seed): made on a few threads, the
-    # solver's and synthesis' compiled kernels release the GIL. The order is fixed.
-    with ThreadPoolExecutor(max(1, min(workers, len(chosen)))) as pool:
-        futures = [
-            pool.submit(make_one, i, r, s) for i, (r, s) in enumerate(zip(chosen, clip_seeds))
-        ]
-        try:
-            clips = [f.result() for f in futures]
-        except BaseException:
-            for f in futures:
-                f.cancel()
-            raise
-    return clips
+    return [pool.submit(make_one, i, r, s) for i, (r, s) in enumerate(zip(chosen, clip_seeds))]
 
 
 # ----------------------------------------------------------------------------- water
@@ -260,18 +269,33 @@ def _water_texture(spec, shape, gen):
 
 
 def _stream_function(shape, gen, scale):
-    """A smooth, periodic random stream function with unit maximum slope."""
+    """A smooth, periodic random stream function, as its 2-D real FFT, unit maximum slope."""
     h, w = shape
     psi = ndi.gaussian_filter(gen.standard_normal((h, w)), scale, mode="wrap")
-    gy, gx = np.gradient(psi)
-    return psi / max(float(np.hypot(gy, gx).max()), 1e-12)
+    spectrum = np.fft.rfft2(psi)
+    vy, vx = _curl(spectrum, shape)
+    return spectrum / max(float(np.hypot(vy, vx).max()), 1e-12)
 
 
-def _water_flow(spec, shape, n_frames, gen):
-    """The velocity sequence (T - 1, H, W, 2) of a water recipe, px/frame."""
+def _wavenumbers(shape):
+    h, w = shape
+    ky = 2.0 * np.pi * np.fft.fftfreq(h)[:, None]
+    kx = 2.0 * np.pi * np.fft.rfftfreq(w)[None, :]
+    return ky, kx
+
+
+def _curl(spectrum, shape):
+    """The divergence-free velocity (dy, dx) = (-dpsi/dx, dpsi/dy) of a stream function."""
+    ky, kx = _wavenumbers(shape)
+    vy = np.fft.irfft2(-1j * kx * spectrum, s=shape)
+    vx = np.fft.irfft2(1j * ky * spectrum, s=shape)
+    return vy, vx
+
+
+def _steady_flow(flow, shape, gen):
+    """The recipe's mean flow (H, W, 2): uniform, shear, swirl or falling, px/frame."""
     h, w = shape
     yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
-    flow = spec["flow"]
     kind = flow["type"]
     speed = flow["speed"]
     base = np.zeros((h, w, 2))
@@ -309,22 +333,84 @@ def _water_flow(spec, shape, n_frames, gen):
         base[..., 1] = flow.get("lean", 0.0) * base[..., 0]
     else:  # pragma: no cover - the recipes below use the kinds above
         raise ValueError(f"unknown flow type {kind!r}")
+    return base
+
+
+def _water_flow(spec, shape, n_frames, gen):
+    r"""The velocity sequence (T - 1, H, W, 2) of a water recipe, px/frame.
+
+    The recipe's steady flow :math:`\bar v(x)` plus what makes filmed water's motion
+    change from frame to frame, so that its motion spectra (Okabe et al., Eq. 2) have
+    power beyond the mean, as real footage's do:
+
+    - gusts (``gust``: amplitude :math:`a`, period :math:`P` frames, wavelength
+      :math:`L` px): the steady flow swells and slackens,
+      :math:`\bar v(x)\,(1 + a \sin(2\pi (t / P - s(x) / L) + \phi))`, the surges
+      travelling downstream (:math:`s`: the distance along the mean flow);
+    - eddies (``turbulence``: their top speed; ``eddy``: their size as a fraction of
+      the frame; ``cycle``: frames in which their pattern turns over): a
+      divergence-free random field (the curl of a random stream function) carried
+      along by the mean flow, as turbulence is (Taylor's frozen turbulence), and
+      changing as it goes, between two random patterns;
+    - waves (``waves``: (amplitude px/frame, period frames, wavelength px, direction
+      degrees) each): undulations travelling in that direction, each swaying the
+      water to and fro across it, :math:`A \cos(k \cdot x - \omega t + \phi)\,\hat
+      k_\perp` (divergence-free like the eddies: the texture sways without being
+      squeezed);
+    - the eddies and waves scaled by a smooth random envelope (``patchy``, mean 1):
+      choppy in places, calm in others.
+    """
+    h, w = shape
+    flow = spec["flow"]
+    base = _steady_flow(flow, shape, gen)
+    n = max(n_frames - 1, 0)
+    t = np.arange(n, dtype=np.float64)[:, None, None]
+    out = np.repeat(base[None], n, axis=0)
+    mean = base.reshape(-1, 2).mean(axis=0)
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
+    # Filmed water is choppy in places and calm in others: the eddies and waves are
+    # scaled by a smooth random envelope, exp(s n - s^2 / 2) (mean 1), n a smooth
+    # standard normal field.
+    patchy = flow.get("patchy", 0.5)
+    noise = ndi.gaussian_filter(gen.standard_normal(shape), 0.2 * min(h, w), mode="wrap")
+    noise /= max(float(noise.std()), 1e-12)
+    envelope = np.exp(patchy * noise - 0.5 * patchy**2)[..., None]
+    unsteady = np.zeros_like(out)
+    if "gust" in flow and n:
+        amplitude, period, wavelength = flow["gust"]
+        along = mean / max(float(np.hypot(*mean)), 1e-12)
+        s = yy * along[0] + xx * along[1]
+        phase = 2.0 * np.pi * (t / period - s[None] / wavelength) + gen.uniform(0, 2 * np.pi)
+        out *= (1.0 + amplitude * np.sin(phase))[..., None]
     turbulence = flow.get("turbulence", 0.0)
-    out = np.repeat(base[None].astype(np.float32), max(n_frames - 1, 0), axis=0)
-    if turbulence > 0 and n_frames > 1:
-        # A divergence-free wobble, v = (-dpsi/dx, dpsi/dy) as (dy, dx), slowly
-        # rotating between two random stream functions.
-        scale = flow.get("eddy", 0.12) * min(h, w)
+    if turbulence > 0 and n:
+        scale = flow.get("eddy", 0.14) * min(h, w)
         psi1 = _stream_function(shape, gen, scale)
         psi2 = _stream_function(shape, gen, scale)
-        cycle = flow.get("cycle", 48.0)
-        for t in range(n_frames - 1):
-            phase = 2.0 * np.pi * t / cycle
-            psi = math.cos(phase) * psi1 + math.sin(phase) * psi2
-            gy, gx = np.gradient(psi)
-            out[t, ..., 0] += (turbulence * -gx).astype(np.float32)
-            out[t, ..., 1] += (turbulence * gy).astype(np.float32)
-    return out
+        ky, kx = _wavenumbers(shape)
+        carry = flow.get("carried", 1.0) * mean  # px/frame the eddies drift
+        cycle = flow.get("cycle", 24.0)
+        for k in range(n):
+            phase = 2.0 * np.pi * k / cycle
+            spectrum = math.cos(phase) * psi1 + math.sin(phase) * psi2
+            spectrum = spectrum * np.exp(-1j * k * (ky * carry[0] + kx * carry[1]))
+            vy, vx = _curl(spectrum, shape)
+            unsteady[k, ..., 0] += turbulence * vy
+            unsteady[k, ..., 1] += turbulence * vx
+    for amplitude, period, wavelength, angle in flow.get("waves", ()):
+        if not n:
+            break
+        rad = math.radians(angle)
+        direction = np.array([-math.sin(rad), math.cos(rad)])  # (dy, dx), up is -y
+        along = yy * direction[0] + xx * direction[1]
+        phase = 2.0 * np.pi * (along[None] / wavelength - t / period) + gen.uniform(0, 2 * np.pi)
+        # Across the direction of travel: divergence-free, the texture sways without
+        # being squeezed (a wave pushing along its direction would crowd the texture
+        # into a visible egg-crate pattern where two of them cross).
+        across = np.array([direction[1], -direction[0]])
+        unsteady += (amplitude * np.cos(phase))[..., None] * across
+    out += unsteady * envelope
+    return out.astype(np.float32)
 
 
 def _water(recipe, size, seed, report=None):
@@ -378,14 +464,24 @@ _BLUE = ("lake", (116, 156, 0, 190))  # the lake's surface under the blue sky
 _RIPPLES = ("ripples", None)
 
 # Quick mode makes the first two of each kind; the shear clip is the one whose flow
-# the tests recover with optical flow.
+# the tests recover with optical flow. Every flow changes in time -- gusts, eddies
+# carried downstream, waves -- as filmed water's does: its motion spectra have power
+# beyond the mean (Eq. 2), so that sigma matters on water as on smoke and fire.
 _WATER = (
     {
         "name": "river",
         "sources": _FOAM,
         "zoom": (2.0, 2.5),
         "period": 16,
-        "flow": {"type": "shear", "angle": 0.0, "speed": 1.6, "turbulence": 0.25},
+        "flow": {
+            "type": "shear",
+            "angle": 0.0,
+            "speed": 1.6,
+            "gust": (0.39, 14.0, 160.0),
+            "turbulence": 0.72,
+            "eddy": 0.14,
+            "cycle": 20.0,
+        },
     },
     {
         "name": "cascade",
@@ -393,7 +489,14 @@ _WATER = (
         "zoom": (6.0, 2.0),
         "patch": (96, 32),
         "period": 12,
-        "flow": {"type": "falling", "speed": 2.5, "accel": 1.5, "lean": 0.05},
+        "flow": {
+            "type": "falling",
+            "speed": 2.5,
+            "accel": 1.5,
+            "lean": 0.05,
+            "gust": (0.28, 9.0, 150.0),
+            "waves": ((0.9, 10.0, 160.0, -90.0),),  # the falling sheet sways sideways
+        },
     },
     {
         "name": "whirlpool",
@@ -405,7 +508,9 @@ _WATER = (
             "centre": (0.5, 0.45),
             "radius": 0.35,
             "counterclockwise": True,
-            "turbulence": 0.2,
+            "turbulence": 0.62,
+            "cycle": 14.0,
+            "waves": ((0.51, 12.0, 192.0, 30.0),),
         },
     },
     {
@@ -413,20 +518,40 @@ _WATER = (
         "sources": (_GOLD,),
         "zoom": (2.0, 2.0),
         "period": 24,
-        "flow": {"type": "uniform", "angle": 180.0, "speed": 0.6, "turbulence": 0.3},
+        "flow": {
+            "type": "uniform",
+            "angle": 180.0,
+            "speed": 0.6,
+            "turbulence": 0.26,
+            "waves": ((0.77, 16.0, 256.0, 200.0), (0.45, 10.0, 144.0, 150.0)),
+        },
     },
     {
         "name": "pool",
         "sources": (_CALM,),
         "zoom": (2.0, 2.0),
         "period": 20,
-        "flow": {"type": "uniform", "angle": -25.0, "speed": 1.0, "turbulence": 0.25},
+        "flow": {
+            "type": "uniform",
+            "angle": -25.0,
+            "speed": 1.0,
+            "gust": (0.56, 18.0, 200.0),
+            "turbulence": 0.51,
+            "cycle": 18.0,
+        },
     },
     {
         "name": "waves",
         "sources": (_RIPPLES,),
         "period": 16,
-        "flow": {"type": "shear", "angle": 160.0, "speed": 1.3, "bank": 0.5, "turbulence": 0.35},
+        "flow": {
+            "type": "shear",
+            "angle": 160.0,
+            "speed": 1.3,
+            "bank": 0.5,
+            "turbulence": 0.36,
+            "waves": ((1.02, 12.0, 192.0, 160.0), (0.58, 8.0, 120.0, 100.0)),
+        },
     },
     {
         "name": "bay",
@@ -440,7 +565,8 @@ _WATER = (
             "radius": 0.4,
             "counterclockwise": False,
             "drift": (0.0, 0.3),
-            "turbulence": 0.2,
+            "turbulence": 0.36,
+            "waves": ((0.64, 14.0, 224.0, 90.0),),
         },
     },
     {
@@ -449,7 +575,16 @@ _WATER = (
         "zoom": (4.0, 1.5),
         "patch": (72, 24),
         "period": 12,
-        "flow": {"type": "falling", "speed": 3.5, "accel": 0.6, "lean": -0.15, "turbulence": 0.3},
+        "flow": {
+            "type": "falling",
+            "speed": 3.5,
+            "accel": 0.6,
+            "lean": -0.15,
+            "gust": (0.22, 8.0, 140.0),
+            "turbulence": 0.62,
+            "eddy": 0.1,
+            "cycle": 12.0,
+        },
     },
 )
 

@@ -41,7 +41,7 @@ import hashlib
 import json
 import os
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -309,6 +309,10 @@ class VideoDatabase:
         row and column of its top-left corner in the version's pixels.
     manifest : dict
         The manifest as read.
+    cache : FrameCache
+        Decoded source frames and rebuilt fragments kept between renders and
+        re-solves (bounded: ``cache.max_bytes``, by default 512 MiB; emptied when the
+        store's manifest changes), and the opened store.
     """
 
     path: Path
@@ -323,6 +327,13 @@ class VideoDatabase:
     texture: np.ndarray
     source: np.ndarray
     manifest: dict
+    cache: object = field(default=None, repr=False, compare=False)
+
+    def __post_init__(self):
+        if self.cache is None:
+            from ._frames import FrameCache, manifest_checksum
+
+            object.__setattr__(self, "cache", FrameCache(self.path, manifest_checksum(self.path)))
 
     def __len__(self):
         return len(self.words)
@@ -401,9 +412,8 @@ class VideoDatabase:
         return ids
 
     def _group(self):
-        import zarr
-
-        return zarr.open_group(str(self.path), mode="r", zarr_format=3)
+        self.cache.check()
+        return self.cache.group()
 
     def mean_images(self, ids):
         """The mean images :math:`A` of fragments, float32 (n, 48, 48, 3) in [0, 1]."""
@@ -431,9 +441,10 @@ class VideoDatabase:
         return read_rows(arr, self.path, slice(start, stop), checked=self.checked)
 
     def _array(self, group, clip, name):
-        """Array ``name`` of clip ``clip``, checked against the manifest."""
+        """Array ``name`` of clip ``clip``, checked against the manifest (opened once)."""
         shape, dtype = clip_layout(self.clips[clip], self.params)[name]
-        return _open_array(group, self.path, f"{clip_group(clip)}/{name}", shape, dtype)
+        where = f"{clip_group(clip)}/{name}"
+        return self.cache.array(where, lambda: _open_array(group, self.path, where, shape, dtype))
 
     def fragment_frames(self, ids, *, margin=0, grey=False):
         """Rebuild the ``N`` frames of fragments from their source clips.
@@ -441,7 +452,9 @@ class VideoDatabase:
         Each fragment is re-sampled from its clip's frames with its version's flip,
         scale and rotation (:func:`~fluidnb.videodb.sample_version`), exactly as the
         build cut it, with ``margin`` extra pixels of context on every side (clamped
-        at the clip's border).
+        at the clip's border). Each fragment is rebuilt once, reading only the frames
+        its window needs, and kept in :attr:`cache` for the next call
+        (:mod:`fluidnb.videodb._frames`).
 
         Parameters
         ----------
@@ -450,33 +463,23 @@ class VideoDatabase:
         margin : int
             Context pixels around the 48 x 48 fragment.
         grey : bool
-            Luminance only (what rendering needs): the frames are made grey before
-            they are resampled (both are linear), a third of the work.
+            Luminance only (what rendering needs): the frames are made grey
+            (:func:`~fluidnb.videodb._frames.luminance`) before they are resampled
+            (both are linear), a third of the work.
 
         Returns
         -------
         ndarray, shape (n, N, 48 + 2 margin, 48 + 2 margin[, 3]), float32 in [0, 1]
         """
-        from ._augment import _sample
-        from ._features import grey as luminance
+        from ._frames import rebuild_fragments
 
         ids = self._check_ids(ids)
         margin = check_int("margin", margin, 0, 1024)
         n, side = self.params.N, FRAGMENT + 2 * margin
         out = np.empty((len(ids), n, side, side) + (() if grey else (3,)), np.float32)
-        # Group by (clip, first frame): one read of each window serves all its fragments.
-        keys = self.source[ids][:, [0, 2]]
-        for key in np.unique(keys, axis=0):
-            sel = np.flatnonzero((keys == key).all(axis=1))
-            clip, start = int(key[0]), int(key[1])
-            frames = self.clip_frames(clip, start, start + n)
-            frames = luminance(frames) if grey else frames.astype(np.float32) / 255.0
-            for s in sel:
-                _, version, _, row, col = (int(v) for v in self.source[ids[s]])
-                # The private sampler: these frames are known to be finite and
-                # contiguous, so the public function's checks would only cost time.
-                out[s] = _sample(frames, version, (row - margin, col - margin), (side, side))
-        np.clip(out, 0.0, 1.0, out=out)
+        frames = rebuild_fragments(self, ids, margin=margin, grey=grey)
+        for i, fid in enumerate(ids.tolist()):
+            out[i] = frames[fid]
         return out
 
     def describe(self, images):

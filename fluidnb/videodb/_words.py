@@ -42,6 +42,7 @@ References
 from __future__ import annotations
 
 import numbers
+import os
 
 import numpy as np
 
@@ -51,6 +52,7 @@ from ._geometry import FRAGMENT, GRID, LEVELS
 
 __all__ = [
     "CELLS",
+    "CODEBOOK_THREADS",
     "HISTOGRAM_TOTAL",
     "LEVEL_WEIGHTS",
     "fit_codebook",
@@ -67,6 +69,15 @@ CELLS = sum(4**level for level in range(LEVELS))
 LEVEL_WEIGHTS = (1, 1, 2)
 #: What every pyramid histogram sums to: 81 * (1 + 1 + 2).
 HISTOGRAM_TOTAL = GRID * GRID * sum(LEVEL_WEIGHTS)
+
+# scikit-learn's clustering runs on OpenMP threads, which spin while they wait for work
+# by default; on a machine whose cores are busy (a class server, CI, a build of another
+# starter database beside this one) a spinning thread that loses its core stalls every
+# parallel loop: fit_codebook measured 7-12 times slower (same centres) than with
+# passive waiting. Set before scikit-learn loads its OpenMP runtime (it is imported
+# only when a codebook is fitted), and only when the user has not chosen;
+# fluidnb.fluid sets the same for numba's.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 # Rows per block in quantise: a block's float64 copy and its (rows, k) scores stay
 # around 10 MB.
@@ -99,13 +110,29 @@ def pyramid_cells():
     return out
 
 
+#: OpenMP threads of the clustering, fixed. scikit-learn splits each Lloyd iteration's
+#: float sums between its threads, so another count gives centres that differ in the
+#: last bits -- or, now and then, a bisection that goes another way: the codebook
+#: depended on the machine's cores and on ``OMP_NUM_THREADS`` (which dask.distributed
+#: sets to 1). Fixed, the same descriptors give the same codebook everywhere; two, the
+#: count the starter databases were first built with.
+CODEBOOK_THREADS = 2
+
+
 def _bisecting_kmeans(k, random_state):
     """The clustering :func:`fit_codebook` runs (the tests build the same one)."""
     from sklearn.cluster import BisectingKMeans
 
+    class _FixedThreads(BisectingKMeans):
+        # fit() sets _n_threads from the environment; every bisection (its Lloyd
+        # iterations and inertias) then runs on CODEBOOK_THREADS instead.
+        def _bisect(self, *args, **kwargs):
+            self._n_threads = CODEBOOK_THREADS
+            return super()._bisect(*args, **kwargs)
+
     # scikit-learn's defaults otherwise: random init, one init per bisection, Lloyd,
     # split the cluster of largest inertia.
-    return BisectingKMeans(n_clusters=k, random_state=random_state)
+    return _FixedThreads(n_clusters=k, random_state=random_state)
 
 
 def fit_codebook(descriptors, k=200, *, max_samples=1_000_000, seed=0):

@@ -8,6 +8,7 @@ from fluidnb.videodb import (
     match_histograms_cells,
     motion_blur,
     reference_match_histograms_cells,
+    reference_motion_blur,
 )
 
 
@@ -29,6 +30,20 @@ def test_motion_blur_identity_cases_are_exact():
     assert np.array_equal(motion_blur(img, np.zeros_like(v), shutter=3, denoise=2), img)
     out = motion_blur(img, v, shutter=0, denoise=0)
     assert out is not img
+
+
+def test_motion_blur_equals_the_whole_image_warps_bit_for_bit():
+    # The compiled line average against backward_warp's samples, also past the border
+    # (fast motion near the edges clamps) and for grey and colour images.
+    gen = np.random.default_rng(4)
+    for shape in ((23, 31, 3), (17, 12)):
+        img = gen.random(shape).astype(np.float32)
+        v = 3 * gen.standard_normal((*shape[:2], 2)).astype(np.float32)
+        for shutter, denoise in ((1.0, 0.0), (2.5, 0.0), (0.7, 0.5)):
+            fast = motion_blur(img, v, shutter=shutter, denoise=denoise)
+            slow = reference_motion_blur(img, v, shutter=shutter, denoise=denoise)
+            assert fast.dtype == slow.dtype == np.float32
+            assert np.array_equal(fast, slow)
 
 
 def test_motion_blur_smears_along_the_motion_not_across():
@@ -196,3 +211,39 @@ def test_inputs_are_never_modified():
     match_histograms_cells(frames, img, weight, cell=8)
     for a, b in zip(args, before):
         assert np.array_equal(a, b)
+
+
+def test_frames_go_into_the_colour_axes_and_back_as_numpy_computes_it():
+    from fluidnb.videodb._appearance import colour_axes, frames_from_axes, frames_in_axes
+
+    gen = np.random.default_rng(2)
+    mean = gen.random((13, 17, 3)).astype(np.float32)
+    d = (0.1 * gen.standard_normal((5, 13, 17))).astype(np.float32)
+    matte = (gen.random((13, 17)) > 0.3).astype(np.float32)
+    centre, axes = colour_axes(mean, matte)
+    np.testing.assert_allclose(axes.T @ axes, np.eye(3), atol=1e-6)  # orthonormal
+    inside = mean[matte > 0.5]
+    np.testing.assert_allclose(centre, inside.mean(axis=0), rtol=1e-6)
+    variances = ((inside - centre) @ axes).var(axis=0)
+    assert variances[0] >= variances[1] >= variances[2]  # largest first
+    frames = mean[None] + d[..., None]
+    rotated = frames_in_axes(mean, d, centre, axes)
+    np.testing.assert_allclose(rotated, (frames - centre) @ axes, rtol=0, atol=1e-6)
+    again, shown = frames_in_axes(mean, d, centre, axes, unmatched=(10, 12))
+    assert np.array_equal(again, rotated)
+    assert np.array_equal(shown, np.clip(frames[:, :10, :12], 0, 1))  # the same pass, exact
+    back = frames_from_axes(rotated.copy(), centre, axes)
+    np.testing.assert_allclose(back, rotated @ axes.T + centre, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(back, frames, rtol=0, atol=2e-6)  # and back again
+
+
+def test_matching_on_threads_is_matching_on_one(monkeypatch):
+    from fluidnb.videodb import _appearance
+
+    gen = np.random.default_rng(6)
+    frames = smooth_texture(gen, (5, 40, 56), 2.0)[..., None] * [1.0, 0.8, 0.6]
+    ref = smooth_texture(gen, (1, 40, 56), 3.0)[0, ..., None] * [0.9, 1.0, 0.7]
+    weight = gen.random((40, 56))
+    threads = match_histograms_cells(frames, ref, weight, cell=16)
+    monkeypatch.setattr(_appearance, "_THREADS", 1)
+    assert np.array_equal(match_histograms_cells(frames, ref, weight, cell=16), threads)

@@ -8,6 +8,9 @@ import pytest
 from fluidnb.videodb import reference_sample_version, reference_transform_vectors
 from fluidnb.videodb._augment import (
     IDENTITY,
+    VersionSampler,
+    mirror_order,
+    mirror_partner,
     sample_version,
     transform_flow,
     transform_vectors,
@@ -158,6 +161,55 @@ def test_a_window_sampled_alone_equals_the_whole_version_bit_for_bit(v):
         assert np.array_equal(small, big[:, 2:10, wv + 2 : wv + 9])
 
 
+def bits(a):
+    """The float32 values' bit patterns (so that -0.0 and 0.0 differ)."""
+    return np.ascontiguousarray(a, np.float32).view(np.uint32)
+
+
+@pytest.mark.parametrize("shape", [(4, 40, 56), (3, 61, 48), (2, 37, 53)])
+def test_the_version_sampler_gives_sample_version_bit_for_bit(shape):
+    # The build's path: the source prepared once, blurred once per scale, each flipped
+    # version the mirror image of its partner: the same bits as one call per version,
+    # in any order of the versions.
+    grey, colour, flow = clip(shape), clip((1, *shape[1:], 3), 1), clip((*shape, 2), 2) - 0.5
+    samplers = VersionSampler(grey), VersionSampler(colour), VersionSampler(flow, vectors=True)
+    for order in (mirror_order(ALL), list(ALL)[::-1]):
+        for v in order:
+            g, c, f = (sample(v) for sample in samplers)
+            hv, wv = version_shape(shape[1:], v)
+            assert g.shape == (hv, wv, shape[0])
+            assert c.shape == (hv, wv, 3)
+            assert f.shape == (hv, wv, 2 * shape[0])
+            assert np.array_equal(bits(g), bits(np.moveaxis(sample_version(grey, v), 0, -1)))
+            assert np.array_equal(bits(c), bits(sample_version(colour, v)[0]))
+            carried = np.moveaxis(transform_flow(flow, v), 0, 2).reshape(hv, wv, -1)
+            assert np.array_equal(bits(f), bits(carried))
+
+
+def test_mirror_partners_are_mirror_images():
+    assert [mirror_partner(v) for v in ALL] == [11, 10, 9, 14, 13, 12, 17, 16, 15] + [
+        2,
+        1,
+        0,
+        5,
+        4,
+        3,
+        8,
+        7,
+        6,
+    ]
+    assert sorted(mirror_order(ALL)) == list(ALL)
+    order = mirror_order(ALL)
+    assert all(order[i + 1] == mirror_partner(order[i]) for i in range(0, 18, 2))
+    frames = clip((2, 31, 45))
+    for v in ALL:
+        flip, s, angle = VERSIONS[v]
+        assert VERSIONS[mirror_partner(v)] == (not flip, s, -angle)
+        assert np.array_equal(
+            sample_version(frames, v), sample_version(frames, mirror_partner(v))[:, :, ::-1]
+        )
+
+
 def test_sampling_keeps_range_and_constants():
     frames = clip()
     const = np.full((2, 30, 40), 0.3, np.float32)
@@ -295,6 +347,8 @@ def test_valid_positions_of_the_identity_and_small_sources():
         (lambda: sample_version(clip(), 1, origin=(5,)), "origin must be a"),
         (lambda: sample_version(clip(), 1, origin=(400, 0)), "inside the version's canvas"),
         (lambda: transform_flow(clip(), 1), r"flow must have shape \(T, H, W, 2\)"),
+        (lambda: VersionSampler(clip(), vectors=True), r"frames must have shape \(T, H, W, 2\)"),
+        (lambda: VersionSampler(clip())(18), "version must be an integer"),
         (lambda: transform_vectors(np.zeros(3), 1), r"vectors must have shape \(\.\.\., 2\)"),
         (lambda: version_shape((0, 5), 1), r"shape\[0\] must be"),
         (lambda: valid_positions(7, 1), "shape must be a"),

@@ -259,3 +259,56 @@ def test_blend_values_spreads_each_fragments_value_over_its_cell():
     # A constant value stays constant wherever the cores reach.
     same = blend_values(np.ones((len(pos), 2)), pos, shape)
     np.testing.assert_allclose(same[covered(pos, shape)], 1.0, atol=1e-6)
+
+
+def test_blend_on_threads_is_the_blend_on_one(monkeypatch):
+    # The phase layers' pyramids are made on threads and summed in layer order: the
+    # result is the one-thread result bit for bit.
+    from fluidnb.videodb import _blend
+
+    gen = np.random.default_rng(8)
+    shape = (168, 192)
+    pos = grid(shape)[::2]
+    diffs = np.stack([smooth_texture(gen, (3, 72, 72), 1.5) for _ in pos])
+    threads = blend_differences(diffs, pos, shape, margin=12)
+    monkeypatch.setattr(_blend, "_THREADS", 1)
+    assert np.array_equal(blend_differences(diffs, pos, shape, margin=12), threads)
+    monkeypatch.setattr(_blend, "_THREADS", 4)
+    assert np.array_equal(blend_differences(diffs, pos, shape, margin=12), threads)
+
+
+def test_difference_frames_are_the_frames_minus_their_mean_cross_faded():
+    from fluidnb.videodb import loop_crossfade
+    from fluidnb.videodb._blend import difference_frames
+
+    gen = np.random.default_rng(3)
+    frames = gen.random((12, 9, 11)).astype(np.float32)
+    d = frames - frames.mean(axis=0)
+    # D_i = F_i - A as numpy computes it, pixel-major (as the blend reads them).
+    assert np.array_equal(difference_frames(frames), np.moveaxis(d, 0, 2))
+    for loop in (1, 3, 6):
+        got = np.moveaxis(difference_frames(frames, loop), 2, 0)
+        assert got.shape == (12 - loop, 9, 11)
+        np.testing.assert_allclose(got, loop_crossfade(d, overlap=loop), rtol=0, atol=1e-7)
+        assert np.array_equal(got[loop:], d[loop : 12 - loop])
+    with pytest.raises(ValueError, match="loop must be"):
+        difference_frames(frames, 7)
+
+
+def test_play_loops_is_stagger_on_loops_already_made():
+    from fluidnb.videodb import loop_crossfade, stagger
+    from fluidnb.videodb._blend import play_loops
+
+    gen = np.random.default_rng(4)
+    diffs = gen.standard_normal((5, 10, 8, 8)).astype(np.float32)
+    offsets = np.array([0, 3, 5, 1, 0])
+    rates = np.array([1.0, 0.5, 1.5, 1.0, 0.25])
+    mirrors = np.array([-1, 0, 1, -1, 0])
+    loops = np.moveaxis(loop_crossfade(np.moveaxis(diffs, 1, 0), overlap=3), 0, 1)
+    pixel_major = [np.moveaxis(x, 0, 2) for x in loops]
+    for kw in ({}, {"mirrors": mirrors}, {"rates": rates, "n_frames": 14, "mirrors": mirrors}):
+        want = np.moveaxis(stagger(diffs, offsets, overlap=3, **kw), 1, 3)
+        assert np.array_equal(play_loops(pixel_major, offsets, **kw), want)
+    assert np.array_equal(play_loops(pixel_major, np.zeros(5)), np.moveaxis(loops, 1, 3))
+    with pytest.raises(ValueError, match="offsets must have shape"):
+        play_loops(pixel_major, offsets[:2])

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from fluidnb.videodb import motion_spectra, textureness, window_features
+from fluidnb.videodb._features import _flow_blocks, _moving_blocks, pixel_features
 
 N = 32  # frames per fragment: n = N - 1 flows
 H, W = 48, 72
@@ -153,3 +154,46 @@ def test_window_features_of_a_translation_keep_its_motion_and_drop_the_still_par
     keep, feats = window_features(frames, colour, flow, positions, threshold=0.2, n_bins=4)
     expected = (np.clip(colour[:48, 24:72], 0, 1) * 255 + 0.5).astype(np.uint8)
     np.testing.assert_array_equal(feats["mean"][1], expected)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_fused_moving_mask_and_block_means_equal_numpy_and_opencv(seed):
+    # The build's kernel against the plain computation it replaces: the mask of
+    # np.sqrt(dy ** 2 + dx ** 2).mean(axis=0) > threshold, and OpenCV's area resize of
+    # the masked flow frame by frame (_flow_blocks): the same bits, ragged edges too.
+    gen = np.random.default_rng(seed)
+    n, h, w = int(gen.integers(2, 34)), int(gen.integers(4, 90)), int(gen.integers(4, 90))
+    flow = (gen.standard_normal((n, h, w, 2)) * gen.uniform(0.1, 2.0)).astype(np.float32)
+    flow[:, : h // 3] *= np.float32(0.05)  # a slow part: some pixels below the threshold
+    threshold = float(gen.uniform(0.1, 1.0))
+    moving = np.sqrt(flow[..., 0] ** 2 + flow[..., 1] ** 2).mean(axis=0) > threshold
+    assert 0 < moving.mean() < 1
+    expected = np.moveaxis(_flow_blocks(flow, moving), 1, -1)  # (n, Hb, Wb, 2)
+    got_moving = np.empty((h, w), bool)
+    got = np.empty((n, h // 4, w // 4, 2), np.float32)
+    pixel_major = np.ascontiguousarray(np.moveaxis(flow, 0, 2)).reshape(h, w, 2 * n)
+    _moving_blocks(pixel_major, np.float32(threshold), got_moving, got)
+    assert np.array_equal(got_moving, moving)
+    assert np.array_equal(got.view(np.uint32), np.ascontiguousarray(expected).view(np.uint32))
+
+
+def test_pixel_features_are_window_features_of_the_same_pixels():
+    gen = np.random.default_rng(2)
+    n, h, w = 9, 72, 96
+    frames = gen.random((n + 1, h, w)).astype(np.float32)
+    colour = gen.random((h, w, 3)).astype(np.float32)
+    flow = gen.standard_normal((n, h, w, 2)).astype(np.float32)
+    positions = np.array([[0, 0], [0, 24], [24, 48]])
+    keep, feats = window_features(frames, colour, flow, positions, threshold=0.5, n_bins=5)
+    keep2, feats2 = pixel_features(
+        np.ascontiguousarray(np.moveaxis(frames, 0, -1)),
+        colour,
+        np.ascontiguousarray(np.moveaxis(flow, 0, 2)).reshape(h, w, 2 * n),
+        positions,
+        threshold=0.5,
+        n_bins=5,
+    )
+    assert np.array_equal(keep, keep2)
+    for name, value in feats.items():
+        assert np.array_equal(value, feats2[name]), name
+    assert feats["spectra"].shape == (3, 5, 2, 12, 12)

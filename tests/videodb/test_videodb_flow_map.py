@@ -86,3 +86,21 @@ def test_flow_map_texture_refuses_bad_arguments():
         flow_map_texture(tex, v, 3, period=7)
     with pytest.raises(ValueError, match="velocity contains"):
         flow_map_texture(tex, np.full((4, 6, 2), np.nan), 3)
+
+
+@pytest.mark.parametrize("preserve", [True, False])
+@pytest.mark.parametrize("channels", [None, 1, 3])
+def test_the_compiled_flow_map_equals_the_plain_one_bit_for_bit(preserve, channels):
+    # The kernels against _flow_map(compiled=False): backward_warp and numpy blending,
+    # with an unsteady flow fast enough to wrap around and reach the clamped border.
+    from fluidnb.videodb._flow_map import _flow_map
+
+    gen = np.random.default_rng(6)
+    h, w = 23, 37
+    tex = gen.random((h, w) if channels is None else (h, w, channels)).astype(np.float32)
+    v = (gen.standard_normal((14, h, w, 2)) * 3).astype(np.float32)
+    args = (tex, v, 15, 6, True, preserve)
+    fast = _flow_map(*args, np.random.default_rng(1))
+    plain = _flow_map(*args, np.random.default_rng(1), compiled=False)
+    assert fast.shape == (15, *tex.shape)
+    assert np.array_equal(fast.view(np.uint32), plain.view(np.uint32))

@@ -51,6 +51,24 @@ def test_kernel_equals_dense_reference(seed):
     assert ((np.diff(scores, axis=1) == 0).sum(axis=1) >= 5).all()
 
 
+def test_queries_split_over_threads_give_the_same_candidates(monkeypatch):
+    from fluidnb.videodb import _retrieval
+
+    gen = np.random.default_rng(7)
+    words, motion = database(5, 900, 20)
+    index = HistogramIndex(words, 20, mean_motion=motion)
+    queries = gen.integers(0, 20, (11, 9, 9))
+    direction = gen.normal(0, 1, (11, 2))
+    direction[::4] = np.nan
+    whole = index.top_k(queries, 30, direction=direction)
+    monkeypatch.setattr(_retrieval, "_MIN_QUERIES", 1)
+    monkeypatch.setattr(_retrieval, "_workers", lambda: 3)  # runs of 3, 4 and 4 queries
+    split = index.top_k(queries, 30, direction=direction)
+    assert same(split, whole)
+    ref = reference_top_k(words, 20, queries, 30, mean_motion=motion, direction=direction)
+    assert same(split, ref)
+
+
 def test_both_storage_paths_are_exercised():
     words, _ = database(3, 1500, 40)
     index = HistogramIndex(words, 40)

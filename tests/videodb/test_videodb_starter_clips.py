@@ -137,6 +137,22 @@ def test_water_motion_is_what_optical_flow_measures():
     assert np.median(np.abs(measured - velocity[:7])) < 0.5
 
 
+def test_water_motion_changes_in_time_as_filmed_water_does():
+    # Gusts, eddies carried downstream and waves: the motion spectra (Eq. 2) hold
+    # power beyond the mean (DC), in the known flow and in what optical flow measures,
+    # so that sigma matters on water. Steady flows (the clips before 2026-11-25) had
+    # a non-DC/DC ratio of ~0.004 (river) and ~0 (cascade).
+    from fluidnb.videodb import motion_spectra
+
+    for recipe in ("river", "cascade"):
+        frames, velocity, _ = sc._water_clip(recipe, quick=True, seed=0)
+        for flow in (velocity[:31], dis_flow(frames[:32])[:, 8:-8, 8:-8]):
+            spectra = motion_spectra(np.ascontiguousarray(flow), 16).astype(np.float64)
+            dc = (spectra[0] ** 2).sum(axis=0)
+            rest = spectra[1:].sum(axis=(0, 1))
+            assert np.median(rest / dc) > 0.015, recipe
+
+
 def test_water_texture_does_not_stretch():
     # Advected too long, a texture is drawn out into thin filaments and its fine
     # detail (high frequencies) grows; with the phases restarting every period it

@@ -207,3 +207,19 @@ def test_pyramid_validation():
         pyramid_histograms(np.zeros((9, 9)), 5)
     with pytest.raises(ValueError, match="same length"):
         intersection(np.zeros(21 * 3, int), np.zeros(21 * 4, int))
+
+
+def test_the_codebook_does_not_depend_on_the_threads_openmp_may_use():
+    # scikit-learn splits its sums between its OpenMP threads; the fit fixes their
+    # number, so a process limited to one (dask.distributed sets OMP_NUM_THREADS=1)
+    # or a machine with more cores gets the same codebook, to the last bit.
+    from threadpoolctl import threadpool_limits
+
+    gen = np.random.default_rng(7)
+    centres = gen.integers(0, 256, (24, 32))
+    x = np.clip(centres[gen.integers(0, 24, 6000)] + gen.normal(0, 40, (6000, 32)), 0, 255)
+    x = x.astype(np.uint8)
+    default = fit_codebook(x, 16, seed=1)
+    for limit in (1, 3):
+        with threadpool_limits(limits=limit, user_api="openmp"):
+            assert np.array_equal(fit_codebook(x, 16, seed=1), default), limit
