@@ -28,14 +28,13 @@ import numpy as np
 
 from .._validation import check_int
 from ..fields import downsample
-from ._appearance import match_histograms_cells, motion_blur
+from ._appearance import colour_axes, match_histograms_cells, motion_blur
 from ._assign import Assignment, _check_params
 from ._augment import sample_version
 from ._blend import blend_differences, blend_values
 from ._composite import composite
 from ._features import grey
 from ._geometry import FRAGMENT
-from ._render import _colour_axes
 
 __all__ = ["preview_frame"]
 
@@ -116,7 +115,7 @@ def preview_frame(assignment, params=None, *, frame=None, factor=2, levels=None,
             image, shrink(velocity, vector=True), shutter=params.shutter, denoise=params.denoise
         )
         shown = approx + shrink(d)[..., None]
-    centre, axes = _colour_axes(image, matte)
+    centre, axes = colour_axes(image, matte)
     matched = match_histograms_cells(
         ((shown - centre) @ axes)[None],
         (image - centre) @ axes,
