@@ -45,6 +45,7 @@ def app_params(name):
         "03_frost.ipynb": lambda: FrostParams,
         "05_fire.ipynb": lambda: FireAppParams,
         "06_turbulence.ipynb": lambda: TurbulenceParams,
+        "07a_videodb_database.ipynb": lambda: AnimateParams,
         "07b_videodb_animation.ipynb": lambda: AnimateParams,
     }[name]()
 
@@ -56,7 +57,13 @@ LESSONS = {
     "03_frost.ipynb": {("gamma", 0.005)},
     "05_fire.ipynb": {("weight", 0.9), ("overlap", 0.0)},
     "06_turbulence.ipynb": {("alpha", 0.0)},
-    "07b_videodb_animation.ipynb": {("lam", 0.001), ("lam", 1.0), ("sigma", 1000.0)},
+    "07a_videodb_database.ipynb": {("candidates", 10.0)},
+    "07b_videodb_animation.ipynb": {
+        ("lam", 0.001),
+        ("lam", 10.0),
+        ("sigma", 1.0),
+        ("sigma", 1000.0),
+    },
 }
 
 
@@ -107,6 +114,21 @@ def slider_range(control):
     return control.min, control.max, control.step
 
 
+def on_grid(control, value):
+    """Whether the slider can show ``value``: the browser snaps it to min + n * step.
+
+    A log slider's grid is in the exponent; a value within 1 % of a grid point reads
+    the same in its 3-digit readout.
+    """
+    if type(control).__name__ == "FloatLogSlider":
+        if value <= 0:
+            return False
+        n = round((math.log10(value) - control.min) / control.step)
+        return abs(10 ** (control.min + n * control.step) / value - 1) < 0.01
+    n = (value - control.min) / control.step
+    return abs(n - round(n)) < 1e-6
+
+
 @pytest.mark.parametrize("lesson", LESSONS)
 def test_every_setting_a_lesson_asks_for_is_on_its_apps_sliders(lesson):
     cells = json.loads((ROOT / "notebooks" / lesson).read_text())["cells"]
@@ -124,4 +146,6 @@ def test_every_setting_a_lesson_asks_for_is_on_its_apps_sliders(lesson):
         slack = step if type(control).__name__ != "FloatLogSlider" else 0
         if not (lo - slack - 1e-12 <= value <= hi + slack + 1e-12) or math.isnan(value):
             off.append(f"{field} = {value:g} (the slider spans {lo:g}..{hi:g})")
+        elif not on_grid(control, value):
+            off.append(f"{field} = {value:g} (off the slider's grid: min + n * {step:g})")
     assert off == [], f"{lesson} asks for settings its app cannot make: {off}"

@@ -24,7 +24,7 @@ from ipycanvas import MultiCanvas, hold_canvas
 from PIL import Image
 from traitlets import Any, Int
 
-from fluidnb import Progress, as_image, to_uint8
+from fluidnb import Cancelled, Progress, as_image, to_uint8
 from fluidnb.fields import resize
 from fluidnb.sketch import arrow_heads, direction_field, load_strokes, quiver_segments, save_strokes
 from fluidnb.videodb import (
@@ -38,6 +38,7 @@ from fluidnb.videodb import (
     clip_map_picture,
     motion_arrows,
     open_database,
+    preview_frame,
     render,
     starter_database,
     starter_params,
@@ -46,7 +47,9 @@ from fluidnb.videodb import (
 
 from ._app import App, LatestWins, _in_kernel, _quick_mode
 from ._canvas import DrawingCanvas
+from ._common import Choice, hint, output_dir, plural, row, shown_path
 from ._panel import ParamPanel
+from ._player import FramePlayer
 
 __all__ = ["SPEED_MAX", "VideoDBApp"]
 
@@ -58,15 +61,29 @@ SPEED_MAX = 5.0
 #: The bundled photos offered, and the database each suits.
 PHOTOS = {"stream": "water", "clouds": "smoke", "fire": "fire", "lake": "water"}
 
+#: The panel's groups: what a lecturer moves (the MRF's weights and the search's K)
+#: open, the rendering's settings folded. ``rendering`` (the flow or the paper's
+#: rendering, where the library has it) is shown as a toggle beside Render.
+GROUPS = (
+    ("the assignment (Eq. 1-6)", ("sigma", "lam", "rho", "candidates")),
+    ("rendering (sec. 6)", ("shutter", "tau", "loop", "rendering", "travel", "detail")),
+)
 # The fields the panel shows (the rest keep their values: max_angle, max_speed_ratio,
 # denoise, cell).
 _HIDDEN = ("max_angle", "max_speed_ratio", "denoise", "cell")
 _SOLVE_FIELDS = ("sigma", "lam", "rho")
 _RETRIEVAL_FIELDS = ("candidates", "max_angle", "max_speed_ratio")
+#: Fields that change the clip but not the assignment.
+_RENDER_FIELDS = ("shutter", "denoise", "cell", "tau", "loop", "rendering", "travel", "detail")
 
 _QUIVER = "rgba(255, 214, 10, 0.95)"
-_MAP_WIDTH = 320
+_MAP_WIDTH = 300  # the assignment map's width on screen, as the player's picture
 _TILE = 60  # pixels per tile of the fragment view
+# Live previews: one frame, FACTOR times smaller than the photo; their cache of
+# difference frames is dropped beyond this many fragments (~9 KB each).
+_PREVIEW_FACTOR = 2
+_PREVIEW_LEVELS = 1  # a plain weighted blend: a quarter faster, no seam shows at half size
+_PREVIEW_CACHE = 4096
 
 
 def _kernel_loop():
@@ -126,7 +143,12 @@ class _AssignmentMap(W.VBox):
         self.selected = None
         h, w = photo.shape[:2]
         self.canvas.width = self.width
-        self.canvas.height = max(1, round(h * self.width / w))
+        self.canvas.height = ch = max(1, round(h * self.width / w))
+        # The photo at the canvas's size once (each re-solve only re-tints it), and the
+        # image pixel under each canvas pixel, as clip_map_picture samples the clips.
+        self._shown = resize(photo, (ch, self.width))
+        self._rows = np.minimum((np.arange(ch) * h / ch).astype(int), h - 1)
+        self._cols = np.minimum((np.arange(self.width) * w / self.width).astype(int), w - 1)
         self.strip.layout.display = "none"
         self.caption.value = ""
         self.legend.value = (
@@ -148,9 +170,8 @@ class _AssignmentMap(W.VBox):
     def picture(self):
         """The map as RGB uint8 at canvas size: the photo tinted by source clip."""
         a = self.assignment
-        clips = None if a is None else a.clip_map()
-        shape = (self.canvas.height, self.canvas.width)
-        return to_uint8(clip_map_picture(self.photo, clips, shape=shape))
+        clips = None if a is None else a.clip_map()[self._rows][:, self._cols]
+        return to_uint8(clip_map_picture(self._shown, clips))
 
     def redraw(self, *_):
         if self.photo is None:
@@ -167,18 +188,20 @@ class _AssignmentMap(W.VBox):
             return
         s = self.scale
         pos = a.target.positions.astype(float)
-        # Cell outlines (each fragment owns the 24 x 24 cell at its centre).
+        # Cell outlines (each fragment owns the 24 x 24 cell at its centre), and the
+        # arrows with their heads, each in one batched command: a re-solve redraws
+        # them while a slider moves.
         layer.stroke_style = "rgba(0, 0, 0, 0.35)"
         layer.line_width = 1
-        q = STRIDE / 2
-        for r, c in pos:
-            layer.stroke_rect((c + q) * s, (r + q) * s, STRIDE * s, STRIDE * s)
-        layer.stroke_style = "rgba(255, 255, 255, 0.95)"
-        layer.line_width = 1.5
-        for seg in (self.motion_segments()[..., ::-1] + 0.5) * s:  # (row, col) -> (x, y)
-            layer.stroke_line(*seg[0], *seg[1])
-            for tip, end in arrow_heads(seg, size=3.5):
-                layer.stroke_line(*tip, *end)
+        corner = (pos[:, ::-1] + STRIDE / 2) * s  # (x, y)
+        layer.stroke_rects(corner[:, 0], corner[:, 1], STRIDE * s, STRIDE * s)
+        arrows = (self.motion_segments()[..., ::-1] + 0.5) * s  # (row, col) -> (x, y)
+        if len(arrows):
+            heads = [arrow_heads(seg, size=3.5) for seg in arrows]
+            lines = np.concatenate([arrows, *heads])
+            layer.stroke_style = "rgba(255, 255, 255, 0.95)"
+            layer.line_width = 1.5
+            layer.stroke_line_segments(lines.reshape(-1, 2), np.full(len(lines), 2))
         if self.selected is not None:
             r, c = pos[self.selected]
             layer.stroke_style = "rgba(255, 214, 10, 1)"
@@ -251,15 +274,21 @@ class VideoDBApp(App):
       (:func:`fluidnb.sketch.save_strokes` JSON).
 
     The panel holds :math:`\sigma` (Eq. 2), :math:`\lambda` (Eq. 4), :math:`\rho`
-    (Eq. 6) on log scales at the paper's values, the candidate count, and the
-    rendering's shutter, :math:`\tau` and loop; ``N`` (frames per fragment) belongs
-    to the database and is shown beside it. **Run** retrieves candidates, solves the
-    MRF and renders the clip (:func:`fluidnb.videodb.assign` then
-    :func:`~fluidnb.videodb.render`, with progress and Cancel). After a run, moving
-    :math:`\sigma`, :math:`\lambda` or :math:`\rho` re-solves from the kept tables
-    (:meth:`~fluidnb.videodb.Assignment.resolve`: no new retrieval) and updates the
-    assignment map and the energy plot live (throttled, the latest value wins);
-    **Render** makes the clip of the current assignment.
+    (Eq. 6) on log scales over the decades the lessons sweep, at the paper's values,
+    and the candidate count; folded under them the rendering's settings (shutter,
+    :math:`\tau`, loop, and the flow rendering's travel and detail), the rendering
+    itself (flow or the paper's) being a toggle beside **Render**. ``N`` (frames per
+    fragment) belongs to the database and is shown beside it. **Run** retrieves
+    candidates, solves the MRF and renders the clip (:func:`fluidnb.videodb.assign`
+    then :func:`~fluidnb.videodb.render`, with progress and Cancel; a starter database
+    is built on the first Run). After a run, every value of a dragged :math:`\sigma`,
+    :math:`\lambda` or :math:`\rho` is re-solved from the kept tables
+    (:meth:`~fluidnb.videodb.Assignment.resolve`: no new retrieval; the latest value
+    wins) and redraws the assignment map and the energy plot, and a preview frame
+    (:func:`fluidnb.videodb.preview_frame`, one frame at half size) shows in the
+    player; once the values rest for :attr:`settle` seconds (the kernel hears no
+    "mouse released") the clip is rendered. A rendering setting renders again the
+    same way; **Render** renders on demand.
 
     Views: the clip in the player (play, loop, GIF/MP4 export); the assignment map
     (each fragment tinted by its source clip, with the assigned motion as arrows and
@@ -274,8 +303,8 @@ class VideoDBApp(App):
         app.paint_speed([[320, 100], [320, 200]], speed=3.0)  # px/frame
         app.panel.set("candidates", 50)
         clip = app.run(timeout=300)  # press Run and wait -> fluidnb.Clip
-        app.panel.set("sigma", 1e3)  # re-solves from the kept tables...
-        app.wait_resolve()  # ...in the background
+        app.panel.set("sigma", 1e3)  # re-solves from the kept tables (map, preview)...
+        app.wait_live()  # ...in the background, then renders the clip when it rests
         app.render_clip(timeout=120)  # press Render and wait -> Clip
         app.use_result_speed()  # the result's speed into the speed layer
         app.pick_fragment(300, 150)  # what a click on the map shows
@@ -284,8 +313,9 @@ class VideoDBApp(App):
     plus :meth:`select` (tool and layer), :meth:`matte`, :meth:`strokes`,
     :meth:`speed_map`, :meth:`direction_field`, :meth:`set_photo`,
     :meth:`set_database`, :meth:`save_strokes` / :meth:`load_strokes`,
-    :meth:`start` / :meth:`cancel` / :meth:`wait`, and the counters
-    :attr:`retrievals`, :attr:`resolves`, :attr:`renders`.
+    :meth:`start` / :meth:`cancel` / :meth:`wait`, :meth:`wait_live` (re-solves,
+    previews and the render on rest), and the counters :attr:`retrievals`,
+    :attr:`resolves`, :attr:`renders`, :attr:`previews`.
 
     Parameters
     ----------
@@ -354,28 +384,52 @@ class VideoDBApp(App):
         self._field = None
         self._loop = _kernel_loop()
         self._main_thread = threading.get_ident()
-        # Re-solves run on the app shell's latest-wins worker, as previews do.
+        # Re-solves (and their previews) run on the app shell's latest-wins worker, as
+        # previews do.
         self._resolves = LatestWins(
             self._resolve_once,
             say=self.say,
             interval=lambda: self.resolve_interval,
             name="re-solve",
         )
-        self.resolve_interval = 0.1  #: Least seconds between two live re-solves.
+        #: Least seconds between two live re-solves.
+        self.resolve_interval = 0.02
+        #: Whether new assignments show a preview frame (one frame at half size).
+        self.live_preview = True
+        #: Seconds after which a drag's re-solve shows a preview even with a newer
+        #: value waiting (otherwise only maps are drawn until the slider pauses).
+        self.preview_every = 0.3
+        self._preview_shown = 0.0  # time.monotonic() of the last preview
+        #: Seconds σ, λ, ρ (or a rendering setting) must rest before the clip is
+        #: rendered: the kernel hears no "mouse released", only values.
+        self.settle = 0.2
         self.quiver_segments = 0  #: Arrows of the direction field on the canvas now.
+        self.previews = 0  #: Preview frames shown.
+        self._preview_cache = (None, {})  # (database, fragment id -> D_t)
+        self._previewed = None  # the assignment whose preview frame was shown last
+        self._previewing = False  # a preview, not the clip, is in the player's picture
+        self._was_playing = False  # the player played when the first preview came
+        self._settle_timer = None
+        self._settle_lock = threading.Lock()
+        self._live_render = False  # the running task is a render on release
+        self._superseded = False  # ... that newer values made obsolete
 
         name = photo if isinstance(photo, str) and photo in PHOTOS else None
         self.photo, self.photo_alpha = self._load_photo(photo, matte)
         self.photo_name = name or "upload"
 
         # ---------------------------------------------------------------- inputs
-        self._photo_pick = W.Dropdown(
+        # Choice: adding "upload" to the options must not pick the first photo.
+        self._photo_pick = Choice(
             options=[*PHOTOS, *([] if name else ["upload"])],
             value=name or "upload",
             description="photo",
+            style={"description_width": "44px"},
             layout=W.Layout(width="170px"),
         )
-        self._upload = W.FileUpload(accept="image/*", multiple=False, description="Upload")
+        self._upload = W.FileUpload(
+            accept="image/*", multiple=False, description="Upload", layout=W.Layout(width="110px")
+        )
         db_options = [(f"{k} (starter)", k) for k in STARTER_KINDS]
         db_options.append(("a database folder…", "folder"))
         if isinstance(db, VideoDatabase):
@@ -388,20 +442,24 @@ class VideoDBApp(App):
             choice, path = db, ""
         else:
             choice, path = "folder", os.fspath(db)
-        self._db_pick = W.Dropdown(
-            options=db_options, value=choice, description="database", layout=W.Layout(width="300px")
+        self._db_pick = Choice(
+            options=db_options,
+            value=choice,
+            description="database",
+            style={"description_width": "64px"},
+            layout=W.Layout(width="290px"),
         )
         self._db_path = W.Text(
             value=path,
             placeholder="path/to/database",
-            layout=W.Layout(width="300px", display="" if choice == "folder" else "none"),
+            layout=W.Layout(width="290px", display="" if choice == "folder" else "none"),
         )
-        self._n_label = W.HTML()
+        self._n_label = W.HTML(layout=W.Layout(max_width="320px"))
 
         canvas = self._make_canvas()
         if params is None:
             params = AnimateParams.for_kind(self._kind_of_choice(choice))
-        panel = ParamPanel(params, exclude=_HIDDEN)
+        panel = ParamPanel(params, exclude=_HIDDEN, groups=GROUPS)
 
         self._speed = W.FloatSlider(
             value=2.0,
@@ -433,7 +491,10 @@ class VideoDBApp(App):
         self._strokes_file = W.Text(
             value="strokes.json",
             description="strokes",
-            tooltip="the strokes file (fluidnb.strokes JSON) Save writes and Load reads",
+            tooltip=(
+                "the strokes file (fluidnb.strokes JSON) Save writes and Load reads; a "
+                "name without a folder is in the output folder (fluidnb-output/)"
+            ),
             style={"description_width": "52px"},
             layout=W.Layout(width="170px"),
         )
@@ -444,8 +505,12 @@ class VideoDBApp(App):
         self._render_button = W.Button(
             description="Render",
             icon="film",
-            tooltip="make the clip from the current assignment (after moving σ, λ, ρ)",
+            tooltip=(
+                "make the clip of the current assignment (done by itself when σ, λ, ρ "
+                "or a rendering setting rests)"
+            ),
             disabled=True,
+            layout=W.Layout(width="100px"),
         )
         self._use_speed_button = W.Button(
             description="Use the result's speed map",
@@ -454,6 +519,20 @@ class VideoDBApp(App):
             disabled=True,
             layout=W.Layout(width="220px"),
         )
+        # The rendering (AnimateParams.rendering, when the library has it) as a toggle
+        # bound to the panel's own control, which stays hidden.
+        self._rendering = None
+        if "rendering" in panel.controls:
+            control = panel.controls["rendering"]
+            self._rendering = W.ToggleButtons(
+                options=list(control.options),
+                value=control.value,
+                tooltip=control.tooltip,
+                style={"button_width": "64px"},
+                layout=W.Layout(width="auto"),
+            )
+            W.link((self._rendering, "value"), (control, "value"))
+            control.layout.display = "none"
         self.map = _AssignmentMap()
         self.map.on_pick = self._show_fragment
         self.energy = W.HTML()
@@ -475,60 +554,61 @@ class VideoDBApp(App):
             (self.stats, "fluidnb-vdb-stats"),
         ]:
             wid.add_class(cls)
+        if self._rendering is not None:
+            self._rendering.add_class("fluidnb-vdb-rendering")
         for layer, button in self._clear_buttons.items():
             button.add_class(f"fluidnb-vdb-clear-{layer}")
             button.on_click(lambda _, layer=layer: self.canvas.clear(layer))
 
-        hint = W.HTML(
-            "<div style='opacity:0.75;max-width:430px;font-size:12px;line-height:1.4'>"
-            "<b>brush</b> on <i>matte</i>: paint the fluid · <b>stroke</b>: draw the flow "
-            "(arrows; the yellow quiver is the interpolated direction) · <b>brush</b> on "
-            "<i>speed</i>: paint px/frame (white) · Run, then move σ, λ, ρ to re-solve "
-            "live and Render the clip.</div>"
-        )
-        # The photo's inputs and N above the panel, the drawing tools under the canvas
-        # (rows that wrap, so the panel stays beside the canvas), and the results
-        # (clip | assignment map) side by side under both.
-        wrap = {"flex_flow": "row wrap", "align_items": "center"}
+        # One layout for every app (App): the canvas and its tools | the clip and the
+        # assignment map | the photo, the database and the compact panel (σ, λ, ρ, K
+        # open; the rendering folded), so the map changes beside σ as it moves.
         super().__init__(
             panel=panel,
             run=self._run_task,
             canvas=canvas,
+            player=FramePlayer(display_width=_MAP_WIDTH),
             title="Fluid animation from one image — Okabe, Anjyo & Onai (video database)",
             inputs=[
-                W.HBox([self._photo_pick, self._upload]),
-                W.HBox([self._db_pick, self._db_path], layout=W.Layout(flex_flow="row wrap")),
+                row(self._photo_pick, self._upload),
+                row(self._db_pick, self._db_path),
                 self._n_label,
             ],
             controls=[
-                W.HBox([self._render_button, self._use_speed_button]),
+                row(
+                    self._render_button,
+                    *([self._rendering] if self._rendering is not None else []),
+                    self._use_speed_button,
+                ),
                 W.HTML("<b>energy (Eq. 4) per sweep</b>", layout=W.Layout(margin="0.6em 0 0 0")),
                 self.energy,
                 self.stats,
-                hint,
-            ],
-            canvas_tools=[
-                W.HBox([self._speed, self._speed_unit], layout=W.Layout(**wrap)),
-                W.HBox(list(self._clear_buttons.values()), layout=W.Layout(**wrap)),
-                W.HBox(
-                    [self._show_quiver, self._strokes_file, self._save_button, self._load_button],
-                    layout=W.Layout(**wrap),
+                hint(
+                    "<b>brush</b> on <i>matte</i>: paint the fluid · <b>stroke</b>: draw the "
+                    "flow (arrows; the yellow quiver is the interpolated direction) · "
+                    "<b>brush</b> on <i>speed</i>: paint px/frame (white) · Run, then move "
+                    "σ, λ, ρ: the map and a preview frame follow as you drag, the clip when "
+                    "you let go.",
+                    max_width="320px",
                 ),
             ],
+            canvas_tools=[
+                row(self._speed, self._speed_unit),
+                row(*self._clear_buttons.values()),
+                row(self._show_quiver, self._strokes_file, self._save_button, self._load_button),
+            ],
         )
-        # Fixed widths: long rows and messages wrap in place instead of widening a
-        # column (the panel would drop under the canvas after a run).
-        self.controls_width = "450px"
         self.views = (
-            self.titled("clip", self.player),
-            self.titled("assignment: the source clip of each fragment (click one)", self.map),
+            self.titled("clip", self.player, margin="0 0 0.4em 0"),
+            self.titled("assignment (click a fragment)", self.map, margin="0"),
         )
+        self.views_width = f"{_MAP_WIDTH + 8}px"
         self.add_class("fluidnb-vdb-app")
 
         # ---------------------------------------------------------------- wiring
-        self._photo_pick.observe(self._photo_picked, "value")
+        self._photo_pick.on_pick(self._photo_picked)
         self._upload.observe(self._uploaded, "value")
-        self._db_pick.observe(self._db_picked, "value")
+        self._db_pick.on_pick(self._db_picked)
         self._db_path.observe(lambda _: self._show_n(), "value")
         self._speed.observe(lambda _: self._sync_brush(), "value")
         self._show_quiver.observe(lambda _: self._update_quiver(), "value")
@@ -597,8 +677,12 @@ class VideoDBApp(App):
         return canvas
 
     def _wire_canvas(self, canvas):
-        # The canvas column as wide as the canvas, with room for the tools.
-        self.drawing_width = f"{max(canvas.canvas.width, 440)}px"
+        # The canvas column as wide as the canvas (with room for the tools), narrower
+        # on a narrower page -- the canvas shrinks with it -- so the clip, the map and
+        # the panel stay beside it (at 1280 px they wrapped under it). 700 px: the
+        # clip-and-map column and the panel, with their margins.
+        widest = max(canvas.canvas.width, 440)
+        self.drawing_width = f"clamp(360px, calc(100% - 700px), {widest}px)"
         canvas.observe(self._drawing_changed, "version")
         canvas.observe(lambda _: self._sync_brush(), ["tool", "layer"])
         self._field_key = self._field = None
@@ -626,19 +710,20 @@ class VideoDBApp(App):
         self._wire_canvas(canvas)
         self._forget_result()
         self.map.set_photo(self.photo)
-        if name == "upload" and "upload" not in self._photo_pick.options:
-            self._photo_pick.options = [*PHOTOS, "upload"]
-        if self._photo_pick.value != name:
-            self._photo_pick.value = name
+        # Options and value together: a plain Dropdown given new options picks its
+        # first ("stream") on the way, which loaded the stream over the upload.
+        options = [*PHOTOS, *(["upload"] if name == "upload" else [])]
+        self._photo_pick.set_options(options, name)
         if name in PHOTOS and self._db_pick.value in STARTER_KINDS:
             self.set_database(PHOTOS[name])
         h, w = image.shape[:2]
-        self.say(f"photo {name}: {w} x {h} pixels; paint its matte")
+        shown = "your upload" if name == "upload" else f"the {name} photo"
+        self.say(f"photo: {shown}, {w} x {h} pixels; paint its matte")
         return True
 
-    def _photo_picked(self, change):
-        if change["new"] != self.photo_name and change["new"] in PHOTOS:
-            self.set_photo(change["new"])
+    def _photo_picked(self, name):
+        if name != self.photo_name and name in PHOTOS:
+            self.set_photo(name)
 
     def _uploaded(self, change):
         files = change["new"]
@@ -653,6 +738,8 @@ class VideoDBApp(App):
         self.set_photo(image)
 
     def _forget_result(self):
+        self._supersede_render()
+        self._previewing = False
         self.assignment = None
         self._base = None
         self._run_version = None
@@ -670,8 +757,8 @@ class VideoDBApp(App):
         if isinstance(db, VideoDatabase):
             self._given_db = db
             label = (f"given: {db.kind}, {db.n_fragments} fragments", "given")
-            self._db_pick.options = [label, *[o for o in self._db_pick.options if o[1] != "given"]]
-            self._db_pick.value = "given"
+            others = [o for o in self._db_pick.options if o[1] != "given"]
+            self._db_pick.set_options([label, *others], "given")
         elif isinstance(db, str) and db in STARTER_KINDS:
             self._db_pick.value = db
         else:
@@ -679,8 +766,7 @@ class VideoDBApp(App):
             self._db_pick.value = "folder"
         self._show_n()
 
-    def _db_picked(self, change):
-        choice = change["new"]
+    def _db_picked(self, choice):
         self._db_path.layout.display = "" if choice == "folder" else "none"
         kind = self._given_db.kind if choice == "given" else self._kind_of_choice(choice)
         tau = AnimateParams.for_kind(kind).tau
@@ -717,6 +803,15 @@ class VideoDBApp(App):
         self._show_n(db)
         return db
 
+    def _database_ready(self):
+        """Whether :meth:`database` opens the chosen database without building it."""
+        key = self._db_key()
+        return (
+            key[0] != "starter"
+            or key in self._databases
+            or starter_path(key[1], quick=self.quick).exists()
+        )
+
     def _show_n(self, db=None):
         key = self._db_key()
         if db is None:
@@ -725,7 +820,7 @@ class VideoDBApp(App):
         if db is not None:
             text = (
                 f"N = <b>{db.params.N}</b> frames per fragment (the database's) · "
-                f"{db.n_fragments} fragments, {len(db.clips)} clips"
+                f"{plural(db.n_fragments, 'fragment')}, {plural(len(db.clips), 'clip')}"
             )
         elif key[0] == "starter":
             built = starter_path(key[1], quick=self.quick).exists()
@@ -846,19 +941,34 @@ class VideoDBApp(App):
                 self.say("the drawing changed since the run: press Run for a new retrieval")
 
     # ------------------------------------------------------------------ strokes file
+    def _strokes_path(self, path):
+        """Where the strokes file ``path`` is: a bare name lies in the output folder."""
+        path = os.path.expanduser(
+            os.fspath(path or self._strokes_file.value.strip() or "strokes.json")
+        )
+        return path if os.path.dirname(path) else os.path.join(output_dir(), path)
+
     def save_strokes(self, path=None):
-        """Write the strokes as a ``fluidnb.strokes`` JSON file; returns the path."""
-        path = path or self._strokes_file.value.strip() or "strokes.json"
-        out = save_strokes(path, self.strokes(), self.photo.shape[:2])
-        self.say(f"saved {len(self.strokes())} strokes to {out}", "ok")
+        """Write the strokes as a ``fluidnb.strokes`` JSON file; returns the path.
+
+        ``path`` (default: the file box's, ``strokes.json``) is a bare file name in the
+        output folder (:func:`fluidnb.widgets._common.output_dir`, ``fluidnb-output/``
+        beside the notebook), or a path with its folder.
+        """
+        strokes = self.strokes()
+        out = save_strokes(self._strokes_path(path), strokes, self.photo.shape[:2])
+        self.say(f"saved {plural(len(strokes), 'stroke')} to {shown_path(out)}", "ok")
         return out
 
     def load_strokes(self, path=None):
-        """Replace the strokes by those of a JSON file (undoable); ValueError if refused."""
-        path = path or self._strokes_file.value.strip() or "strokes.json"
+        """Replace the strokes by those of a JSON file (undoable); ValueError if refused.
+
+        ``path`` as for :meth:`save_strokes`.
+        """
+        path = self._strokes_path(path)
         strokes, _ = load_strokes(path, shape=self.photo.shape[:2])
         self.set_strokes(strokes)
-        self.say(f"loaded {len(strokes)} strokes from {path}", "ok")
+        self.say(f"loaded {plural(len(strokes), 'stroke')} from {shown_path(path)}", "ok")
         return strokes
 
     def _save_clicked(self):
@@ -870,7 +980,7 @@ class VideoDBApp(App):
     def _load_clicked(self):
         try:
             self.load_strokes()
-        except ValueError as exc:
+        except (ValueError, OSError) as exc:
             self.say(str(exc), "error")
 
     # ------------------------------------------------------------------ run
@@ -918,7 +1028,11 @@ class VideoDBApp(App):
     def _run_task(self, params, progress, inputs=None, image=None, version=None):
         matte, strokes, speed = self._inputs() if inputs is None else inputs
         image = self.photo if image is None else image
-        opening, assigning, rendering = Progress(progress).split(0.15, 0.65)
+        # A starter database built on first use takes most of the run (minutes in full
+        # size): give it most of the bar, so the bar does not creep in its first 15 %.
+        building = not self._database_ready()
+        cuts = (0.8, 0.93) if building else (0.15, 0.65)
+        opening, assigning, rendering = Progress(progress).split(*cuts)
         db = self.database(progress=opening)
         a = assign(image, matte, db, params, direction=strokes, speed=speed, progress=assigning)
         self.retrievals += 1
@@ -932,15 +1046,19 @@ class VideoDBApp(App):
 
     def _ran(self, clip, seconds):
         self._show_clip(clip, seconds)
+        self._previewing = False
         self._on_main(self._show_assignment)
         self._render_button.disabled = False
         self._use_speed_button.disabled = False
         a = self.assignment
-        self.request_resolve()  # a slider moved during the run gets its re-solve
+        # A slider moved during the run gets its re-solve; otherwise the worker fills
+        # the preview's cache, so the first drag shows its preview at once.
+        self.request_resolve()
         return (
-            f"done in {seconds:.1f} s: {len(a.target)} fragments, {a.candidates.shape[1]} "
-            f"candidates each, energy {a.solution.energy:.4g} after {a.solution.sweeps} "
-            f"sweeps (ICM {a.solution.icm_energy:.4g}); {len(clip)} frames"
+            f"done in {seconds:.1f} s: {plural(len(a.target), 'fragment')}, K = "
+            f"{a.candidates.shape[1]}, E = {a.solution.energy:.4g} after "
+            f"{plural(a.solution.sweeps, 'sweep')} (ICM {a.solution.icm_energy:.4g}), "
+            f"{plural(len(clip), 'frame')}"
         )
 
     def start_render(self):
@@ -960,16 +1078,31 @@ class VideoDBApp(App):
         # The assignment's own sigma, lambda, rho (they made it); the panel's rendering
         # settings.
         params = params.replace(**{k: getattr(a.params, k) for k in _SOLVE_FIELDS})
+        if self.live_preview and self._previewed is not a and not self._clip_is_current():
+            # One frame first (a few percent of the clip's time): the new assignment is
+            # on screen at once, its clip follows. A drag has shown it already.
+            progress(0.0, "a first frame")
+            self._show_preview(a, params)
         animation = render(a, params, progress=progress)
         self.renders += 1
         self.animation = animation
         return animation.clip
 
     def _rendered(self, clip, seconds):
+        if clip is None:  # a render on release that newer values made obsolete
+            return self.status
         self._show_clip(clip, seconds)
+        self._previewing = False
+        if self._was_playing:  # the previews stopped it: play the new clip
+            self._was_playing = False
+            self.player.play(True)
         self._render_button.disabled = False
         self._use_speed_button.disabled = False
-        return f"rendered in {seconds:.1f} s: {len(clip)} frames"
+        p = clip.metadata["params"]
+        return (
+            f"rendered in {seconds:.2f} s: {plural(len(clip), 'frame')} "
+            f"(σ={p['sigma']:.3g}, λ={p['lam']:.3g}, ρ={p['rho']:.3g})"
+        )
 
     def render_clip(self, timeout=None):
         """Press Render and wait (headless); returns the clip."""
@@ -977,18 +1110,29 @@ class VideoDBApp(App):
             self.wait(timeout)
         return self.result
 
-    # ------------------------------------------------------------------ re-solve
+    # ------------------------------------------------------------------ live: σ, λ, ρ
     def _panel_changed(self, change):
-        new, base = change["new"], self._base
+        new, old, base = change["new"], change["old"], self._base
         if base is None:
             return
         if any(getattr(new, k) != getattr(base.params, k) for k in _RETRIEVAL_FIELDS):
             self.say("candidates changed: press Run for a new retrieval")
-        if any(getattr(new, k) != getattr(self.assignment.params, k) for k in _SOLVE_FIELDS):
-            self.request_resolve()
+        solve = any(getattr(new, k) != getattr(self.assignment.params, k) for k in _SOLVE_FIELDS)
+        look = any(getattr(new, k, None) != getattr(old, k, None) for k in _RENDER_FIELDS)
+        if solve or look:
+            self._supersede_render()
+        if solve:
+            self.request_resolve()  # its preview, then the clip once the slider rests
+        elif look:
+            self._schedule_render()
 
     def request_resolve(self):
-        """Re-solve for the panel's sigma, lambda, rho in the background (latest wins)."""
+        """Re-solve for the panel's sigma, lambda, rho in the background (latest wins).
+
+        Each re-solve redraws the assignment map and shows a preview frame in the
+        player (:func:`fluidnb.videodb.preview_frame`: one frame at half size); once
+        the values rest for :attr:`settle` seconds the clip is rendered.
+        """
         if not self._closed:
             self._resolves.request()
 
@@ -998,25 +1142,163 @@ class VideoDBApp(App):
             return
         wanted = {k: getattr(params, k) for k in _SOLVE_FIELDS}
         if all(getattr(current.params, k) == v for k, v in wanted.items()):
+            if self.live_preview:
+                self._preview_cache_for(current)  # after a run: ready for the first drag
             return
         started = time.perf_counter()
         new = base.resolve(**wanted)
         if self._base is not base:  # a run replaced the tables meanwhile
             return
+        solved = time.perf_counter() - started
         changed = int((new.labels != current.labels).sum())
         self.assignment = new
         self.resolves += 1
-        self._on_main(self._show_assignment)
-        if not self.running:
+        drawn = threading.Event()
+        self._on_main(lambda: (self._show_assignment(), drawn.set()))
+        # The map first; the preview when no newer value waits, or when the last one is
+        # older than preview_every (a drag faster than re-solve and preview together
+        # shows every map it can, a preview now and then, and the last one). It starts
+        # once the map is drawn: the two would slow each other down.
+        stale = time.monotonic() - self._preview_shown > self.preview_every
+        if self.live_preview and (stale or not self._values_changed()):
+            drawn.wait(1.0)
+            self._show_preview(new, params)
+        if not self.running or self._live_render:
+            # One line (a second would move the app under the mouse while it drags).
+            # (σ, λ, ρ are on their sliders and under the energy plot.)
             self.say(
-                f"re-solved from the kept tables in {time.perf_counter() - started:.2f} s "
-                f"(σ={new.params.sigma:.3g}, λ={new.params.lam:.3g}, ρ={new.params.rho:.3g}): "
-                f"{changed} of {len(new.labels)} fragments changed; press Render for the clip"
+                f"re-solved from the kept tables in {solved:.2f} s: {changed} of "
+                f"{plural(len(new.labels), 'fragment')} changed"
             )
+        self._schedule_render()
 
     def wait_resolve(self, timeout=30):
-        """Block until every re-solve asked for so far is done (for scripts and tests)."""
+        """Block until every re-solve asked for so far, and its preview, is done (tests)."""
         self._resolves.wait(timeout)
+
+    def _preview_cache_for(self, a):
+        """The difference frames kept for previews of ``a``'s database (filled for ``a``)."""
+        db, cache = self._preview_cache
+        if db is not a.db or len(cache) > _PREVIEW_CACHE:
+            cache = {}
+            self._preview_cache = (a.db, cache)
+        if not set(a.fragments.tolist()) <= cache.keys():
+            preview_frame(a, factor=_PREVIEW_FACTOR, levels=_PREVIEW_LEVELS, cache=cache)
+        return cache
+
+    def _values_changed(self):
+        """Whether the panel's σ, λ, ρ differ from the current assignment's."""
+        a, params = self.assignment, self.panel.params
+        return a is not None and any(
+            getattr(params, k) != getattr(a.params, k) for k in _SOLVE_FIELDS
+        )
+
+    def _show_preview(self, a, params):
+        """One frame of ``a`` at half size in the player, until its clip comes."""
+        cache = self._preview_cache_for(a)
+        picture = preview_frame(
+            a, params, factor=_PREVIEW_FACTOR, levels=_PREVIEW_LEVELS, cache=cache
+        )
+        png = _png(picture)
+        if self.assignment is not a:
+            return  # a newer one is on its way
+        # One line under the picture (a longer one would push the map down); the rest
+        # in its tooltip.
+        follows = "rendering the clip" if self.running else "the clip follows when the values rest"
+        note = f"preview: σ = {a.params.sigma:.3g}, λ = {a.params.lam:.3g}, ρ = {a.params.rho:.3g}"
+        title = (
+            f"one frame at half size, made in a moment (fluidnb.videodb.preview_frame); {follows}"
+        )
+
+        def show():
+            if self.assignment is not a or self._clip_is_current():
+                return
+            self._previewed = a
+            if not self._previewing:
+                self._was_playing = self.player.playing
+            self._previewing = True
+            self._preview_shown = time.monotonic()
+            with self.player.hold_sync():
+                self.player.play(False)
+                self.player.image.value = png
+                self.player.image.layout.display = None
+                self.player.info.value = (
+                    f"<span class='fluidnb-vdb-preview' title='{html.escape(title)}' "
+                    f"style='opacity:0.85;white-space:nowrap'>{html.escape(note)}</span>"
+                )
+            self.previews += 1
+
+        self._on_main(show)
+
+    def _clip_is_current(self):
+        """Whether the player's clip is the current assignment with the panel's rendering."""
+        a, animation = self.assignment, self.animation
+        if a is None or animation is None or animation.assignment is not a:
+            return False
+        made, wanted = animation.clip.metadata["params"], self.panel.params.to_dict()
+        return all(made.get(k) == wanted[k] for k in _RENDER_FIELDS if k in wanted)
+
+    def _schedule_render(self):
+        """Render the clip once the values have rested for :attr:`settle` seconds.
+
+        The kernel is told each value of a dragged slider but not that the mouse was
+        released: a pause stands for the release. Every new value restarts the wait.
+        """
+        with self._settle_lock:
+            if self._settle_timer is not None:
+                self._settle_timer.cancel()
+            if self._closed:
+                return
+            self._settle_timer = threading.Timer(self.settle, self._settled)
+            self._settle_timer.daemon = True
+            self._settle_timer.start()
+
+    def _settled(self):
+        if self._closed or self.running or self.assignment is None:
+            return
+        if self._values_changed():
+            return  # a re-solve is on its way; it schedules the render again
+        if self._clip_is_current():
+            return
+        self._live_render, self._superseded = True, False
+        if not self.start_task(
+            self._live_render_task,
+            self._rendered,
+            message="rendering the clip…",
+            busy=self._busy_widgets,
+        ):
+            self._live_render = False
+
+    def _live_render_task(self, params, progress):
+        try:
+            return self._render_task(params, progress)
+        except Cancelled:
+            if self._superseded:  # newer values: their render comes when they rest
+                return None
+            raise  # the user's Cancel
+        finally:
+            self._live_render = False
+
+    def _supersede_render(self):
+        """Stop a render on release that newer values made obsolete."""
+        token = self._token
+        if self._live_render and self.running and token is not None:
+            self._superseded = True
+            token.cancel()
+
+    def wait_live(self, timeout=60):
+        """Block until re-solves, previews and the render on release are done (tests)."""
+        deadline = time.monotonic() + timeout
+        while True:
+            self.wait_resolve(max(0.1, deadline - time.monotonic()))
+            timer = self._settle_timer
+            if timer is not None:
+                timer.join(max(0.1, deadline - time.monotonic()))
+            self.wait(max(0.1, deadline - time.monotonic()))
+            if timer is self._settle_timer and not self.running:
+                return  # no newer value came meanwhile
+            if time.monotonic() > deadline:
+                raise TimeoutError("the live re-solve and render did not finish in time")
 
     # ------------------------------------------------------------------ results
     def use_result_speed(self):
@@ -1104,7 +1386,7 @@ class VideoDBApp(App):
         s = a.solution
         self.energy.value = _energy_svg(np.asarray(s.energies, float), float(s.icm_energy)) + (
             "<div style='font-size:12px;line-height:1.4'>"
-            f"alpha-expansion: E = {s.energy:.5g} after {s.sweeps} sweeps (from the "
+            f"alpha-expansion: E = {s.energy:.5g} after {plural(s.sweeps, 'sweep')} (from the "
             f"{html.escape(s.start)} start) · ICM: {s.icm_energy:.5g}<br>"
             f"σ = {a.params.sigma:.3g}, λ = {a.params.lam:.3g}, ρ = {a.params.rho:.3g}</div>"
         )
@@ -1180,9 +1462,20 @@ class VideoDBApp(App):
         resolves = getattr(self, "_resolves", None)
         if resolves is not None:
             resolves.close()
+        with getattr(self, "_settle_lock", threading.Lock()):
+            timer = getattr(self, "_settle_timer", None)
+            if timer is not None:
+                timer.cancel()
         if hasattr(self, "map"):
             self.map.close()
         super().close()
+
+
+def _png(picture):
+    """An RGB float picture in [0, 1] as PNG bytes (fast: the player shows it at once)."""
+    buf = io.BytesIO()
+    Image.fromarray(to_uint8(picture)).save(buf, format="png", compress_level=1)
+    return buf.getvalue()
 
 
 def _strip_png(images):
@@ -1197,6 +1490,14 @@ def _strip_png(images):
     buf = io.BytesIO()
     Image.fromarray(out).save(buf, format="png")
     return buf.getvalue()
+
+
+def _tick(value):
+    """An axis label of at most 6 characters: 7738, 1.72e4, 0.0123 (the SVG's margin)."""
+    text = f"{value:.4g}"
+    if len(text) > 6:
+        text = f"{value:.2e}".replace("e+0", "e").replace("e-0", "e-").replace("e+", "e")
+    return text
 
 
 def _energy_svg(energies, icm, width=280, height=150):
@@ -1231,9 +1532,9 @@ def _energy_svg(energies, icm, width=280, height=150):
         f"<line x1='{left}' y1='{height - bottom}' x2='{width - right}' y2='{height - bottom}' "
         f"{axis}/>"
         f"<text x='{left - 4}' y='{y(hi - pad) + 3:.1f}' text-anchor='end' "
-        f"fill='currentColor'>{hi - pad:.4g}</text>"
+        f"fill='currentColor'>{_tick(hi - pad)}</text>"
         f"<text x='{left - 4}' y='{y(lo + pad) + 3:.1f}' text-anchor='end' "
-        f"fill='currentColor'>{lo + pad:.4g}</text>"
+        f"fill='currentColor'>{_tick(lo + pad)}</text>"
         f"<g fill='currentColor' fill-opacity='0.8'>{ticks}</g>"
         f"<text x='{width - right}' y='{height - 1}' text-anchor='end' fill='currentColor' "
         "fill-opacity='0.8'>sweep</text>"

@@ -35,7 +35,8 @@ One idea per module, in the order of the method:
   beyond the paper), ``_desync`` (neighbours sharing a fragment play it at
   different times, beyond the paper), ``_flow_render`` (the flow rendering's motion
   field and Eulerian loop, beyond the paper), ``_render`` (the pipeline: the paper's
-  rendering or the flow rendering), ``_animate`` (the entry point);
+  rendering or the flow rendering), ``_animate`` (the entry point), ``_preview``
+  (one quick low-resolution frame, for live previews);
 - ``_reference`` (the plain versions) and ``_figures`` (the lesson's pictures).
 """
 
@@ -85,6 +86,7 @@ from ._geometry import ANGLES, FRAGMENT, SCALES, STRIDE, VERSIONS
 from ._lock import DatabaseBusy
 from ._mrf import MRFSolution, alpha_expansion, brute_force, energy, grid_edges, icm, solve
 from ._params import AUGMENTATIONS, FLOW_BACKENDS, RENDERINGS, AnimateParams, DatabaseParams
+from ._preview import preview_frame
 from ._reference import (
     reference_blend_differences,
     reference_dense_sift,
@@ -176,6 +178,7 @@ __all__ = [
     "optical_flow",
     "pair_tables",
     "prebuild_starters",
+    "preview_frame",
     "pyramid_histograms",
     "quantise",
     "read_video",

@@ -220,7 +220,9 @@ class AnimateParams(Params):
         eq="Eq. (2)",
         doc="weight of the non-DC motion frequencies against the mean motion",
         log=True,
-        ui_range=(1.0, 1e4),
+        # The lessons' sweeps: 0.01-100 x the paper's (07b sec. 7), up to 1e6 (its
+        # exercise 3).
+        ui_range=(1.0, 1e6),
         step=0.1,
     )
     lam: float = param(
@@ -231,7 +233,9 @@ class AnimateParams(Params):
         eq="Eq. (4)",
         doc="weight of the smoothness term against the data term",
         log=True,
-        ui_range=(1e-4, 1.0),
+        # 0.01-100 x the paper's 0.01 (07b sec. 7) and up to 10, where the smoothness
+        # term alone decides.
+        ui_range=(1e-4, 10.0),
         step=0.1,
     )
     rho: float = param(
@@ -242,7 +246,8 @@ class AnimateParams(Params):
         eq="Eq. (6)",
         doc="weight of textureness against motion in the smoothness term",
         log=True,
-        ui_range=(1e2, 1e6),
+        # 0.01-100 x the paper's 1e4 (07b sec. 7), and its 100 sigma over sigma's range.
+        ui_range=(10.0, 1e8),
         step=0.1,
     )
     candidates: int = param(

@@ -207,6 +207,29 @@ def contrast(locator):
     )
 
 
+def notebook_view(page):
+    """The part of the page that shows the notebook (the page minus JupyterLab's bars)."""
+    return page.evaluate(
+        """() => {
+          const o = window.jupyterapp.shell.currentWidget.node
+            .querySelector('.jp-WindowedPanel-outer').getBoundingClientRect();
+          return {x: Math.max(o.left, 0), y: Math.max(o.top, 0),
+                  width: Math.min(o.right, innerWidth) - Math.max(o.left, 0),
+                  height: Math.min(o.bottom, innerHeight) - Math.max(o.top, 0)};
+        }"""
+    )
+
+
+def inside(box, view, what):
+    """Fail unless the bounding ``box`` of ``what`` lies wholly inside ``view``."""
+    assert box is not None, f"{what} is not displayed"
+    right, bottom = box["x"] + box["width"], box["y"] + box["height"]
+    assert box["x"] >= view["x"] - 1, (what, box, view)
+    assert box["y"] >= view["y"] - 1, (what, box, view)
+    assert right <= view["x"] + view["width"] + 1, (what, box, view)
+    assert bottom <= view["y"] + view["height"] + 1, (what, box, view)
+
+
 def open_app(notebook, page, cells):
     """Run ``cells`` (ending with an App) and return (nb, app, canvas locator, canvas box)."""
     nb = notebook(cells)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.browser.helpers import img_rgba, poll
+from tests.browser.helpers import img_rgba, inside, notebook_view, poll
 
 pytestmark = pytest.mark.browser
 
@@ -66,15 +66,6 @@ app
 }
 
 
-def inside(box, view, what):
-    assert box is not None, f"{what} is not displayed"
-    right, bottom = box["x"] + box["width"], box["y"] + box["height"]
-    assert box["x"] >= view["x"] - 1, (what, box, view)
-    assert box["y"] >= view["y"] - 1, (what, box, view)
-    assert right <= view["x"] + view["width"] + 1, (what, box, view)
-    assert bottom <= view["y"] + view["height"] + 1, (what, box, view)
-
-
 @pytest.mark.parametrize("name", APPS)
 def test_the_canvas_and_the_result_are_in_view_together(name, notebook, page, shot):
     page.set_viewport_size(VIEWPORT)
@@ -93,16 +84,7 @@ def test_the_canvas_and_the_result_are_in_view_together(name, notebook, page, sh
     # The app's top at the top of the notebook's view: one position, no scrolling after.
     app.evaluate("el => el.scrollIntoView({block: 'start'})")
     page.wait_for_timeout(300)
-    # What is visible of the notebook: the page minus JupyterLab's bars.
-    view = page.evaluate(
-        """() => {
-          const o = window.jupyterapp.shell.currentWidget.node
-            .querySelector('.jp-WindowedPanel-outer').getBoundingClientRect();
-          return {x: Math.max(o.left, 0), y: Math.max(o.top, 0),
-                  width: Math.min(o.right, innerWidth) - Math.max(o.left, 0),
-                  height: Math.min(o.bottom, innerHeight) - Math.max(o.top, 0)};
-        }"""
-    )
+    view = notebook_view(page)  # what is visible of the notebook
     assert view["width"] > 1200, view  # the page really is 1400 wide
     shot(page, f"{name}-viewport")
     inside(frame.bounding_box(), view, "the player's picture")

@@ -1,0 +1,111 @@
+"""A live preview frame of an assignment: one frame of what render makes, at low resolution."""
+
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from fluidnb import data, param
+from fluidnb.fields import downsample
+from fluidnb.videodb import AnimateParams, assign, preview_frame, render, starter_database
+
+SIZE = 160  # the stream photo at 160 px: 125 x 160
+# The paper's rendering (where the library also offers the flow rendering).
+PAPER = {"rendering": "paper"} if "rendering" in AnimateParams.specs() else {}
+
+
+@dataclass(frozen=True)
+class FlowParams(AnimateParams):
+    """The flow rendering's two fields, for a library that does not have them yet."""
+
+    rendering: str = param("flow", choices=("flow", "paper"), doc="the rendering")
+    detail: float = param(0.5, lo=0, hi=4, doc="weight of the differences")
+
+
+@pytest.fixture(scope="module")
+def scene():
+    db = starter_database("water", quick=True)
+    photo = data.sample("stream", size=SIZE)
+    matte = data.region("stream", size=SIZE)
+    a = assign(photo, matte, db, AnimateParams(candidates=20, loop=0, **PAPER))
+    return a, render(a).clip.frames
+
+
+def test_at_full_size_it_is_the_renders_frame(scene):
+    a, frames = scene
+    n = a.db.params.N
+    moved = np.abs(frames - a.target.image).mean(axis=(1, 2, 3))  # how much each frame moves
+    for t in (0, n // 2, n - 1):
+        out = preview_frame(a, frame=t, factor=1)
+        assert out.shape == frames[t].shape
+        assert out.dtype == np.float32
+        error = np.abs(out - frames[t]).mean()
+        # Close to its own frame (no context, 8-bit mean images), far from the others.
+        assert error < 0.05 * moved[t], (t, error, moved[t])
+        other = frames[(t + n // 2) % n]
+        assert np.abs(out - other).mean() > 10 * error
+
+
+def test_outside_the_matte_it_is_the_photo_exactly(scene):
+    a, _ = scene
+    # Shrunk by block means of the padded target (the canvas), then cut to size.
+    inside = downsample(a.target.canvas_matte, 2)[:63, :80] > 0
+    out = preview_frame(a, factor=2)
+    assert out.shape == (63, 80, 3)
+    photo = np.clip(downsample(a.target.canvas, 2)[:63, :80], 0, 1)
+    np.testing.assert_array_equal(out[~inside], photo[~inside])
+    assert np.abs(out[inside] - photo[inside]).mean() > 1e-3  # the fluid is animated
+
+
+def test_its_half_size_is_the_full_size_frame_shrunk(scene):
+    a, frames = scene
+    half = downsample(frames[a.db.params.N // 2][:124], 2)
+    out = preview_frame(a, factor=2)[:62]
+    photo = downsample(a.target.image[:124], 2)
+    assert np.abs(out - half).mean() < 0.25 * np.abs(half - photo).mean()
+
+
+def test_the_flow_rendering_keeps_the_photo_sharp_under_the_differences(scene):
+    a, _ = scene
+    params = FlowParams(**{**a.params.to_dict(), "rendering": "flow", "detail": 0.0})
+    photo = np.clip(downsample(a.target.canvas, 2)[:63, :80], 0, 1)
+    # No differences: the photo itself (histograms matched to themselves).
+    np.testing.assert_allclose(preview_frame(a, params), photo, atol=2e-3)
+    flow = preview_frame(a, params.replace(detail=1.0))
+    inside = downsample(a.target.canvas_matte, 2)[:63, :80] > 0.5
+    assert np.abs(flow[inside] - photo[inside]).mean() > 5e-3  # the differences show
+    # The paper's blurs the photo along the motion: farther from it than the flow's.
+    paper = preview_frame(a)
+    assert (
+        np.abs(paper[inside] - photo[inside]).mean() > np.abs(flow[inside] - photo[inside]).mean()
+    )
+
+
+def test_a_cache_rebuilds_only_new_fragments(scene, monkeypatch):
+    a, _ = scene
+    cache = {}
+    first = preview_frame(a, cache=cache)
+    assert set(cache) == set(a.fragments.tolist())
+    reads = []
+    real = type(a.db).clip_frames
+    monkeypatch.setattr(
+        type(a.db), "clip_frames", lambda *args, **kw: reads.append(1) or real(*args, **kw)
+    )
+    np.testing.assert_array_equal(preview_frame(a, cache=cache), first)
+    assert reads == []
+    other = a.resolve(lam=1e-4)  # looks alone: other fragments
+    new = set(other.fragments.tolist()) - set(cache)
+    assert new
+    preview_frame(other, cache=cache)
+    assert 0 < len(reads) <= len(new)
+    assert set(other.fragments.tolist()) <= set(cache)
+
+
+def test_bad_arguments_are_named(scene):
+    a, _ = scene
+    with pytest.raises(ValueError, match="assignment must be an Assignment"):
+        preview_frame("a")
+    with pytest.raises(ValueError, match="frame"):
+        preview_frame(a, frame=a.db.params.N)
+    with pytest.raises(ValueError, match="factor"):
+        preview_frame(a, factor=0)
