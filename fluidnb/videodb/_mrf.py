@@ -53,6 +53,7 @@ from dataclasses import dataclass, field
 
 import maxflow
 import numpy as np
+from numba import njit
 
 from .._progress import Progress
 from .._validation import check_array, check_int, check_range
@@ -270,14 +271,62 @@ class SolverRun:
         return float(self.energies[-1])
 
 
+@njit(cache=True, nogil=True)
+def _move_terms(flat, base, k, unary, labels, p, q, lam, alpha, cap, cost1, sp, sq):
+    """One expansion move's graph terms in one pass over the edges.
+
+    As :func:`~fluidnb.videodb.reference_alpha_expansion` builds them with numpy.
+
+    Writes the (truncated) pairwise capacities ``cap`` and the nodes' cost of taking
+    alpha ``cost1``, with the same operations in the same order as the plain version
+    (so the same bits); returns (truncated terms, free terms).
+    """
+    n_nodes = unary.shape[0]
+    truncated = 0
+    free_terms = 0
+    for n in range(n_nodes):
+        sp[n] = 0.0
+        sq[n] = 0.0
+    for e in range(p.shape[0]):
+        lp = labels[p[e]]
+        lq = labels[q[e]]
+        b = base[e]
+        e00 = lam * flat[b + lp * k + lq]
+        e01 = lam * flat[b + lp * k + alpha]
+        e10 = lam * flat[b + alpha * k + lq]
+        e11 = lam * flat[b + alpha * k + alpha]
+        c = e01 + e10 - e00 - e11
+        free = lp != alpha and lq != alpha
+        if free:
+            free_terms += 1
+        if c < 0:
+            if free:
+                truncated += 1
+            e11 = e01 + e10 - e00  # Rother et al.'s truncation
+            c = 0.0
+        cap[e] = c
+        sp[p[e]] += e10 - e00
+        sq[q[e]] += e11 - e10
+    for n in range(n_nodes):
+        cost1[n] = (unary[n, alpha] - unary[n, labels[n]]) + sp[n] + sq[n]
+    return truncated, free_terms
+
+
 def _expand(prob, labels, max_sweeps, report):
-    """Alpha-expansion over label indices with Rother-style truncation."""
+    """Alpha-expansion over label indices with Rother-style truncation.
+
+    :func:`~fluidnb.videodb.reference_alpha_expansion` with each move's terms compiled
+    (:func:`_move_terms`); the minimum cut is PyMaxflow's in both.
+    """
     t0 = time.perf_counter()
     n_nodes, k = prob.n_nodes, prob.n_labels
     p, q, lam = prob.p, prob.q, prob.lam
     n_edges = len(p)
-    rows = np.arange(n_nodes)
     zeros = np.zeros(n_edges)
+    cap, cost1 = np.empty(n_edges), np.empty(n_nodes)
+    sp, sq = np.empty(n_nodes), np.empty(n_nodes)
+    flat, base = prob.flat, np.ascontiguousarray(prob.base, np.int64)
+    unary = np.ascontiguousarray(prob.unary)
     labels = labels.copy()
     current = prob.energy(labels)
     energies = [current]
@@ -286,26 +335,11 @@ def _expand(prob, labels, max_sweeps, report):
     for sweep in range(max_sweeps):
         improved = False
         for alpha in range(k):
-            lp, lq = labels[p], labels[q]
-            # The move's binary energy per edge: x = 0 keeps the label, x = 1 takes alpha.
-            e00 = lam * prob.pair(lp, lq)
-            e01 = lam * prob.pair(lp, alpha)
-            e10 = lam * prob.pair(alpha, lq)
-            e11 = lam * prob.pair(alpha, alpha)
-            cap = e01 + e10 - e00 - e11
-            bad = cap < 0
-            free = (lp != alpha) & (lq != alpha)
-            truncated += np.count_nonzero(bad & free)
-            free_terms += np.count_nonzero(free)
-            # Rother et al. 2005: lower E11 to E01 + E10 - E00 (a lower bound of the
-            # true move energy, exact at x = 0), then check the true energy below.
-            e11 = np.where(bad, e01 + e10 - e00, e11)
-            cap = np.where(bad, 0.0, cap)
-            # Kolmogorov & Zabih 2004: E = E00 + (E10 - E00) x_p + (E11 - E10) x_q
-            #                              + cap (1 - x_p) x_q.
-            cost1 = prob.unary[:, alpha] - prob.unary[rows, labels]
-            cost1 = cost1 + np.bincount(p, e10 - e00, minlength=n_nodes)
-            cost1 += np.bincount(q, e11 - e10, minlength=n_nodes)
+            n_trunc, n_free = _move_terms(
+                flat, base, k, unary, labels, p, q, lam, alpha, cap, cost1, sp, sq
+            )
+            truncated += n_trunc
+            free_terms += n_free
             g = maxflow.Graph[float](n_nodes, n_edges)
             nodes = g.add_nodes(n_nodes)
             g.add_edges(nodes[p], nodes[q], cap, zeros)
@@ -332,31 +366,52 @@ def _expand(prob, labels, max_sweeps, report):
     )
 
 
+@njit(cache=True, nogil=True)
+def _icm_sweep(unary, w, lam, labels, ptr_p, edge_p, other_p, ptr_q, edge_q, other_q, cost):
+    """One ICM sweep in node order: the sums of ``reference_icm`` in the same order."""
+    n_nodes, k = unary.shape
+    changed = False
+    for n in range(n_nodes):
+        for lab in range(k):
+            cost[lab] = unary[n, lab]
+        for i in range(ptr_p[n], ptr_p[n + 1]):
+            e, lm = edge_p[i], labels[other_p[i]]
+            for lab in range(k):
+                cost[lab] += lam * w[e, lab, lm]
+        for i in range(ptr_q[n], ptr_q[n + 1]):
+            e, lm = edge_q[i], labels[other_q[i]]
+            for lab in range(k):
+                cost[lab] += lam * w[e, lm, lab]
+        best = 0
+        for lab in range(1, k):
+            if cost[lab] < cost[best]:  # the first minimum, as np.argmin
+                best = lab
+        if cost[best] < cost[labels[n]]:
+            labels[n] = best
+            changed = True
+    return changed
+
+
 def _icm(prob, labels, max_sweeps, report):
-    """Iterated conditional modes in raster (node index) order."""
+    """Iterated conditional modes in raster order, each sweep compiled (``reference_icm``)."""
     t0 = time.perf_counter()
-    n_nodes, lam, w = prob.n_nodes, prob.lam, prob.pairwise
+    n_nodes = prob.n_nodes
     labels = labels.copy()
-    # For node n: (edge, other node) pairs where n is p (a column of W[e]) or q (a row).
-    as_p = [[] for _ in range(n_nodes)]
-    as_q = [[] for _ in range(n_nodes)]
-    for e, (a, b) in enumerate(zip(prob.p.tolist(), prob.q.tolist())):
-        as_p[a].append((e, b))
-        as_q[b].append((e, a))
+    # For node n, its edges where it is p (then W[e, :, l_q]) and where it is q, each in
+    # edge order (a stable sort), as compressed rows.
+    tables = []
+    for me, other in ((prob.p, prob.q), (prob.q, prob.p)):
+        order = np.argsort(me, kind="stable")
+        ptr = np.zeros(n_nodes + 1, np.int64)
+        np.cumsum(np.bincount(me, minlength=n_nodes), out=ptr[1:])
+        tables += [ptr, order.astype(np.int64), other[order].astype(np.int64)]
+    w = np.ascontiguousarray(prob.pairwise)
+    unary = np.ascontiguousarray(prob.unary)
+    cost = np.empty(prob.n_labels)
     energies = [prob.energy(labels)]
     sweeps = 0
     for sweep in range(max_sweeps):
-        changed = False
-        for n in range(n_nodes):
-            cost = prob.unary[n].copy()
-            for e, m in as_p[n]:
-                cost += lam * w[e, :, labels[m]]
-            for e, m in as_q[n]:
-                cost += lam * w[e, labels[m], :]
-            best = int(np.argmin(cost))
-            if cost[best] < cost[labels[n]]:
-                labels[n] = best
-                changed = True
+        changed = _icm_sweep(unary, w, prob.lam, labels, *tables, cost)
         sweeps += 1
         energies.append(prob.energy(labels))
         report((sweep + 1) / max_sweeps, f"ICM sweep {sweep + 1}")
