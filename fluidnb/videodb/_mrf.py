@@ -271,6 +271,29 @@ class SolverRun:
         return float(self.energies[-1])
 
 
+def _cut_and_move(prob, labels, current, alpha, cap, cost1):
+    """The minimum cut of one expansion move's graph, and the move if it lowers Eq. (4).
+
+    ``cap`` holds the (truncated) pairwise capacities of the edges ``(p, q)`` and
+    ``cost1`` each node's cost of taking ``alpha`` (Kolmogorov & Zabih's construction on
+    PyMaxflow's ``Graph[float]``). Returns (labels, energy, whether it moved).
+    """
+    n_nodes, p, q = prob.n_nodes, prob.p, prob.q
+    g = maxflow.Graph[float](n_nodes, len(p))
+    nodes = g.add_nodes(n_nodes)
+    g.add_edges(nodes[p], nodes[q], cap, np.zeros(len(p)))
+    # A node in the sink segment (x = 1) pays its source capacity.
+    g.add_grid_tedges(nodes, np.maximum(cost1, 0.0), np.maximum(-cost1, 0.0))
+    g.maxflow()
+    take = g.get_grid_segments(nodes) & (labels != alpha)
+    if take.any():
+        proposal = np.where(take, alpha, labels)
+        new = prob.energy(proposal)
+        if new < current:
+            return proposal, new, True
+    return labels, current, False
+
+
 @njit(cache=True, nogil=True)
 def _move_terms(flat, base, k, unary, labels, p, q, lam, alpha, cap, cost1, sp, sq):
     """One expansion move's graph terms in one pass over the edges.
@@ -322,7 +345,6 @@ def _expand(prob, labels, max_sweeps, report):
     n_nodes, k = prob.n_nodes, prob.n_labels
     p, q, lam = prob.p, prob.q, prob.lam
     n_edges = len(p)
-    zeros = np.zeros(n_edges)
     cap, cost1 = np.empty(n_edges), np.empty(n_nodes)
     sp, sq = np.empty(n_nodes), np.empty(n_nodes)
     flat, base = prob.flat, np.ascontiguousarray(prob.base, np.int64)
@@ -340,18 +362,8 @@ def _expand(prob, labels, max_sweeps, report):
             )
             truncated += n_trunc
             free_terms += n_free
-            g = maxflow.Graph[float](n_nodes, n_edges)
-            nodes = g.add_nodes(n_nodes)
-            g.add_edges(nodes[p], nodes[q], cap, zeros)
-            # A node in the sink segment (x = 1) pays its source capacity.
-            g.add_grid_tedges(nodes, np.maximum(cost1, 0.0), np.maximum(-cost1, 0.0))
-            g.maxflow()
-            take = g.get_grid_segments(nodes) & (labels != alpha)
-            if take.any():
-                proposal = np.where(take, alpha, labels)
-                new = prob.energy(proposal)
-                if new < current:
-                    labels, current, improved = proposal, new, True
+            labels, current, moved = _cut_and_move(prob, labels, current, alpha, cap, cost1)
+            improved |= moved
             report((sweep + (alpha + 1) / k) / max_sweeps, f"alpha-expansion sweep {sweep + 1}")
         sweeps += 1
         energies.append(current)

@@ -35,7 +35,6 @@ from __future__ import annotations
 import math
 import time
 
-import maxflow
 import numpy as np
 from scipy import ndimage as ndi
 
@@ -70,7 +69,7 @@ from ._geometry import (
     TEXTURE_SIDE,
     VERSIONS,
 )
-from ._mrf import SolverRun, _problem, _start
+from ._mrf import SolverRun, _cut_and_move, _problem, _start
 from ._retrieval import _SLACK, MIN_MOTION, TopK, _check_filter
 from ._sift import _EPS, BINS, ORIENTATIONS, _check_images
 from ._smoothness import PairTables, _check_tables_input
@@ -724,9 +723,7 @@ def reference_alpha_expansion(unary, pairwise, edges, lam, *, init=None, max_swe
     labels = _start(prob, init)
     n_nodes, k = prob.n_nodes, prob.n_labels
     p, q, lam = prob.p, prob.q, prob.lam
-    n_edges = len(p)
     rows = np.arange(n_nodes)
-    zeros = np.zeros(n_edges)
     labels = labels.copy()
     current = prob.energy(labels)
     energies = [current]
@@ -755,18 +752,10 @@ def reference_alpha_expansion(unary, pairwise, edges, lam, *, init=None, max_swe
             cost1 = prob.unary[:, alpha] - prob.unary[rows, labels]
             cost1 = cost1 + np.bincount(p, e10 - e00, minlength=n_nodes)
             cost1 += np.bincount(q, e11 - e10, minlength=n_nodes)
-            g = maxflow.Graph[float](n_nodes, n_edges)
-            nodes = g.add_nodes(n_nodes)
-            g.add_edges(nodes[p], nodes[q], cap, zeros)
-            # A node in the sink segment (x = 1) pays its source capacity.
-            g.add_grid_tedges(nodes, np.maximum(cost1, 0.0), np.maximum(-cost1, 0.0))
-            g.maxflow()
-            take = g.get_grid_segments(nodes) & (labels != alpha)
-            if take.any():
-                proposal = np.where(take, alpha, labels)
-                new = prob.energy(proposal)
-                if new < current:
-                    labels, current, improved = proposal, new, True
+            # The minimum cut, and the move if the true energy falls (shared with the
+            # fast path).
+            labels, current, moved = _cut_and_move(prob, labels, current, alpha, cap, cost1)
+            improved |= moved
         sweeps += 1
         energies.append(current)
         if not improved:
