@@ -335,20 +335,37 @@ def _move_terms(flat, base, k, unary, labels, p, q, lam, alpha, cap, cost1, sp, 
     return truncated, free_terms
 
 
-def _expand(prob, labels, max_sweeps, report):
-    """Alpha-expansion over label indices with Rother-style truncation.
+def _compiled_move_terms(prob):
+    """``terms(labels, alpha) -> (cap, cost1, truncated, free)`` by :func:`_move_terms`.
 
-    :func:`~fluidnb.videodb.reference_alpha_expansion` with each move's terms compiled
-    (:func:`_move_terms`); the minimum cut is PyMaxflow's in both.
+    The buffers are reused from move to move (each move's cut reads them at once).
     """
-    t0 = time.perf_counter()
     n_nodes, k = prob.n_nodes, prob.n_labels
-    p, q, lam = prob.p, prob.q, prob.lam
-    n_edges = len(p)
-    cap, cost1 = np.empty(n_edges), np.empty(n_nodes)
+    cap, cost1 = np.empty(len(prob.p)), np.empty(n_nodes)
     sp, sq = np.empty(n_nodes), np.empty(n_nodes)
     flat, base = prob.flat, np.ascontiguousarray(prob.base, np.int64)
     unary = np.ascontiguousarray(prob.unary)
+
+    def terms(labels, alpha):
+        n_trunc, n_free = _move_terms(
+            flat, base, k, unary, labels, prob.p, prob.q, prob.lam, alpha, cap, cost1, sp, sq
+        )
+        return cap, cost1, n_trunc, n_free
+
+    return terms
+
+
+def _expand(prob, labels, max_sweeps, report, terms=None):
+    """Alpha-expansion over label indices with Rother-style truncation.
+
+    Sweeps over every alpha until one brings no improvement: each move's graph terms
+    from ``terms(labels, alpha)`` (default :func:`_move_terms`, compiled;
+    :func:`~fluidnb.videodb.reference_alpha_expansion` passes the same terms built with
+    numpy), then its minimum cut (:func:`_cut_and_move`).
+    """
+    t0 = time.perf_counter()
+    k = prob.n_labels
+    terms = _compiled_move_terms(prob) if terms is None else terms
     labels = labels.copy()
     current = prob.energy(labels)
     energies = [current]
@@ -357,9 +374,7 @@ def _expand(prob, labels, max_sweeps, report):
     for sweep in range(max_sweeps):
         improved = False
         for alpha in range(k):
-            n_trunc, n_free = _move_terms(
-                flat, base, k, unary, labels, p, q, lam, alpha, cap, cost1, sp, sq
-            )
+            cap, cost1, n_trunc, n_free = terms(labels, alpha)
             truncated += n_trunc
             free_terms += n_free
             labels, current, moved = _cut_and_move(prob, labels, current, alpha, cap, cost1)
@@ -404,11 +419,9 @@ def _icm_sweep(unary, w, lam, labels, ptr_p, edge_p, other_p, ptr_q, edge_q, oth
     return changed
 
 
-def _icm(prob, labels, max_sweeps, report):
-    """Iterated conditional modes in raster order, each sweep compiled (``reference_icm``)."""
-    t0 = time.perf_counter()
+def _compiled_icm_sweep(prob):
+    """``sweep(labels) -> changed``: one ICM sweep by :func:`_icm_sweep` (in place)."""
     n_nodes = prob.n_nodes
-    labels = labels.copy()
     # For node n, its edges where it is p (then W[e, :, l_q]) and where it is q, each in
     # edge order (a stable sort), as compressed rows.
     tables = []
@@ -420,13 +433,26 @@ def _icm(prob, labels, max_sweeps, report):
     w = np.ascontiguousarray(prob.pairwise)
     unary = np.ascontiguousarray(prob.unary)
     cost = np.empty(prob.n_labels)
+    return lambda labels: _icm_sweep(unary, w, prob.lam, labels, *tables, cost)
+
+
+def _icm(prob, labels, max_sweeps, report, sweep=None):
+    """Iterated conditional modes in raster order, sweep after sweep until none changes.
+
+    ``sweep(labels) -> changed`` visits every node once, in place (default
+    :func:`_icm_sweep`, compiled; :func:`~fluidnb.videodb.reference_icm` passes it
+    written with numpy).
+    """
+    t0 = time.perf_counter()
+    sweep = _compiled_icm_sweep(prob) if sweep is None else sweep
+    labels = labels.copy()
     energies = [prob.energy(labels)]
     sweeps = 0
-    for sweep in range(max_sweeps):
-        changed = _icm_sweep(unary, w, prob.lam, labels, *tables, cost)
+    for i in range(max_sweeps):
+        changed = sweep(labels)
         sweeps += 1
         energies.append(prob.energy(labels))
-        report((sweep + 1) / max_sweeps, f"ICM sweep {sweep + 1}")
+        report((i + 1) / max_sweeps, f"ICM sweep {i + 1}")
         if not changed:
             break
     return SolverRun(

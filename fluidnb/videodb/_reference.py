@@ -33,11 +33,11 @@ each function's docstring.
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 from scipy import ndimage as ndi
 
+from .._progress import Progress
 from .._validation import check_int, check_vector_field
 from ..fields import backward_warp, collapse, gaussian_pyramid, laplacian_pyramid
 from ._appearance import (
@@ -69,7 +69,7 @@ from ._geometry import (
     TEXTURE_SIDE,
     VERSIONS,
 )
-from ._mrf import SolverRun, _cut_and_move, _problem, _start
+from ._mrf import _expand, _icm, _problem, _start
 from ._retrieval import _SLACK, MIN_MOTION, TopK, _check_filter
 from ._sift import _EPS, BINS, ORIENTATIONS, _check_images
 from ._smoothness import PairTables, _check_tables_input
@@ -707,66 +707,46 @@ def reference_fill(image, hole, *, seed=0):
 
 
 def reference_alpha_expansion(unary, pairwise, edges, lam, *, init=None, max_sweeps=20):
-    r"""Alpha-expansion (Eq. 4) with each move's graph built in plain numpy.
+    r"""Alpha-expansion (Eq. 4) with each move's graph terms built in plain numpy.
 
     What :func:`~fluidnb.videodb.alpha_expansion` computes, bit for bit (the tests
-    check labels and energies): for each :math:`\alpha`, the move's binary energy per
-    edge :math:`(E_{00}, E_{01}, E_{10}, E_{11})`, Rother et al.'s truncation where it
-    is non-submodular, Kolmogorov & Zabih's graph, PyMaxflow's minimum cut, and the
-    move kept only if the true energy falls. The fast path computes the move's terms
-    in one compiled pass over the edges. Arguments and result as
+    check labels and energies). For each :math:`\alpha` in turn, every node either
+    keeps its label (:math:`x = 0`) or takes its :math:`\alpha`-th candidate
+    (:math:`x = 1`); the move's binary energy per edge is
+    :math:`(E_{00}, E_{01}, E_{10}, E_{11})`, truncated where it is non-submodular
+    (Rother et al. 2005), and written as a graph (Kolmogorov & Zabih 2004) whose
+    minimum cut (PyMaxflow) is the move, kept only if the true energy falls. The sweeps
+    and the cut are shared with the fast path, which builds the same terms in one
+    compiled pass over the edges. Arguments and result as
     :func:`~fluidnb.videodb.alpha_expansion` (without ``progress``).
     """
     max_sweeps = check_int("max_sweeps", max_sweeps, 1)
-    t0 = time.perf_counter()
     prob = _problem(unary, pairwise, edges, lam)
-    labels = _start(prob, init)
-    n_nodes, k = prob.n_nodes, prob.n_labels
-    p, q, lam = prob.p, prob.q, prob.lam
+    p, q, lam, n_nodes = prob.p, prob.q, prob.lam, prob.n_nodes
     rows = np.arange(n_nodes)
-    labels = labels.copy()
-    current = prob.energy(labels)
-    energies = [current]
-    truncated = free_terms = 0
-    sweeps = 0
-    for _ in range(max_sweeps):
-        improved = False
-        for alpha in range(k):
-            lp, lq = labels[p], labels[q]
-            # The move's binary energy per edge: x = 0 keeps the label, x = 1 takes alpha.
-            e00 = lam * prob.pair(lp, lq)
-            e01 = lam * prob.pair(lp, alpha)
-            e10 = lam * prob.pair(alpha, lq)
-            e11 = lam * prob.pair(alpha, alpha)
-            cap = e01 + e10 - e00 - e11
-            bad = cap < 0
-            free = (lp != alpha) & (lq != alpha)
-            truncated += np.count_nonzero(bad & free)
-            free_terms += np.count_nonzero(free)
-            # Rother et al. 2005: lower E11 to E01 + E10 - E00 (a lower bound of the
-            # true move energy, exact at x = 0), then check the true energy below.
-            e11 = np.where(bad, e01 + e10 - e00, e11)
-            cap = np.where(bad, 0.0, cap)
-            # Kolmogorov & Zabih 2004: E = E00 + (E10 - E00) x_p + (E11 - E10) x_q
-            #                              + cap (1 - x_p) x_q.
-            cost1 = prob.unary[:, alpha] - prob.unary[rows, labels]
-            cost1 = cost1 + np.bincount(p, e10 - e00, minlength=n_nodes)
-            cost1 += np.bincount(q, e11 - e10, minlength=n_nodes)
-            # The minimum cut, and the move if the true energy falls (shared with the
-            # fast path).
-            labels, current, moved = _cut_and_move(prob, labels, current, alpha, cap, cost1)
-            improved |= moved
-        sweeps += 1
-        energies.append(current)
-        if not improved:
-            break
-    return SolverRun(
-        labels=labels,
-        energies=np.array(energies),
-        sweeps=sweeps,
-        nonsubmodular=truncated / free_terms if free_terms else 0.0,
-        seconds=time.perf_counter() - t0,
-    )
+
+    def move_terms(labels, alpha):
+        lp, lq = labels[p], labels[q]
+        # The move's binary energy per edge: x = 0 keeps the label, x = 1 takes alpha.
+        e00 = lam * prob.pair(lp, lq)
+        e01 = lam * prob.pair(lp, alpha)
+        e10 = lam * prob.pair(alpha, lq)
+        e11 = lam * prob.pair(alpha, alpha)
+        cap = e01 + e10 - e00 - e11
+        bad = cap < 0
+        free = (lp != alpha) & (lq != alpha)
+        # Rother et al. 2005: lower E11 to E01 + E10 - E00 (a lower bound of the true
+        # move energy, exact at x = 0); the true energy is checked after the cut.
+        e11 = np.where(bad, e01 + e10 - e00, e11)
+        cap = np.where(bad, 0.0, cap)
+        # Kolmogorov & Zabih 2004: E = E00 + (E10 - E00) x_p + (E11 - E10) x_q
+        #                              + cap (1 - x_p) x_q.
+        cost1 = prob.unary[:, alpha] - prob.unary[rows, labels]
+        cost1 = cost1 + np.bincount(p, e10 - e00, minlength=n_nodes)
+        cost1 += np.bincount(q, e11 - e10, minlength=n_nodes)
+        return cap, cost1, np.count_nonzero(bad & free), np.count_nonzero(free)
+
+    return _expand(prob, _start(prob, init), max_sweeps, Progress(None), terms=move_terms)
 
 
 def reference_icm(unary, pairwise, edges, lam, *, init=None, max_sweeps=20):
@@ -775,26 +755,22 @@ def reference_icm(unary, pairwise, edges, lam, *, init=None, max_sweeps=20):
     What :func:`~fluidnb.videodb.icm` computes, bit for bit: in raster order, each
     node takes the label minimising :math:`V_p(l) + \lambda \sum_q W_{pq}` with its
     neighbours fixed (a strict decrease only), sweep after sweep until nothing
-    changes. Arguments and result as :func:`~fluidnb.videodb.icm` (without
-    ``progress``).
+    changes (the sweeps are counted as the fast path does; its sweep is compiled).
+    Arguments and result as :func:`~fluidnb.videodb.icm` (without ``progress``).
     """
     max_sweeps = check_int("max_sweeps", max_sweeps, 1)
-    t0 = time.perf_counter()
     prob = _problem(unary, pairwise, edges, lam)
-    labels = _start(prob, init)
-    n_nodes, lam, w = prob.n_nodes, prob.lam, prob.pairwise
-    labels = labels.copy()
+    lam, w = prob.lam, prob.pairwise
     # For node n: (edge, other node) pairs where n is p (a column of W[e]) or q (a row).
-    as_p = [[] for _ in range(n_nodes)]
-    as_q = [[] for _ in range(n_nodes)]
+    as_p = [[] for _ in range(prob.n_nodes)]
+    as_q = [[] for _ in range(prob.n_nodes)]
     for e, (a, b) in enumerate(zip(prob.p.tolist(), prob.q.tolist())):
         as_p[a].append((e, b))
         as_q[b].append((e, a))
-    energies = [prob.energy(labels)]
-    sweeps = 0
-    for _ in range(max_sweeps):
+
+    def sweep(labels):
         changed = False
-        for n in range(n_nodes):
+        for n in range(prob.n_nodes):
             cost = prob.unary[n].copy()
             for e, m in as_p[n]:
                 cost += lam * w[e, :, labels[m]]
@@ -804,14 +780,6 @@ def reference_icm(unary, pairwise, edges, lam, *, init=None, max_sweeps=20):
             if cost[best] < cost[labels[n]]:
                 labels[n] = best
                 changed = True
-        sweeps += 1
-        energies.append(prob.energy(labels))
-        if not changed:
-            break
-    return SolverRun(
-        labels=labels,
-        energies=np.array(energies),
-        sweeps=sweeps,
-        nonsubmodular=0.0,
-        seconds=time.perf_counter() - t0,
-    )
+        return changed
+
+    return _icm(prob, _start(prob, init), max_sweeps, Progress(None), sweep=sweep)
