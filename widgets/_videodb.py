@@ -1021,6 +1021,7 @@ class VideoDBApp(App):
         def task(params, progress):
             return self._run_task(params, progress, inputs, image, version)
 
+        self._superseded = False
         return self.start_task(
             task, self._ran, message="retrieving candidates…", busy=self._busy_widgets
         )
@@ -1036,8 +1037,7 @@ class VideoDBApp(App):
         db = self.database(progress=opening)
         a = assign(image, matte, db, params, direction=strokes, speed=speed, progress=assigning)
         self.retrievals += 1
-        animation = render(a, params, progress=rendering)
-        self.renders += 1
+        animation = self._render_streamed(a, params, rendering)
         self._base = a
         self.animation = animation
         self.assignment = a
@@ -1068,6 +1068,7 @@ class VideoDBApp(App):
         if self.assignment is None:
             self.say("nothing to render yet: press Run first", "error")
             return False
+        self._superseded = False
         return self.start_task(
             self._render_task, self._rendered, message="rendering…", busy=self._busy_widgets
         )
@@ -1083,10 +1084,33 @@ class VideoDBApp(App):
             # on screen at once, its clip follows. A drag has shown it already.
             progress(0.0, "a first frame")
             self._show_preview(a, params)
-        animation = render(a, params, progress=progress)
-        self.renders += 1
+        animation = self._render_streamed(a, params, progress)
         self.animation = animation
         return animation.clip
+
+    def _render_streamed(self, a, params, progress):
+        """:func:`~fluidnb.videodb.render`, its frames shown in the player as they are made."""
+        try:
+            animation = render(a, params, progress=progress, on_frames=self._stream)
+        except Cancelled:
+            if not self._superseded and self.result is not None:
+                self.player.clip = self.result  # the user's Cancel: the last clip again
+            raise
+        self.renders += 1
+        return animation
+
+    def _stream(self, clip, done):
+        """The clip's first frames into the player while the rest are made (render's on_frames)."""
+        if self._superseded:
+            return  # newer values are on their way: their preview shows, not this
+        if self.player.clip is not clip:  # the first frames: they replace the preview
+            self._previewing = False
+            playing, self._was_playing = self._was_playing, False
+            self.player.stream(clip, done)
+            if playing:  # the previews stopped the player: play the new clip
+                self.player.play(True)
+        else:
+            self.player.stream(clip, done)
 
     def _rendered(self, clip, seconds):
         if clip is None:  # a render on release that newer values made obsolete

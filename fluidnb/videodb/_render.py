@@ -32,8 +32,8 @@ from ._blend import BLEND_LEVELS, FEATHER, MARGIN, _blend, blend_values, play_lo
 from ._composite import _restore_area, composite, dynamic_matte, inpaint_background
 from ._desync import mirror_axes, temporal_offsets
 from ._flow_render import (
+    _loop_frames,
     displacement_maps,
-    eulerian_loop,
     extend_outside,
     flow_field,
     flow_timing,
@@ -78,7 +78,7 @@ class Animation:
     timings: dict
 
 
-def render(assignment, params=None, *, background=None, fps=24.0, progress=None):
+def render(assignment, params=None, *, background=None, fps=24.0, progress=None, on_frames=None):
     r"""Render the animation of an assignment (Okabe et al., sec. 6, or beyond it).
 
     ``params.rendering`` chooses between the paper's rendering and the flow
@@ -121,6 +121,14 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
         Frame rate of the clip.
     progress : callable, optional
         ``progress(fraction, message)``; raise :class:`fluidnb.Cancelled` to stop.
+    on_frames : callable, optional
+        ``on_frames(clip, done)``: after the work all frames share, the frames are
+        made :data:`CHUNK` at a time (the clip is the same however it is cut: each
+        frame is made from its own inputs), and after each run this hears the
+        :class:`~fluidnb.Clip` being made, of which the first ``done`` frames are
+        final (the rest are not made yet). A player can show and play those while the
+        rest are made (:meth:`fluidnb.widgets.FramePlayer.stream`); the returned
+        animation's clip has the same frames.
 
     Returns
     -------
@@ -142,8 +150,8 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
         background = as_image(background, mode="rgb", name="background")
         check_shape_match("background", background, (h, w))
     report = Progress(progress)
-    rebuild, blend, mean, match, comp = report.split(0.35, 0.6, 0.7, 0.9)
-    clock = {}
+    rebuild, setup, making = report.split(0.3, 0.35)
+    clock = dict.fromkeys(("rebuild", "blend"), 0.0)
 
     t = time.perf_counter()
     rebuild(0.0, f"rebuilding {len(target)} fragments from their source clips")
@@ -164,8 +172,8 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
         offsets = temporal_offsets(ids, target.positions, n - params.loop)
         mirrors = mirror_axes(ids, target.positions, db.mean_motion[ids])
         if flow is not None and not np.all(flow["rates"] == 1):
-            # Fragments play at different rates: make all the clip's frames before the
-            # blend. At rate 1 the blended loop is simply repeated (see _render_flow).
+            # Fragments play at different rates: play all the clip's frames. At rate 1
+            # the blended loop is simply repeated (see _FlowFrames).
             rates, n_frames = flow["rates"], flow["n_frames"]
     # Every fragment's loop played from its offset, mirrored, at its rate (what
     # stagger does), pixel-major as the blend reads it.
@@ -175,66 +183,132 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
     del looped
     clock["rebuild"] = time.perf_counter() - t
 
-    t = time.perf_counter()
-    blend(0.0, "blending the difference frames (Laplacian pyramids)")
-    # The private entry: these differences were made just above (finite, checked shape).
-    d = _blend(diffs, target.positions, (hc, wc), MARGIN, BLEND_LEVELS, FEATHER)
-    del diffs
-    clock["blend"] = time.perf_counter() - t
-    if flow is not None:
-        out, stages, flow_clock = _render_flow(
-            assignment, params, d, flow, background, report.sub(0.6, 1.0)
-        )
-        clock.update(flow_clock)
-        return _animation(assignment, params, out, stages, clock, (offsets, mirrors), fps)
-
-    t = time.perf_counter()
-    mean(0.0, "approximate mean image (pseudo motion blur)")
-    velocity = blend_values(db.mean_motion[ids], target.positions, (hc, wc))
-    approx = motion_blur(target.canvas, velocity, shutter=params.shutter, denoise=params.denoise)
-    clock["mean"] = time.perf_counter() - t
-
-    t = time.perf_counter()
-    match(0.0, "matching histograms cell by cell")
-    # The frames approx + D_i made straight in the colour axes, with the picture of
-    # them before matching, in one pass.
-    centre, axes = colour_axes(target.canvas, target.canvas_matte)
-    rotated, unmatched = frames_in_axes(approx, d, centre, axes, unmatched=(h, w))
-    matched = _match_in_axes(rotated, target, centre, axes, params.cell)
-    del rotated
-    clock["match"] = time.perf_counter() - t
-
-    t = time.perf_counter()
-    comp(0.0, "compositing")
-    if params.tau > 0:
-        per_fragment = db.motion[ids].astype(np.float32)  # (P, N - 1, 2)
-        for axis in (0, 1):  # a mirrored fragment moves mirrored
-            per_fragment[mirrors == axis, :, axis] *= -1
-        motion = blend_values(per_fragment, target.positions, (hc, wc))  # (Hc, Wc, N - 1, 2)
-        motion = np.moveaxis(motion, 2, 0)[: len(matched) - 1]
-        matte = dynamic_matte(target.canvas_matte, motion, tau=params.tau)
-        if background is None:
-            back = inpaint_background(target.canvas, target.canvas_matte)
-        else:
-            back = target.canvas.copy()
-            back[:h, :w] = background
+    setup(0.0, "preparing the frames")
+    blended = _BlendedFrames(diffs, target.positions, (hc, wc), clock)
+    if flow is None:
+        frames = _PaperFrames(assignment, params, blended, mirrors, background, clock)
     else:
-        matte = target.canvas_matte
-        back = target.canvas
-    out = composite(matched[:, :h, :w], back[:h, :w], matte[..., :h, :w])
-    np.clip(out, 0.0, 1.0, out=out)
-    clock["composite"] = time.perf_counter() - t
-    comp(1.0, "done")
-    stages = {
-        "differences": d[:, :h, :w],
-        "mean": np.clip(approx[:h, :w], 0, 1),
-        "unmatched": unmatched,
-        "matte": (matte if matte.ndim == 3 else np.broadcast_to(matte, (len(out), hc, wc)))[
-            :, :h, :w
-        ],
-        "background": back[:h, :w],
-    }
-    return _animation(assignment, params, out, stages, clock, (offsets, mirrors), fps)
+        frames = _FlowFrames(assignment, params, blended, flow, background, clock)
+    # The frames a few at a time (CHUNK): each is made from its own inputs only
+    # (blend, warp, matching, composite), so the clip is the same however it is cut,
+    # the first frames can be shown while the rest are made, and the blend's
+    # pyramids stay small.
+    total = frames.n_frames
+    out = np.empty((total, h, w, 3), np.float32)
+    live = None  # the clip being made, as on_frames sees it (a read-only view of out)
+    for t0 in range(0, total, CHUNK):
+        t1 = min(t0 + CHUNK, total)
+        making(t0 / total, f"rendering frames {t0 + 1}-{t1} of {total}")
+        out[t0:t1] = frames.make(t0, t1)
+        if on_frames is not None:
+            if live is None:
+                live = Clip._trusted(out.view(), fps, {})
+            on_frames(live, t1)
+    making(1.0, "done")
+    return _animation(assignment, params, out, frames.stages, clock, (offsets, mirrors), fps)
+
+
+#: Frames :func:`render` makes at a time, after the work all frames share (the clip
+#: is the same whatever it is; :func:`render`'s ``on_frames`` hears of each run).
+CHUNK = 12
+
+
+def _tick(clock, key, t):
+    """Add the seconds since ``t`` to ``clock[key]``; the time now."""
+    now = time.perf_counter()
+    clock[key] = clock.get(key, 0.0) + now - t
+    return now
+
+
+class _BlendedFrames:
+    """The blended difference frames :math:`D_i` (Hc, Wc) on demand, each made once.
+
+    ``diffs`` (P, s, s, M) are the fragments' played loops; ``get(idx)`` blends
+    (:func:`blend_differences`) the loop frames ``idx`` not blended yet, in one batch.
+    """
+
+    def __init__(self, diffs, positions, canvas, clock):
+        self.diffs, self.positions, self.canvas, self.clock = diffs, positions, canvas, clock
+        self.length = diffs.shape[3]
+        self.done = np.zeros(self.length, bool)
+        self.frames = np.empty((self.length,) + canvas, np.float32)
+
+    def get(self, idx):
+        t = time.perf_counter()
+        idx = np.asarray(idx)
+        todo = np.unique(idx[~self.done[idx]])
+        if len(todo):
+            # The private entry: these differences were made by the renderer (finite,
+            # checked shape).
+            self.frames[todo] = _blend(
+                self.diffs[..., todo], self.positions, self.canvas, MARGIN, BLEND_LEVELS, FEATHER
+            )
+            self.done[todo] = True
+        _tick(self.clock, "blend", t)
+        return self.frames[idx]
+
+
+class _PaperFrames:
+    """The paper's rendering after the blend (steps 3-5 of :func:`render`), by frames."""
+
+    def __init__(self, assignment, params, blended, mirrors, background, clock):
+        db, target = assignment.db, assignment.target
+        h, w = target.shape
+        hc, wc = target.canvas.shape[:2]
+        self.target, self.params, self.blended, self.clock = target, params, blended, clock
+        self.n_frames = n = blended.length
+        ids = assignment.fragments
+        t = time.perf_counter()
+        velocity = blend_values(db.mean_motion[ids], target.positions, (hc, wc))
+        self.approx = motion_blur(
+            target.canvas, velocity, shutter=params.shutter, denoise=params.denoise
+        )
+        t = _tick(clock, "mean", t)
+        self.centre, self.axes = colour_axes(target.canvas, target.canvas_matte)
+        if params.tau > 0:
+            per_fragment = db.motion[ids].astype(np.float32)  # (P, N - 1, 2)
+            for axis in (0, 1):  # a mirrored fragment moves mirrored
+                per_fragment[mirrors == axis, :, axis] *= -1
+            motion = blend_values(per_fragment, target.positions, (hc, wc))  # (Hc, Wc, N-1, 2)
+            motion = np.moveaxis(motion, 2, 0)[: n - 1]
+            matte = dynamic_matte(target.canvas_matte, motion, tau=params.tau)
+            if background is None:
+                back = inpaint_background(target.canvas, target.canvas_matte)
+            else:
+                back = target.canvas.copy()
+                back[:h, :w] = background
+        else:
+            matte = target.canvas_matte
+            back = target.canvas
+        self.matte, self.back = matte[..., :h, :w], back[:h, :w]
+        _tick(clock, "composite", t)
+        self.stages = {
+            "differences": np.empty((n, h, w), np.float32),
+            "mean": np.clip(self.approx[:h, :w], 0, 1),
+            "unmatched": np.empty((n, h, w, 3), np.float32),
+            "matte": self.matte if matte.ndim == 3 else np.broadcast_to(self.matte, (n, h, w)),
+            "background": self.back,
+        }
+
+    def make(self, t0, t1):
+        """Frames ``t0 .. t1 - 1`` of the clip, (k, H, W, 3) in [0, 1]."""
+        target, st = self.target, self.stages
+        h, w = target.shape
+        d = self.blended.get(np.arange(t0, t1))
+        st["differences"][t0:t1] = d[:, :h, :w]
+        t = time.perf_counter()
+        # The frames approx + D_i made straight in the colour axes, with the picture of
+        # them before matching, in one pass.
+        rotated, st["unmatched"][t0:t1] = frames_in_axes(
+            self.approx, d, self.centre, self.axes, unmatched=(h, w)
+        )
+        matched = _match_in_axes(rotated, target, self.centre, self.axes, self.params.cell)
+        t = _tick(self.clock, "match", t)
+        matte = self.matte[t0:t1] if self.matte.ndim == 3 else self.matte
+        out = composite(matched[:, :h, :w], self.back, matte)
+        np.clip(out, 0.0, 1.0, out=out)
+        _tick(self.clock, "composite", t)
+        return out
 
 
 def _animation(assignment, params, out, stages, clock, desync, fps):
@@ -284,96 +358,109 @@ def _flow_plan(assignment, params, n):
     return {"velocity": velocity, "n_frames": n_frames, "cycle": cycle, "rates": rates}
 
 
-def _render_flow(assignment, params, d, plan, background, progress):
-    r"""The flow rendering's steps after the blend (beyond the paper; see :func:`render`).
+class _FlowFrames:
+    r"""The flow rendering's steps after the blend (beyond the paper; :func:`render`), by frames.
 
-    Returns the frames (T, H, W, 3), the stages and the seconds per step.
+    The motion field's displacement maps, the layer that is advected (the photo
+    extended outside the matte) and the colour axes are made once; each run of frames
+    is then warped (:func:`eulerian_loop`), given its detail, matched and composited.
     """
-    target = assignment.target
-    h, w = target.shape
-    hc, wc = target.canvas.shape[:2]
-    field, advect, match, comp = Progress(progress).split(0.15, 0.6, 0.85)
-    clock = {}
 
-    t = time.perf_counter()
-    field(0.0, "the motion field's displacement maps")
-    velocity, n_frames, cycle = plan["velocity"], plan["n_frames"], plan["cycle"]
-    age_a, age_b, weight_a = loop_phases(n_frames, cycle)
-    steps = int(np.ceil(max(np.abs(age_a).max(), np.abs(age_b).max())))
-    maps = displacement_maps(velocity, steps)
-    clock["field"] = time.perf_counter() - t
-
-    t = time.perf_counter()
-    advect(0.0, "advecting the photo in two phases (Eulerian loop)")
-    # What flows in across the matte's edge is the fluid's own texture, mirrored.
-    layer = extend_outside(target.canvas, target.canvas_matte)
-    moved, phase_a, phase_b = eulerian_loop(
-        layer, velocity, n_frames, cycle=cycle, maps=maps, return_phases=True
-    )
-    # The differences' loop, repeated to the clip's length (or already that long).
-    d = d[np.arange(n_frames) % len(d)]
-    frames = moved + np.float32(params.detail) * d[..., None]
-    clock["advect"] = time.perf_counter() - t
-
-    t = time.perf_counter()
-    match(0.0, "matching histograms cell by cell")
-    matched = _match_to_target(frames, target, params.cell)
-    clock["match"] = time.perf_counter() - t
-
-    t = time.perf_counter()
-    comp(0.0, "compositing")
-    alpha = target.canvas_matte
-    if params.tau > 0:
-        # The outline moves with the fluid by the same loop (frame 0 is alpha, the
-        # loop closes), pulled towards alpha by 1 - tau as the paper's B_i are.
-        carried = eulerian_loop(alpha, velocity, n_frames, cycle=cycle, maps=maps)
-        matte = np.float32(params.tau) * carried + np.float32(1 - params.tau) * alpha
-        np.clip(matte, 0.0, 1.0, out=matte)
-        area = float(alpha.sum(dtype=np.float64))
-        for b in matte[1:]:
-            _restore_area(b, area)
-        if background is None:
-            back = inpaint_background(target.canvas, alpha)
+    def __init__(self, assignment, params, blended, plan, background, clock):
+        target = assignment.target
+        h, w = target.shape
+        self.target, self.params, self.blended, self.clock = target, params, blended, clock
+        t = time.perf_counter()
+        velocity, self.n_frames, cycle = plan["velocity"], plan["n_frames"], plan["cycle"]
+        n = self.n_frames
+        self.ages = loop_phases(n, cycle)  # age_a, age_b, weight_a
+        age_a, age_b, weight_a = self.ages
+        steps = int(np.ceil(max(np.abs(age_a).max(), np.abs(age_b).max())))
+        self.maps = displacement_maps(velocity, steps)
+        t = _tick(clock, "field", t)
+        # What flows in across the matte's edge is the fluid's own texture, mirrored.
+        self.layer = extend_outside(target.canvas, target.canvas_matte)
+        t = _tick(clock, "advect", t)
+        self.centre, self.axes = colour_axes(target.canvas, target.canvas_matte)
+        self.alpha = target.canvas_matte
+        if params.tau > 0:
+            self.area = float(self.alpha.sum(dtype=np.float64))
+            if background is None:
+                back = inpaint_background(target.canvas, self.alpha)
+            else:
+                back = target.canvas.copy()
+                back[:h, :w] = background
         else:
-            back = target.canvas.copy()
-            back[:h, :w] = background
-    else:
-        matte = alpha
-        back = target.canvas
-    out = composite(matched, back, matte)[:, :h, :w]
-    np.clip(out, 0.0, 1.0, out=out)
-    clock["composite"] = time.perf_counter() - t
-    comp(1.0, "done")
-    stages = {
-        "velocity": velocity[:h, :w],
-        "phase_a": phase_a[:, :h, :w],
-        "phase_b": phase_b[:, :h, :w],
-        "weights": np.stack([weight_a, 1.0 - weight_a], axis=1),
-        "ages": np.stack([age_a, age_b], axis=1),
-        "advected": moved[:, :h, :w],
-        "differences": d[:, :h, :w],
-        "unmatched": np.clip(frames[:, :h, :w], 0, 1),
-        "matte": (matte if matte.ndim == 3 else np.broadcast_to(matte, (len(out), hc, wc)))[
-            :, :h, :w
-        ],
-        "background": back[:h, :w],
-    }
-    return out, stages, clock
+            back = target.canvas
+        self.back = back
+        _tick(clock, "composite", t)
+        rgb = (n, h, w, 3)
+        self.stages = {
+            "velocity": velocity[:h, :w],
+            "phase_a": np.empty(rgb, np.float32),
+            "phase_b": np.empty(rgb, np.float32),
+            "weights": np.stack([weight_a, 1.0 - weight_a], axis=1),
+            "ages": np.stack([age_a, age_b], axis=1),
+            "advected": np.empty(rgb, np.float32),
+            "differences": np.empty((n, h, w), np.float32),
+            "unmatched": np.empty(rgb, np.float32),
+            "matte": (
+                np.empty((n, h, w), np.float32)
+                if params.tau > 0
+                else np.broadcast_to(self.alpha[:h, :w], (n, h, w))
+            ),
+            "background": back[:h, :w],
+        }
 
-
-def _match_to_target(frames, target, cell):
-    """Each frame's histograms matched to the target's, cell by cell (Okabe et al., sec. 6).
-
-    In the target's principal colour axes (Heeger & Bergen 1995 decorrelate colour by
-    PCA): matching R, G and B independently can mix hues the photo does not have (a
-    white-hot flame turned lilac); matching decorrelated axes keeps its colours.
-    """
-    centre, axes = colour_axes(target.canvas, target.canvas_matte)
-    return _match_in_axes(colours_in_axes(frames, centre, axes), target, centre, axes, cell)
+    def make(self, t0, t1):
+        """Frames ``t0 .. t1 - 1`` of the clip, (k, H, W, 3) in [0, 1]."""
+        target, params, st = self.target, self.params, self.stages
+        h, w = target.shape
+        idx = np.arange(t0, t1)
+        # The differences' loop, repeated to the clip's length (or already that long).
+        d = self.blended.get(idx % self.blended.length)
+        t = time.perf_counter()
+        ages = [x[t0:t1] for x in self.ages]
+        phases = np.empty((2, t1 - t0) + self.layer.shape, np.float32)
+        moved = _loop_frames(self.layer, self.maps, *ages, phases)
+        frames = moved + np.float32(params.detail) * d[..., None]
+        for name, x in (("phase_a", phases[0]), ("phase_b", phases[1]), ("advected", moved)):
+            st[name][t0:t1] = x[:, :h, :w]
+        st["differences"][t0:t1] = d[:, :h, :w]
+        np.clip(frames[:, :h, :w], 0, 1, out=st["unmatched"][t0:t1])
+        t = _tick(self.clock, "advect", t)
+        matched = _match_in_axes(
+            colours_in_axes(frames, self.centre, self.axes), target, self.centre, self.axes,
+            params.cell,
+        )  # fmt: skip
+        t = _tick(self.clock, "match", t)
+        if params.tau > 0:
+            # The outline moves with the fluid by the same loop (frame 0 is alpha, the
+            # loop closes), pulled towards alpha by 1 - tau as the paper's B_i are.
+            carried = _loop_frames(self.alpha, self.maps, *ages)
+            matte = np.float32(params.tau) * carried + np.float32(1 - params.tau) * self.alpha
+            np.clip(matte, 0.0, 1.0, out=matte)
+            for k, b in zip(idx, matte):
+                if k > 0:
+                    _restore_area(b, self.area)
+            st["matte"][t0:t1] = matte[:, :h, :w]
+        else:
+            matte = self.alpha
+        out = composite(matched, self.back, matte)[:, :h, :w]
+        np.clip(out, 0.0, 1.0, out=out)
+        _tick(self.clock, "composite", t)
+        return out
 
 
 def _match_in_axes(rotated, target, centre, axes, cell):
-    """:func:`_match_to_target` for frames already in the colour axes; back in RGB."""
+    """Each frame's histograms matched to the target's, cell by cell (Okabe et al., sec. 6).
+
+    In the target's principal colour axes (Heeger & Bergen 1995 decorrelate colour by
+    PCA; ``rotated`` are the frames in them, ``centre``, ``axes`` from
+    :func:`colour_axes`): matching R, G and B independently can mix hues the photo
+    does not have (a white-hot flame turned lilac); matching decorrelated axes keeps
+    its colours. Back in RGB.
+    """
     matched = match_histograms_cells(
         rotated, (target.canvas - centre) @ axes, target.canvas_matte, cell=cell
     )
