@@ -386,15 +386,17 @@ def eulerian_loop(image, velocity, n_frames, *, cycle, maps=None, return_phases=
     return out
 
 
-def _loop_frames(img, maps, age_a, age_b, weight_a, phases=None):
+def _loop_frames(img, maps, age_a, age_b, weight_a, phases=None, *, out=None):
     """The frames of :func:`eulerian_loop` at the given ages and weights (any run of them).
 
     Each frame depends only on its own ages and weight, so a renderer may make the
-    loop a few frames at a time. ``phases`` (2, T, ...), if given, receives both phases.
+    loop a few frames at a time. ``phases`` (2, T, ...), if given, receives both
+    phases; ``out`` (T, ...), if given, the frames.
     """
     have = (maps.shape[0] - 1) // 2
     grid = _grid(img.shape[:2])
-    out = np.empty((len(age_a),) + img.shape, np.float32)
+    if out is None:
+        out = np.empty((len(age_a),) + img.shape, np.float32)
     for t, (sa, sb, wa) in enumerate(zip(age_a, age_b, weight_a)):
         # A phase of weight 0 is not sampled unless asked for.
         both = phases is not None

@@ -123,11 +123,12 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None,
         ``progress(fraction, message)``; raise :class:`fluidnb.Cancelled` to stop.
     on_frames : callable, optional
         ``on_frames(clip, done)``: after the work all frames share, the frames are
-        made :data:`CHUNK` at a time (the clip is the same however it is cut: each
-        frame is made from its own inputs), and after each run this hears the
-        :class:`~fluidnb.Clip` being made, of which the first ``done`` frames are
-        final (the rest are not made yet). A player can show and play those while the
-        rest are made (:meth:`fluidnb.widgets.FramePlayer.stream`); the returned
+        made in runs (:data:`FIRST_RUN` frames, then :data:`CHUNK` at a time; each
+        frame is made from its own inputs, so the clip is the same however it is
+        cut), and after each run this hears the :class:`~fluidnb.Clip` being made,
+        of which the first ``done`` frames are final (the rest are not made yet). A
+        player can show and play those while the rest are made
+        (:meth:`fluidnb.widgets.FramePlayer.stream`); the returned
         animation's clip has the same frames.
 
     Returns
@@ -175,16 +176,15 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None,
             # Fragments play at different rates: play all the clip's frames. At rate 1
             # the blended loop is simply repeated (see _FlowFrames).
             rates, n_frames = flow["rates"], flow["n_frames"]
-    # Every fragment's loop played from its offset, mirrored, at its rate (what
-    # stagger does), pixel-major as the blend reads it.
-    diffs = play_loops(
-        [looped[f] for f in ids.tolist()], offsets, rates=rates, n_frames=n_frames, mirrors=mirrors
-    )
-    del looped
     clock["rebuild"] = time.perf_counter() - t
 
     setup(0.0, "preparing the frames")
-    blended = _BlendedFrames(diffs, target.positions, (hc, wc), clock)
+    loops = [looped[f] for f in ids.tolist()]
+    del looped
+    length = n_frames or (n - params.loop if params.loop else n)  # one loop's frames
+    blended = _BlendedFrames(
+        loops, offsets, rates, mirrors, length, target.positions, (hc, wc), clock
+    )
     if flow is None:
         frames = _PaperFrames(assignment, params, blended, mirrors, background, clock)
     else:
@@ -196,8 +196,7 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None,
     total = frames.n_frames
     out = np.empty((total, h, w, 3), np.float32)
     live = None  # the clip being made, as on_frames sees it (a read-only view of out)
-    for t0 in range(0, total, CHUNK):
-        t1 = min(t0 + CHUNK, total)
+    for t0, t1 in _runs(total):
         making(t0 / total, f"rendering frames {t0 + 1}-{t1} of {total}")
         out[t0:t1] = frames.make(t0, t1)
         if on_frames is not None:
@@ -209,8 +208,19 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None,
 
 
 #: Frames :func:`render` makes at a time, after the work all frames share (the clip
-#: is the same whatever it is; :func:`render`'s ``on_frames`` hears of each run).
+#: is the same whatever it is; :func:`render`'s ``on_frames`` hears of each run). The
+#: first run is :data:`FIRST_RUN` frames: what an app shows first comes sooner.
 CHUNK = 12
+FIRST_RUN = 4
+
+
+def _runs(total):
+    """The runs of frames (t0, t1) :func:`render` makes one after the other."""
+    t0 = 0
+    while t0 < total:
+        t1 = min(t0 + (min(FIRST_RUN, CHUNK) if t0 == 0 else CHUNK), total)
+        yield t0, t1
+        t0 = t1
 
 
 def _tick(clock, key, t):
@@ -223,28 +233,37 @@ def _tick(clock, key, t):
 class _BlendedFrames:
     """The blended difference frames :math:`D_i` (Hc, Wc) on demand, each made once.
 
-    ``diffs`` (P, s, s, M) are the fragments' played loops; ``get(idx)`` blends
-    (:func:`blend_differences`) the loop frames ``idx`` not blended yet, in one batch.
+    ``get(idx)`` plays the fragments' loops (:func:`play_loops`: from their offsets,
+    mirrored, at their rates) at the frames ``idx`` not made yet and blends them
+    (:func:`blend_differences`), in one batch. ``length`` frames in all: the clip's
+    (fragments at different rates) or one loop's (the loop is then repeated).
     """
 
-    def __init__(self, diffs, positions, canvas, clock):
-        self.diffs, self.positions, self.canvas, self.clock = diffs, positions, canvas, clock
-        self.length = diffs.shape[3]
+    def __init__(self, loops, offsets, rates, mirrors, length, positions, canvas, clock):
+        self.loops, self.offsets, self.rates, self.mirrors = loops, offsets, rates, mirrors
+        self.positions, self.canvas, self.clock = positions, canvas, clock
+        self.length = length
         self.done = np.zeros(self.length, bool)
         self.frames = np.empty((self.length,) + canvas, np.float32)
 
     def get(self, idx):
-        t = time.perf_counter()
         idx = np.asarray(idx)
         todo = np.unique(idx[~self.done[idx]])
         if len(todo):
-            # The private entry: these differences were made by the renderer (finite,
+            t = time.perf_counter()
+            # Every fragment's loop played from its offset, mirrored, at its rate (what
+            # stagger does), pixel-major as the blend reads it.
+            played = play_loops(
+                self.loops, self.offsets, rates=self.rates, mirrors=self.mirrors, frames=todo
+            )
+            t = _tick(self.clock, "rebuild", t)
+            # The private entry: these differences were made just above (finite,
             # checked shape).
             self.frames[todo] = _blend(
-                self.diffs[..., todo], self.positions, self.canvas, MARGIN, BLEND_LEVELS, FEATHER
+                played, self.positions, self.canvas, MARGIN, BLEND_LEVELS, FEATHER
             )
             self.done[todo] = True
-        _tick(self.clock, "blend", t)
+            _tick(self.clock, "blend", t)
         return self.frames[idx]
 
 
@@ -394,16 +413,19 @@ class _FlowFrames:
             back = target.canvas
         self.back = back
         _tick(clock, "composite", t)
-        rgb = (n, h, w, 3)
+        # The lesson's pictures, written frame run by frame run: the phases and their
+        # cross-fade on the canvas (the warp writes them in place), shown cropped.
+        self.phases = np.empty((2, n) + self.layer.shape, np.float32)
+        self.moved = np.empty((n,) + self.layer.shape, np.float32)
         self.stages = {
             "velocity": velocity[:h, :w],
-            "phase_a": np.empty(rgb, np.float32),
-            "phase_b": np.empty(rgb, np.float32),
+            "phase_a": self.phases[0, :, :h, :w],
+            "phase_b": self.phases[1, :, :h, :w],
             "weights": np.stack([weight_a, 1.0 - weight_a], axis=1),
             "ages": np.stack([age_a, age_b], axis=1),
-            "advected": np.empty(rgb, np.float32),
+            "advected": self.moved[:, :h, :w],
             "differences": np.empty((n, h, w), np.float32),
-            "unmatched": np.empty(rgb, np.float32),
+            "unmatched": np.empty((n, h, w, 3), np.float32),
             "matte": (
                 np.empty((n, h, w), np.float32)
                 if params.tau > 0
@@ -421,11 +443,10 @@ class _FlowFrames:
         d = self.blended.get(idx % self.blended.length)
         t = time.perf_counter()
         ages = [x[t0:t1] for x in self.ages]
-        phases = np.empty((2, t1 - t0) + self.layer.shape, np.float32)
-        moved = _loop_frames(self.layer, self.maps, *ages, phases)
+        moved = _loop_frames(
+            self.layer, self.maps, *ages, self.phases[:, t0:t1], out=self.moved[t0:t1]
+        )
         frames = moved + np.float32(params.detail) * d[..., None]
-        for name, x in (("phase_a", phases[0]), ("phase_b", phases[1]), ("advected", moved)):
-            st[name][t0:t1] = x[:, :h, :w]
         st["differences"][t0:t1] = d[:, :h, :w]
         np.clip(frames[:, :h, :w], 0, 1, out=st["unmatched"][t0:t1])
         t = _tick(self.clock, "advect", t)
