@@ -1177,15 +1177,14 @@ class VideoDBApp(App):
         changed = int((new.labels != current.labels).sum())
         self.assignment = new
         self.resolves += 1
-        drawn = threading.Event()
-        self._on_main(lambda: (self._show_assignment(), drawn.set()))
+        self._on_main(self._show_assignment)
         # The map first; the preview when no newer value waits, or when the last one is
         # older than preview_every (a drag faster than re-solve and preview together
-        # shows every map it can, a preview now and then, and the last one). It starts
-        # once the map is drawn: the two would slow each other down.
+        # shows every map it can, a preview now and then, and the last one). The
+        # preview is made here while the kernel's thread draws the map (its kernels
+        # release the GIL).
         stale = time.monotonic() - self._preview_shown > self.preview_every
         if self.live_preview and (stale or not self._values_changed()):
-            drawn.wait(1.0)
             self._show_preview(new, params)
         if not self.running or self._live_render:
             # One line (a second would move the app under the mouse while it drags).
