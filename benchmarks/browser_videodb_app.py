@@ -94,7 +94,7 @@ WATCH = """() => {
       log.push({t: now(), kind: 'frame', caption: player.textContent});
     }
   }).observe(player, {subtree: true, childList: true, attributes: true, characterData: true});
-  // The player's caption ("k of n frames made…" while a clip streams in).
+  // The player's caption ("k of n frames so far" while a clip streams in).
   let caption = null;
   new MutationObserver(() => {
     const text = player.textContent;
@@ -301,7 +301,7 @@ def report(page, args):
                 final_preview += [lag for kind, _, lag in mine if kind == "frame"][:1]
 
     # Render: from the press to the clip's first frames in the player (the app streams
-    # the clip as it is made: the caption says "k of n frames made") and to the status
+    # the clip as it is made: the caption says "k of n frames so far") and to the status
     # line naming the whole clip; then Play: from the press to the next frame, and the
     # frames shown per second while it plays. Last, Render while the clip plays: the
     # frames shown per second while the new clip streams in.
@@ -316,7 +316,7 @@ def report(page, args):
         log = page.evaluate("() => window.__log")
         press = [e["t"] for e in log if e["kind"] == "press"]
         after = [e for e in log if press and e["t"] > press[0]]
-        first = [e["t"] for e in after if e["kind"] == "caption" and "frames made" in e["text"]]
+        first = [e["t"] for e in after if e["kind"] == "caption" and "frames so far" in e["text"]]
         done = [e["t"] for e in after if e["kind"] == "status" and "rendered in" in e["text"]]
         if first:
             render_first.append(first[0] - press[0])

@@ -161,7 +161,7 @@ class FramePlayer(W.VBox):
         self.image.layout.width = f"{self.display_width}px"
         # Tiny grids are enlarged by the browser; keep their cells crisp.
         self.image.layout.object_fit = "contain"
-        count = f"{n} frames" if ready == n else f"{ready} of {n} frames made…"
+        count = f"{n} frames" if ready == n else f"{ready} of {n} frames so far"
         parts = [count, f"{w}x{h}", f"{clip.fps:g} fps"]
         if clip.metadata.get("method"):
             parts.append(html.escape(str(clip.metadata["method"])))

@@ -123,7 +123,7 @@ def test_a_clip_streams_in_and_keeps_playing_when_finished(tmp_path):
     assert p.clip is streamed
     assert p.playing
     assert p._play.max == p._slider.max == 1
-    assert "2 of 6 frames made" in p.info.value
+    assert "2 of 6 frames so far" in p.info.value
     assert p._gif.disabled
     assert p._mp4.disabled
     with pytest.raises(ValueError, match="still being made"):
