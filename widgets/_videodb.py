@@ -1091,7 +1091,8 @@ class VideoDBApp(App):
     def _render_streamed(self, a, params, progress):
         """:func:`~fluidnb.videodb.render`, its frames shown in the player as they are made."""
         try:
-            animation = render(a, params, progress=progress, on_frames=self._stream)
+            # No stages: the app plays the clip (they would take ~1 GB at 480 px).
+            animation = render(a, params, progress=progress, on_frames=self._stream, stages=False)
         except Cancelled:
             if not self._superseded and self.result is not None:
                 self.player.clip = self.result  # the user's Cancel: the last clip again

@@ -67,7 +67,9 @@ class Animation:
         image (H, W, 3). The flow rendering's: ``"velocity"`` the motion field
         (H, W, 2), ``"phase_a"`` and ``"phase_b"`` the two advected phases
         (T, H, W, 3), ``"ages"`` and ``"weights"`` their ages (frames) and weights
-        (T, 2), ``"advected"`` their cross-fade (T, H, W, 3).
+        (T, 2), ``"advected"`` their cross-fade (T, H, W, 3). Rendered with
+        ``stages=False`` (:func:`render`), only the pictures of one frame's size and
+        the per-fragment and per-frame numbers are kept.
     timings : dict
         Seconds per stage (assignment and rendering).
     """
@@ -78,7 +80,16 @@ class Animation:
     timings: dict
 
 
-def render(assignment, params=None, *, background=None, fps=24.0, progress=None, on_frames=None):
+def render(
+    assignment,
+    params=None,
+    *,
+    background=None,
+    fps=24.0,
+    progress=None,
+    on_frames=None,
+    stages=True,
+):
     r"""Render the animation of an assignment (Okabe et al., sec. 6, or beyond it).
 
     ``params.rendering`` chooses between the paper's rendering and the flow
@@ -130,6 +141,11 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None,
         player can show and play those while the rest are made
         (:meth:`fluidnb.widgets.FramePlayer.stream`); the returned
         animation's clip has the same frames.
+    stages : bool
+        Keep every frame's intermediate pictures in :attr:`Animation.stages` (the
+        differences, the frames before matching, the flow rendering's phases...), for
+        the lesson. An app that only plays the clip passes False: at 480 px a
+        96-frame clip's stages take about a gigabyte. The clip is the same.
 
     Returns
     -------
@@ -186,9 +202,9 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None,
         loops, offsets, rates, mirrors, length, target.positions, (hc, wc), clock
     )
     if flow is None:
-        frames = _PaperFrames(assignment, params, blended, mirrors, background, clock)
+        frames = _PaperFrames(assignment, params, blended, mirrors, background, clock, stages)
     else:
-        frames = _FlowFrames(assignment, params, blended, flow, background, clock)
+        frames = _FlowFrames(assignment, params, blended, flow, background, clock, stages)
     # The frames a few at a time (CHUNK): each is made from its own inputs only
     # (blend, warp, matching, composite), so the clip is the same however it is cut,
     # the first frames can be shown while the rest are made, and the blend's
@@ -270,7 +286,7 @@ class _BlendedFrames:
 class _PaperFrames:
     """The paper's rendering after the blend (steps 3-5 of :func:`render`), by frames."""
 
-    def __init__(self, assignment, params, blended, mirrors, background, clock):
+    def __init__(self, assignment, params, blended, mirrors, background, clock, keep):
         db, target = assignment.db, assignment.target
         h, w = target.shape
         hc, wc = target.canvas.shape[:2]
@@ -301,26 +317,30 @@ class _PaperFrames:
             back = target.canvas
         self.matte, self.back = matte[..., :h, :w], back[:h, :w]
         _tick(clock, "composite", t)
-        self.stages = {
-            "differences": np.empty((n, h, w), np.float32),
-            "mean": np.clip(self.approx[:h, :w], 0, 1),
-            "unmatched": np.empty((n, h, w, 3), np.float32),
-            "matte": self.matte if matte.ndim == 3 else np.broadcast_to(self.matte, (n, h, w)),
-            "background": self.back,
-        }
+        self.stages = {"mean": np.clip(self.approx[:h, :w], 0, 1), "background": self.back}
+        self.keep = keep
+        if keep:
+            self.stages["differences"] = np.empty((n, h, w), np.float32)
+            self.stages["unmatched"] = np.empty((n, h, w, 3), np.float32)
+            self.stages["matte"] = (
+                self.matte if matte.ndim == 3 else np.broadcast_to(self.matte, (n, h, w))
+            )
 
     def make(self, t0, t1):
         """Frames ``t0 .. t1 - 1`` of the clip, (k, H, W, 3) in [0, 1]."""
         target, st = self.target, self.stages
         h, w = target.shape
         d = self.blended.get(np.arange(t0, t1))
-        st["differences"][t0:t1] = d[:, :h, :w]
         t = time.perf_counter()
         # The frames approx + D_i made straight in the colour axes, with the picture of
         # them before matching, in one pass.
-        rotated, st["unmatched"][t0:t1] = frames_in_axes(
-            self.approx, d, self.centre, self.axes, unmatched=(h, w)
-        )
+        if self.keep:
+            st["differences"][t0:t1] = d[:, :h, :w]
+            rotated, st["unmatched"][t0:t1] = frames_in_axes(
+                self.approx, d, self.centre, self.axes, unmatched=(h, w)
+            )
+        else:
+            rotated = frames_in_axes(self.approx, d, self.centre, self.axes)
         matched = _match_in_axes(rotated, target, self.centre, self.axes, self.params.cell)
         t = _tick(self.clock, "match", t)
         matte = self.matte[t0:t1] if self.matte.ndim == 3 else self.matte
@@ -385,7 +405,7 @@ class _FlowFrames:
     is then warped (:func:`eulerian_loop`), given its detail, matched and composited.
     """
 
-    def __init__(self, assignment, params, blended, plan, background, clock):
+    def __init__(self, assignment, params, blended, plan, background, clock, keep):
         target = assignment.target
         h, w = target.shape
         self.target, self.params, self.blended, self.clock = target, params, blended, clock
@@ -413,26 +433,30 @@ class _FlowFrames:
             back = target.canvas
         self.back = back
         _tick(clock, "composite", t)
-        # The lesson's pictures, written frame run by frame run: the phases and their
-        # cross-fade on the canvas (the warp writes them in place), shown cropped.
-        self.phases = np.empty((2, n) + self.layer.shape, np.float32)
-        self.moved = np.empty((n,) + self.layer.shape, np.float32)
         self.stages = {
             "velocity": velocity[:h, :w],
-            "phase_a": self.phases[0, :, :h, :w],
-            "phase_b": self.phases[1, :, :h, :w],
             "weights": np.stack([weight_a, 1.0 - weight_a], axis=1),
             "ages": np.stack([age_a, age_b], axis=1),
-            "advected": self.moved[:, :h, :w],
-            "differences": np.empty((n, h, w), np.float32),
-            "unmatched": np.empty((n, h, w, 3), np.float32),
-            "matte": (
-                np.empty((n, h, w), np.float32)
-                if params.tau > 0
-                else np.broadcast_to(self.alpha[:h, :w], (n, h, w))
-            ),
             "background": back[:h, :w],
         }
+        self.keep = keep
+        if keep:
+            # The lesson's pictures, written run by run: the phases and their cross-fade
+            # on the canvas (the warp writes them in place), shown cropped.
+            self.phases = np.empty((2, n) + self.layer.shape, np.float32)
+            self.moved = np.empty((n,) + self.layer.shape, np.float32)
+            self.stages.update(
+                phase_a=self.phases[0, :, :h, :w],
+                phase_b=self.phases[1, :, :h, :w],
+                advected=self.moved[:, :h, :w],
+                differences=np.empty((n, h, w), np.float32),
+                unmatched=np.empty((n, h, w, 3), np.float32),
+                matte=(
+                    np.empty((n, h, w), np.float32)
+                    if params.tau > 0
+                    else np.broadcast_to(self.alpha[:h, :w], (n, h, w))
+                ),
+            )
 
     def make(self, t0, t1):
         """Frames ``t0 .. t1 - 1`` of the clip, (k, H, W, 3) in [0, 1]."""
@@ -443,12 +467,16 @@ class _FlowFrames:
         d = self.blended.get(idx % self.blended.length)
         t = time.perf_counter()
         ages = [x[t0:t1] for x in self.ages]
-        moved = _loop_frames(
-            self.layer, self.maps, *ages, self.phases[:, t0:t1], out=self.moved[t0:t1]
-        )
+        if self.keep:
+            moved = _loop_frames(
+                self.layer, self.maps, *ages, self.phases[:, t0:t1], out=self.moved[t0:t1]
+            )
+        else:  # a phase of weight 0 is not even sampled
+            moved = _loop_frames(self.layer, self.maps, *ages)
         frames = moved + np.float32(params.detail) * d[..., None]
-        st["differences"][t0:t1] = d[:, :h, :w]
-        np.clip(frames[:, :h, :w], 0, 1, out=st["unmatched"][t0:t1])
+        if self.keep:
+            st["differences"][t0:t1] = d[:, :h, :w]
+            np.clip(frames[:, :h, :w], 0, 1, out=st["unmatched"][t0:t1])
         t = _tick(self.clock, "advect", t)
         matched = _match_in_axes(
             colours_in_axes(frames, self.centre, self.axes), target, self.centre, self.axes,
@@ -464,7 +492,8 @@ class _FlowFrames:
             for k, b in zip(idx, matte):
                 if k > 0:
                     _restore_area(b, self.area)
-            st["matte"][t0:t1] = matte[:, :h, :w]
+            if self.keep:
+                st["matte"][t0:t1] = matte[:, :h, :w]
         else:
             matte = self.alpha
         out = composite(matched, self.back, matte)[:, :h, :w]

@@ -275,6 +275,13 @@ def test_render_hands_out_its_frames_as_they_are_made(anim, monkeypatch):
         render(anim.assignment, params).clip.frames, again.clip.frames, rtol=0, atol=1e-5
     )
     np.testing.assert_allclose(again.clip.frames, anim.clip.frames, rtol=0, atol=1e-5)
+    # Without the lesson's stages (what the app asks for): the same clip, no big arrays.
+    monkeypatch.setattr(_render, "CHUNK", 4)
+    bare = render(anim.assignment, params, stages=False)
+    np.testing.assert_array_equal(bare.clip.frames, again.clip.frames)
+    assert max(np.asarray(v).ndim for v in bare.stages.values()) <= 3
+    assert "unmatched" not in bare.stages
+    assert "differences" not in bare.stages
 
 
 def test_a_dynamic_matte_keeps_its_area(db, photo):
