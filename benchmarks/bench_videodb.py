@@ -846,6 +846,7 @@ def _app_render(ctx, rounds):
     thread's status included, not the browser's drawing.
     """
 
+    from fluidnb.videodb import render
     from fluidnb.widgets import VideoDBApp
 
     load0 = load()
@@ -865,19 +866,37 @@ def _app_render(ctx, rounds):
             first.setdefault("t", now())  # this render's first frames are in the player
 
         app.player.stream = stream
-        cases = {"empty": ([], []), "again": ([], [])}
+        app.settle = 1e9  # no render on rest: Render is pressed here
+        sigma = a.params.sigma
+        cases = {"empty": ([], []), "again": ([], []), "resolved": ([], [])}
         for _ in range(rounds):
             for case, (firsts, wholes) in cases.items():
                 if case == "empty":
                     a.db.cache.clear()
+                if case == "resolved":
+                    # Only the run's fragments in the cache; sigma x10 re-solved: Render
+                    # rebuilds the fragments the new assignment brings.
+                    a.db.cache.clear()
+                    render(a, stages=False)
+                    app.panel.set("sigma", sigma * 10)
+                    app.wait_resolve()
                 first.clear()
                 t0 = now()
                 app.render_clip(timeout=600)
                 wholes.append(now() - t0)
                 firsts.append(first["t"] - t0)
+                if case == "resolved":
+                    new = set(app.assignment.fragments.tolist()) - set(a.fragments.tolist())
+                    app.panel.set("sigma", sigma)
+                    app.wait_resolve()
         frames = len(app.result)
         rows = []
-        for case, label in (("empty", "empty frame cache"), ("again", "fragments cached")):
+        labels = (
+            ("empty", "empty frame cache"),
+            ("again", "fragments cached"),
+            ("resolved", f"after sigma x10: {len(new)} new fragments"),
+        )
+        for case, label in labels:
             firsts, wholes = cases[case]
             rows += [
                 [
@@ -903,6 +922,8 @@ def _app_render(ctx, rounds):
         return {"shape": [h, w], "fragments": len(a.target), "run_s": run_s, "frames": frames,
                 "first_frames_s": cases["empty"][0], "render_s": cases["empty"][1],
                 "first_frames_again_s": cases["again"][0],
+                "first_frames_resolved_s": cases["resolved"][0],
+                "render_resolved_s": cases["resolved"][1],
                 "render_again_s": cases["again"][1]}  # fmt: skip
     finally:
         app.close()
