@@ -1242,14 +1242,15 @@ class VideoDBApp(App):
                 self._was_playing = self.player.playing
             self._previewing = True
             self._preview_shown = time.monotonic()
-            with self.player.hold_sync():
-                self.player.play(False)
-                self.player.image.value = png
-                self.player.image.layout.display = None
-                self.player.info.value = (
-                    f"<span class='fluidnb-vdb-preview' title='{html.escape(title)}' "
-                    f"style='opacity:0.85;white-space:nowrap'>{html.escape(note)}</span>"
-                )
+            self.player.play(False)
+            # The caption first: each widget sends its own message, and the picture
+            # should never show under the caption of the one before.
+            self.player.info.value = (
+                f"<span class='fluidnb-vdb-preview' title='{html.escape(title)}' "
+                f"style='opacity:0.85;white-space:nowrap'>{html.escape(note)}</span>"
+            )
+            self.player.image.value = png
+            self.player.image.layout.display = None
             self.previews += 1
 
         self._on_main(show)
