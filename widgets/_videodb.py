@@ -11,6 +11,7 @@ came back.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import html
 import io
 import os
@@ -38,6 +39,7 @@ from fluidnb.videodb import (
     clip_map_picture,
     motion_arrows,
     open_database,
+    prefetch,
     preview_frame,
     render,
     starter_database,
@@ -1195,6 +1197,25 @@ class VideoDBApp(App):
                 f"{plural(len(new.labels), 'fragment')} changed"
             )
         self._schedule_render()
+        self._prefetch(new)
+
+    def _prefetch(self, a):
+        """While the values rest, rebuild the fragments ``a``'s clip needs (its render waits).
+
+        :func:`fluidnb.videodb.prefetch` on this worker, after the map and the preview:
+        the render on rest (or a press of Render) waits for the re-solves, so it starts
+        with them. A newer value stops it between source clips.
+        """
+
+        def moved(fraction, message):
+            if self._closed or self.assignment is not a or self._values_changed():
+                raise Cancelled
+
+        if self._values_changed():
+            return
+        # Stopped by a newer value, or settings the render will refuse (and say so).
+        with contextlib.suppress(Cancelled, ValueError):
+            prefetch(a, self.panel.params, progress=moved)
 
     def wait_resolve(self, timeout=30):
         """Block until every re-solve asked for so far, and its preview, is done (tests)."""

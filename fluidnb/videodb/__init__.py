@@ -103,7 +103,7 @@ from ._reference import (
     reference_top_k,
     reference_transform_vectors,
 )
-from ._render import Animation, render
+from ._render import Animation, prefetch, render
 from ._retrieval import HistogramIndex
 from ._sift import dense_sift
 from ._smoothness import TEXTURE_SCALE, PairTables, pair_tables
@@ -180,6 +180,7 @@ __all__ = [
     "optical_flow",
     "pair_tables",
     "prebuild_starters",
+    "prefetch",
     "preview_frame",
     "pyramid_histograms",
     "quantise",

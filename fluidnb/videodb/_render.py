@@ -42,7 +42,7 @@ from ._flow_render import (
 from ._frames import rebuild_fragments
 from ._geometry import FRAGMENT
 
-__all__ = ["Animation", "render"]
+__all__ = ["Animation", "prefetch", "render"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -221,6 +221,41 @@ def render(
             on_frames(live, t1)
     making(1.0, "done")
     return _animation(assignment, params, out, frames.stages, clock, (offsets, mirrors), fps)
+
+
+def prefetch(assignment, params=None, *, progress=None):
+    """Rebuild the fragments :func:`render` will need, into the database's frame cache.
+
+    The first step of :func:`render` alone (each chosen fragment's difference frames
+    from its source clip), done ahead: an app calls it while a slider rests, so the
+    render that follows starts with the frames. Fragments already cached cost nothing.
+
+    Parameters
+    ----------
+    assignment : Assignment
+    params : AnimateParams, optional
+        The rendering settings (their ``loop``); default the assignment's.
+    progress : callable, optional
+        ``progress(fraction, message)`` after each source clip; raise
+        :class:`fluidnb.Cancelled` to stop (what is rebuilt so far stays cached).
+
+    Returns
+    -------
+    int
+        How many of the assignment's distinct fragments are now cached.
+    """
+    if not isinstance(assignment, Assignment):
+        raise ValueError(f"assignment must be an Assignment, got {type(assignment).__name__}")
+    params = assignment.params if params is None else _check_params(params, assignment.db)
+    got = rebuild_fragments(
+        assignment.db,
+        assignment.fragments,
+        margin=MARGIN,
+        grey=True,
+        differences=params.loop,
+        progress=progress,
+    )
+    return len(got)
 
 
 #: Frames :func:`render` makes at a time, after the work all frames share (the clip

@@ -373,3 +373,27 @@ def test_each_weight_pulls_the_solution_towards_what_it_weighs(tmp_path):
     assert parts(base.resolve(lam=1.0))["V"] > parts(base.resolve(lam=1e-4))["V"]
     assert parts(base.resolve(sigma=1e5))["rest"] < parts(base.resolve(sigma=1.0))["rest"]
     assert parts(base.resolve(rho=1e6))["tex"] < parts(base.resolve(rho=0.0))["tex"]
+
+
+def test_prefetch_leaves_render_nothing_to_rebuild(anim, monkeypatch):
+    from fluidnb import Cancelled
+    from fluidnb.videodb import _frames, prefetch
+
+    a = anim.assignment
+    params = AnimateParams.from_dict(anim.clip.metadata["params"])
+    a.db.cache.clear()
+
+    def stop(fraction, message):
+        raise Cancelled
+
+    with pytest.raises(Cancelled):
+        prefetch(a, params, progress=stop)
+    assert prefetch(a, params) == len(np.unique(a.fragments))
+
+    def no_reads(*args):
+        raise AssertionError("a fragment was rebuilt again")
+
+    monkeypatch.setattr(_frames, "_rebuild_clip", no_reads)
+    np.testing.assert_array_equal(render(a, params).clip.frames, anim.clip.frames)
+    with pytest.raises(ValueError, match="assignment must be an Assignment"):
+        prefetch(anim)

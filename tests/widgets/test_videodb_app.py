@@ -785,3 +785,24 @@ def test_cancel_while_frames_stream_in_puts_the_last_clip_back(app, monkeypatch)
     assert app.player.clip is first
     assert app.result is first
     assert not app.player._gif.disabled
+
+
+def test_a_resolve_rebuilds_the_new_fragments_while_the_values_rest(app, monkeypatch):
+    # After the map and the preview, the re-solve's worker rebuilds the fragments the
+    # new assignment brings; the render that follows reads none.
+    from fluidnb.videodb import _frames
+
+    draw_scene(app)
+    app.run(timeout=120)
+    app.settle = 1e9  # no render on rest here: Render is pressed below
+    app.wait_resolve()
+    app.panel.set("sigma", app.assignment.params.sigma * 10)
+    app.wait_resolve()
+
+    def no_reads(*args):
+        raise AssertionError("a fragment was rebuilt at Render")
+
+    monkeypatch.setattr(_frames, "_rebuild_clip", no_reads)
+    clip = app.render_clip(timeout=120)
+    assert app.status.startswith("rendered in"), app.status
+    assert clip.metadata["params"]["sigma"] == app.assignment.params.sigma
