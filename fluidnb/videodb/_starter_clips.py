@@ -28,6 +28,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.fft
 from scipy import ndimage as ndi
 
 from .._clip import Clip
@@ -272,7 +273,7 @@ def _stream_function(shape, gen, scale):
     """A smooth, periodic random stream function, as its 2-D real FFT, unit maximum slope."""
     h, w = shape
     psi = ndi.gaussian_filter(gen.standard_normal((h, w)), scale, mode="wrap")
-    spectrum = np.fft.rfft2(psi)
+    spectrum = scipy.fft.rfft2(psi)
     vy, vx = _curl(spectrum, shape)
     return spectrum / max(float(np.hypot(vy, vx).max()), 1e-12)
 
@@ -285,10 +286,14 @@ def _wavenumbers(shape):
 
 
 def _curl(spectrum, shape):
-    """The divergence-free velocity (dy, dx) = (-dpsi/dx, dpsi/dy) of a stream function."""
+    """The divergence-free velocity (dy, dx) = (-dpsi/dx, dpsi/dy) of a stream function.
+
+    ``spectrum`` is (..., H, W // 2 + 1), complex128 or complex64 (then float32 out).
+    """
     ky, kx = _wavenumbers(shape)
-    vy = np.fft.irfft2(-1j * kx * spectrum, s=shape)
-    vx = np.fft.irfft2(1j * ky * spectrum, s=shape)
+    dtype = spectrum.dtype
+    vy = scipy.fft.irfft2((-1j * kx).astype(dtype) * spectrum, s=shape)
+    vx = scipy.fft.irfft2((1j * ky).astype(dtype) * spectrum, s=shape)
     return vy, vx
 
 
@@ -364,53 +369,85 @@ def _water_flow(spec, shape, n_frames, gen):
     flow = spec["flow"]
     base = _steady_flow(flow, shape, gen)
     n = max(n_frames - 1, 0)
-    t = np.arange(n, dtype=np.float64)[:, None, None]
-    out = np.repeat(base[None], n, axis=0)
+    # The fields are made per pixel in float64 (small), the (T - 1, H, W) sequences in
+    # float32 (what the clip stores), each term as products of a function of time and
+    # one of space (sin(a - b) = sin a cos b - cos a sin b): no trigonometry over the
+    # whole sequence.
+    t = np.arange(n, dtype=np.float64)
     mean = base.reshape(-1, 2).mean(axis=0)
     yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
-    # Filmed water is choppy in places and calm in others: the eddies and waves are
-    # scaled by a smooth random envelope, exp(s n - s^2 / 2) (mean 1), n a smooth
-    # standard normal field.
-    patchy = flow.get("patchy", 0.5)
-    noise = ndi.gaussian_filter(gen.standard_normal(shape), 0.2 * min(h, w), mode="wrap")
-    noise /= max(float(noise.std()), 1e-12)
-    envelope = np.exp(patchy * noise - 0.5 * patchy**2)[..., None]
-    unsteady = np.zeros_like(out)
-    if "gust" in flow and n:
+    envelope = _envelope(flow, shape, gen).astype(np.float32)
+    out = np.empty((n, h, w, 2), np.float32)
+    if not n:
+        return out
+    if "gust" in flow:
         amplitude, period, wavelength = flow["gust"]
         along = mean / max(float(np.hypot(*mean)), 1e-12)
-        s = yy * along[0] + xx * along[1]
-        phase = 2.0 * np.pi * (t / period - s[None] / wavelength) + gen.uniform(0, 2 * np.pi)
-        out *= (1.0 + amplitude * np.sin(phase))[..., None]
+        s = 2.0 * np.pi * (yy * along[0] + xx * along[1]) / wavelength
+        a = 2.0 * np.pi * t / period + gen.uniform(0, 2 * np.pi)
+        # 1 + amplitude sin(a(t) - s(x)), each frame a sum of two fields.
+        gain = _outer(amplitude * np.sin(a), np.cos(s)) - _outer(amplitude * np.cos(a), np.sin(s))
+        gain += np.float32(1.0)
+        for c in range(2):
+            np.multiply(gain, base[..., c].astype(np.float32), out=out[..., c])
+    else:
+        out[...] = base.astype(np.float32)
+    unsteady = [np.zeros((n, h, w), np.float32) for _ in range(2)]
     turbulence = flow.get("turbulence", 0.0)
-    if turbulence > 0 and n:
+    if turbulence > 0:
         scale = flow.get("eddy", 0.14) * min(h, w)
         psi1 = _stream_function(shape, gen, scale)
         psi2 = _stream_function(shape, gen, scale)
         ky, kx = _wavenumbers(shape)
         carry = flow.get("carried", 1.0) * mean  # px/frame the eddies drift
         cycle = flow.get("cycle", 24.0)
-        for k in range(n):
-            phase = 2.0 * np.pi * k / cycle
-            spectrum = math.cos(phase) * psi1 + math.sin(phase) * psi2
-            spectrum = spectrum * np.exp(-1j * k * (ky * carry[0] + kx * carry[1]))
-            vy, vx = _curl(spectrum, shape)
-            unsteady[k, ..., 0] += turbulence * vy
-            unsteady[k, ..., 1] += turbulence * vx
+        phase = 2.0 * np.pi * t / cycle
+        # Frame k's stream function: between the two patterns, shifted by k carry
+        # (a phase ramp, the product of one along y and one along x).
+        shift_y = np.exp(-1j * t[:, None, None] * ky[None] * carry[0]).astype(np.complex64)
+        shift_x = np.exp(-1j * t[:, None, None] * kx[None] * carry[1]).astype(np.complex64)
+        spectra = _outer(np.cos(phase), psi1.astype(np.complex64))
+        spectra += _outer(np.sin(phase), psi2.astype(np.complex64))
+        spectra *= shift_y
+        spectra *= shift_x
+        vy, vx = _curl(spectra, shape)
+        unsteady[0] += np.float32(turbulence) * vy
+        unsteady[1] += np.float32(turbulence) * vx
     for amplitude, period, wavelength, angle in flow.get("waves", ()):
-        if not n:
-            break
         rad = math.radians(angle)
         direction = np.array([-math.sin(rad), math.cos(rad)])  # (dy, dx), up is -y
-        along = yy * direction[0] + xx * direction[1]
-        phase = 2.0 * np.pi * (along[None] / wavelength - t / period) + gen.uniform(0, 2 * np.pi)
+        s = 2.0 * np.pi * (yy * direction[0] + xx * direction[1]) / wavelength
+        a = 2.0 * np.pi * t / period - gen.uniform(0, 2 * np.pi)
+        # amplitude cos(s(x) - a(t)) = amplitude (cos s cos a + sin s sin a)
+        wave = _outer(amplitude * np.cos(a), np.cos(s)) + _outer(amplitude * np.sin(a), np.sin(s))
         # Across the direction of travel: divergence-free, the texture sways without
         # being squeezed (a wave pushing along its direction would crowd the texture
         # into a visible egg-crate pattern where two of them cross).
-        across = np.array([direction[1], -direction[0]])
-        unsteady += (amplitude * np.cos(phase))[..., None] * across
-    out += unsteady * envelope
-    return out.astype(np.float32)
+        across = (direction[1], -direction[0])
+        for c in range(2):
+            unsteady[c] += np.float32(across[c]) * wave
+    for c in range(2):
+        unsteady[c] *= envelope
+        out[..., c] += unsteady[c]
+    return out
+
+
+def _envelope(flow, shape, gen):
+    """The smooth random envelope (H, W) of a recipe's eddies and waves, mean 1.
+
+    Filmed water is choppy in places and calm in others: exp(s n - s^2 / 2), n a
+    smooth standard normal field, s the recipe's ``patchy``.
+    """
+    patchy = flow.get("patchy", 0.5)
+    noise = ndi.gaussian_filter(gen.standard_normal(shape), 0.2 * min(shape), mode="wrap")
+    noise /= max(float(noise.std()), 1e-12)
+    return np.exp(patchy * noise - 0.5 * patchy**2)
+
+
+def _outer(a, field):
+    """``a[k] * field`` for every k: (len(a), *field.shape), in float32 or complex64."""
+    dtype = np.complex64 if np.iscomplexobj(field) else np.float32
+    return np.multiply(np.asarray(a, dtype)[:, None, None], np.asarray(field, dtype))
 
 
 def _water(recipe, size, seed, report=None):

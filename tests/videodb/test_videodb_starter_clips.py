@@ -242,3 +242,21 @@ def test_mosaic_is_periodic_and_keeps_the_sources_statistics():
     inner = np.abs(np.diff(texture, axis=1)).mean()
     seam = np.abs(texture[:, 0] - texture[:, -1]).mean()
     assert seam < 2 * inner
+
+
+@pytest.mark.parametrize("recipe", [r["name"] for r in sc._WATER])
+def test_water_flow_equals_the_frame_by_frame_reference(recipe):
+    # _water_flow makes the whole sequence at once in float32 (products of functions of
+    # time and of space, one batched FFT); the reference writes each frame's formula
+    # out in float64. Same random draws, so the same flow to float32 round-off.
+    from fluidnb.videodb._reference import reference_water_flow
+
+    spec = next(r for r in sc._WATER if r["name"] == recipe)
+    shape, n_frames = sc._QUICK.shape, 12
+    fast = sc._water_flow(spec, shape, n_frames, np.random.default_rng(3))
+    plain = reference_water_flow(spec, shape, n_frames, np.random.default_rng(3))
+    assert fast.dtype == np.float32
+    assert fast.shape == plain.shape == (n_frames - 1, *shape, 2)
+    np.testing.assert_allclose(fast, plain, rtol=0, atol=1e-5)
+    # The time-varying part is there (not only the steady flow).
+    assert np.abs(np.diff(plain, axis=0)).max() > 0.05
