@@ -313,6 +313,26 @@ def build_database(
         :class:`~fluidnb.videodb._lock.DatabaseBusy` (a ValueError) if another process
         is building into or adding to the folder.
     """
+    folder = _build(
+        sources,
+        path,
+        kind=kind,
+        params=params,
+        seed=seed,
+        client=client,
+        workers=workers,
+        resume=resume,
+        progress=progress,
+    )
+    return open_database(folder)
+
+
+def _build(sources, path, *, kind, params, seed, client, workers, resume, progress):
+    """:func:`build_database` up to the open database: returns its folder.
+
+    For a caller that moves the folder before opening it (a starter database is built
+    in ``<path>.partial``), which would otherwise load every array twice.
+    """
     params = _check_params(params)
     kind = _check_kind(kind)
     seed = check_int("seed", seed, 0)
@@ -345,7 +365,7 @@ def build_database(
             manifest = _manifest(root, kind, params, seed, codebook, records, counts)
             _finish(root, manifest)
         stage[2](1.0, "database ready")
-        return open_database(root)
+    return root
 
 
 @contextlib.contextmanager

@@ -26,7 +26,7 @@ from pathlib import Path
 from .._cache import cache_dir
 from .._progress import Progress
 from .._validation import check_choice
-from ._build import build_database
+from ._build import _build
 from ._lock import locked
 from ._params import DatabaseParams
 from ._starter_clips import STARTER_KINDS
@@ -181,12 +181,16 @@ def _build_starter(kind, quick, path, report):
             try:
 
                 def run(resume):
-                    build_database(
+                    # Not build_database: it would open the database, which is opened
+                    # once moved (each opening loads every array).
+                    _build(
                         [future.result for future in futures],
                         partial,
                         kind=kind,
                         params=starter_params(),
                         seed=0,
+                        client=None,
+                        workers=None,
                         resume=resume,
                         progress=progress.second,
                     )
