@@ -4,10 +4,10 @@ The build runs in four stages, each of which can be interrupted and resumed:
 
 1. **ingest** (sequential): each source is read once (:func:`read_video`), scaled down
    if needed and stored as ``clips/<i>/frames``;
-2. **fragments** (parallel across clips, on dask): per clip, optical flow once
-   (:func:`optical_flow`), then for every temporal window and augmented version
-   (:func:`sample_version`, :func:`transform_flow`) the fragments' features
-   (:func:`window_features`) and dense SIFT descriptors of their mean images;
+2. **fragments** (parallel across clips, on local threads or a dask cluster): per
+   clip, optical flow once (:func:`optical_flow`), then for every temporal window and
+   augmented version (:func:`sample_version`, :func:`transform_flow`) the fragments'
+   features (:func:`window_features`) and dense SIFT descriptors of their mean images;
 3. **codebook**: repeated cluster bisectioning on a seeded sample of the descriptors
    (:func:`fit_codebook`), then every descriptor's nearest visual word;
 4. **manifest**: parameters, codebook, clips with their fingerprints and checksums,
@@ -288,9 +288,9 @@ def build_database(
         Seeds the codebook's sample of descriptors and its clustering: same sources,
         params and seed, same database, byte for byte.
     client : dask.distributed.Client, optional
-        Run the per-clip work on this cluster; default dask's local threaded scheduler.
+        Run the per-clip work on this cluster; default: local threads.
     workers : int, optional
-        Threads of the local scheduler (default: all cores).
+        Local threads cutting clips into fragments (default: all cores).
     resume : bool
         Continue an interrupted build in ``path`` (same sources, params and seed).
     progress : callable, optional
@@ -569,11 +569,11 @@ class _Ingest:
 def _ingest_and_run(ingest, params, codebook, client, workers, report):
     """Every source stored (in order) and cut into fragments: ``(records, counts)``.
 
-    On the local scheduler both run in one dask graph: the clips are stored one after
-    the other (a chain of tasks, as the state lists them in order), and each clip is
-    cut into fragments as soon as it is stored, on another thread, while the next one
-    is read (or, for a starter database, still made). On a cluster the clips are
-    stored here first, then sent out.
+    Locally both run at once (:func:`_pipeline`): the clips are stored one after the
+    other (as the state lists them, in order), and each clip is cut into fragments as
+    soon as it is stored, on another thread, while the next one is read (or, for a
+    starter database, still made). On a cluster the clips are stored here first, then
+    sent out.
     """
     n = len(ingest)
     if client is not None:
@@ -588,50 +588,52 @@ def _ingest_and_run(ingest, params, codebook, client, workers, report):
 
 
 def _pipeline(ingest, params, codebook, workers, report):
-    """:func:`_ingest_and_run` on dask's local threaded scheduler."""
-    from concurrent.futures import ThreadPoolExecutor
+    """:func:`_ingest_and_run` on local threads.
 
-    import dask
-    from dask.callbacks import Callback
+    The clips are stored one after the other on this thread -- each waits here for its
+    source to be read or, for a starter database, made -- and each is cut into
+    fragments on one of ``workers`` threads as soon as it is stored. A clip still in
+    the making holds up only this thread, never a cutting one: every worker cuts
+    from the first clips on (when the storing had a worker of its own, the second
+    worker waited for all the clips to be made, and ended cutting ~1 s after the
+    first).
+    """
+    from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 
     root, n = ingest.root, len(ingest)
     if codebook is None:  # the descriptors' groups are made here, once
         import zarr
 
         zarr.open_group(str(root), mode="a", zarr_format=3).require_group(_BUILD)
-    steps, cuts, tasks, previous = {}, {}, [], None
-    for k in range(n):
-        # ``previous`` orders the steps; each cut waits for its clip's step only.
-        step = dask.delayed(_ingest_step, pure=False)(ingest, k, previous)
-        cut = dask.delayed(_cut_clip, pure=False)(str(root), params.to_dict(), codebook, step)
-        steps[step.key], cuts[cut.key], previous = k, k, step
-        tasks.append(cut)
+    params_dict = params.to_dict()
+    cutting = {}  # future -> clip
     read = cut_done = 0
 
-    def tick(key):
+    def tick(message):
         # Reading a clip counts for 1, cutting it for 5: one bar, always forward.
-        nonlocal read, cut_done
-        if key in steps:
-            read += 1
-            message = "clips read" if read == n else f"read clip {read}/{n}"
-        else:
-            cut_done += 1
-            name = ingest.records[cuts[key]]["name"]
-            message = f"fragments: {cut_done}/{n} clips done ({name})"
         report(min((read + 5 * cut_done) / (6 * n), 0.999), message)
-        if key in cuts:
-            _pause("fragments")
 
-    class _Tick(Callback):
-        def _posttask(self, key, result, dsk, state, worker_id):
-            if key in steps or key in cuts:
-                tick(key)
+    def collect(block):
+        nonlocal cut_done
+        done, _ = wait(list(cutting), timeout=None if block else 0, return_when=FIRST_COMPLETED)
+        for job in sorted(done, key=cutting.get):
+            k = cutting.pop(job)
+            job.result()  # a clip that failed stops the build here
+            cut_done += 1
+            tick(f"fragments: {cut_done}/{n} clips done ({ingest.records[k]['name']})")
+            _pause("fragments")
 
     report(0.0, f"reading clip 1/{n}")
     pool = ThreadPoolExecutor(workers, thread_name_prefix="fluidnb-videodb")
     try:
-        with _Tick():
-            dask.compute(*tasks, scheduler="threads", pool=pool)
+        for k in range(n):
+            record = ingest.step(k)
+            read += 1
+            tick("clips read" if read == n else f"read clip {read}/{n}")
+            cutting[pool.submit(_cut_clip, str(root), params_dict, codebook, record)] = k
+            collect(block=False)
+        while cutting:
+            collect(block=True)
     finally:
         # On an error or a cancel, let the clips in flight finish writing before
         # returning, so a resume never races a worker still writing.
@@ -640,11 +642,6 @@ def _pipeline(ingest, params, codebook, workers, report):
     counts = {r["index"]: _read_done(root, r["index"]) for r in records}
     report(1.0, "fragments done")
     return records, counts
-
-
-def _ingest_step(ingest, k, previous):
-    """Store clip ``k`` (``previous``, the step before, only orders the steps)."""
-    return ingest.step(k)
 
 
 def _cut_clip(root, params_dict, codebook, record):
