@@ -260,3 +260,18 @@ def test_water_flow_equals_the_frame_by_frame_reference(recipe):
     np.testing.assert_allclose(fast, plain, rtol=0, atol=1e-5)
     # The time-varying part is there (not only the steady flow).
     assert np.abs(np.diff(plain, axis=0)).max() > 0.05
+
+
+@pytest.mark.parametrize("sigma", [6.0, 18.0])
+def test_smooth_noise_is_a_periodic_gaussian_blur_of_the_noise(sigma):
+    # The blur is applied to the noise's spectrum; in space it is scipy's periodic
+    # Gaussian filter (with a kernel long enough that its truncation does not show).
+    import scipy.fft
+    from scipy import ndimage as ndi
+
+    shape = (96, 160)
+    noise = np.random.default_rng(1).standard_normal(shape)
+    expected = ndi.gaussian_filter(noise, sigma, mode="wrap", truncate=8.0)
+    spectrum = sc._smooth_noise(shape, np.random.default_rng(1), sigma)
+    got = scipy.fft.irfft2(spectrum, s=shape)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
