@@ -42,6 +42,7 @@ import os
 import shutil
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -59,12 +60,15 @@ from ._store import (
     FORMAT_VERSION,
     FRAGMENT_ARRAYS,
     MANIFEST,
+    RAM_ARRAYS,
     STATE,
+    built_database,
     checksum,
     clip_group,
     create_array,
     folder_state,
     fragment_layout,
+    load_clip_arrays,
     open_database,
     pending_addition,
     read_manifest,
@@ -313,7 +317,7 @@ def build_database(
         :class:`~fluidnb.videodb._lock.DatabaseBusy` (a ValueError) if another process
         is building into or adding to the folder.
     """
-    folder = _build(
+    folder, arrays = _build(
         sources,
         path,
         kind=kind,
@@ -324,14 +328,15 @@ def build_database(
         resume=resume,
         progress=progress,
     )
-    return open_database(folder)
+    return built_database(folder, arrays)
 
 
 def _build(sources, path, *, kind, params, seed, client, workers, resume, progress):
-    """:func:`build_database` up to the open database: returns its folder.
+    """:func:`build_database` up to the open database: its folder and clips' arrays.
 
-    For a caller that moves the folder before opening it (a starter database is built
-    in ``<path>.partial``), which would otherwise load every array twice.
+    ``arrays`` maps each clip's index to the arrays a database holds in memory, as
+    stored: :func:`~fluidnb.videodb._store.built_database` makes the database of them
+    -- after moving the folder, for a starter database built in ``<path>.partial``.
     """
     params = _check_params(params)
     kind = _check_kind(kind)
@@ -359,14 +364,21 @@ def _build(sources, path, *, kind, params, seed, client, workers, resume, progre
             records, counts = _ingest_and_run(ingest, params, None, client, workers, stage[0])
             if sum(counts.values()) == 0:
                 raise ValueError(f"no fragment: {_why(records)}")
-            codebook = _train_codebook(root, counts, params, seed, stage[1])
-            _pause("codebook")
-            stage[2](0.0, "visual words")
-            _quantise_clips(root, counts, codebook, workers)
-            manifest = _manifest(root, kind, params, seed, codebook, records, counts)
+            with ThreadPoolExecutor(1, thread_name_prefix="fluidnb-read") as reader:
+                # The arrays the database holds in memory, but for the words, read back
+                # while the codebook is fitted (which leaves a core free).
+                held = reader.submit(_read_back, root, counts, params)
+                codebook = _train_codebook(root, counts, params, seed, stage[1])
+                _pause("codebook")
+                stage[2](0.0, "visual words")
+                words = _quantise_clips(root, counts, codebook, params, workers)
+                arrays = held.result()
+            for index, clip_words in words.items():
+                arrays[index]["words"] = clip_words
+            manifest = _manifest(root, kind, params, seed, codebook, records, counts, (), arrays)
             _finish(root, manifest)
         stage[2](1.0, "database ready")
-    return root
+    return root, arrays
 
 
 @contextlib.contextmanager
@@ -599,7 +611,7 @@ def _pipeline(ingest, params, codebook, workers, report):
     worker waited for all the clips to be made, and ended cutting ~1 s after the
     first).
     """
-    from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+    from concurrent.futures import FIRST_COMPLETED, wait
 
     root, n = ingest.root, len(ingest)
     if codebook is None:  # the descriptors' groups are made here, once
@@ -712,8 +724,6 @@ def _run_clips(root, records, params, codebook, client, workers, report):
             client.cancel(futures)
             raise
     elif tasks:
-        from concurrent.futures import ThreadPoolExecutor
-
         from dask.callbacks import Callback
 
         class _Tick(Callback):
@@ -784,20 +794,21 @@ def _train_codebook(root, counts, params, seed, report):
     return codebook
 
 
-def _quantise_clips(root, counts, codebook, workers):
+def _quantise_clips(root, counts, codebook, params, workers):
     """Every clip's visual words, clips side by side on ``workers`` threads.
 
     Each thread's matrix products on one BLAS thread: OpenBLAS's own threads spin
     while they wait, and beside ours (or other programs) they only slowed it down
     (measured: 1.5-2x the wall time with two of them on two busy cores). The words
     are the same whatever the threads (:func:`quantise` is exact).
-    """
-    from concurrent.futures import ThreadPoolExecutor
 
+    Returns each clip's words as stored (read back), for :func:`_read_back`'s arrays.
+    """
     with _one_blas_thread(), ThreadPoolExecutor(max(1, min(workers, len(counts)))) as pool:
-        jobs = [pool.submit(_quantise_clip, root, i, n, codebook) for i, n in counts.items()]
-        for job in jobs:
-            job.result()
+        jobs = {
+            i: pool.submit(_quantise_clip, root, i, n, codebook, params) for i, n in counts.items()
+        }
+        return {i: job.result() for i, job in jobs.items()}
 
 
 def _one_blas_thread():
@@ -808,7 +819,7 @@ def _one_blas_thread():
     return threadpool_limits(limits=1, user_api="blas")
 
 
-def _quantise_clip(root, index, count, codebook):
+def _quantise_clip(root, index, count, codebook, params):
     import zarr
 
     from ._words import quantise
@@ -819,9 +830,25 @@ def _quantise_clip(root, index, count, codebook):
     for lo in range(0, count, CHUNK):
         writer.add({"words": quantise(descs[lo : lo + CHUNK], codebook)})
     writer.close()
+    return load_clip_arrays(group, root, index, count, params, names=("words",))["words"]
 
 
-def _manifest(root, kind, params, seed, codebook, records, counts, old_clips=()):
+def _read_back(root, counts, params):
+    """Each clip's arrays a database holds in memory (but for its words), from the store.
+
+    The manifest's checksums and the database :func:`build_database` returns are made
+    of them (:func:`~fluidnb.videodb._store.built_database`), with the words: read
+    here while the codebook is fitted, not again, one clip after the other, at the end.
+    """
+    import zarr
+
+    group = zarr.open_group(str(root), mode="r", zarr_format=3)
+    names = [name for name in RAM_ARRAYS if name != "words"]
+    return {i: load_clip_arrays(group, root, i, n, params, names=names) for i, n in counts.items()}
+
+
+def _manifest(root, kind, params, seed, codebook, records, counts, old_clips=(), arrays=None):
+    """The manifest; ``arrays``, each clip's in-memory arrays if the caller has them."""
     import zarr
 
     from ._store import RAM_ARRAYS
@@ -831,8 +858,11 @@ def _manifest(root, kind, params, seed, codebook, records, counts, old_clips=())
     first = sum(c["fragments"] for c in clips)
     for rec in records:
         count = counts[rec["index"]]
-        arrays = {n: group[f"{clip_group(rec['index'])}/{n}"][...] for n in RAM_ARRAYS}
-        clip = {**rec, "first": first, "fragments": count, "checksum": checksum(arrays)}
+        if arrays is not None:
+            held = arrays[rec["index"]]
+        else:
+            held = {n: group[f"{clip_group(rec['index'])}/{n}"][...] for n in RAM_ARRAYS}
+        clip = {**rec, "first": first, "fragments": count, "checksum": checksum(held)}
         if count == 0:
             # Kept (the record says what went in) but it adds nothing: say why.
             clip["note"] = f"no fragment: {_why([rec])}"
