@@ -208,15 +208,19 @@ class _ChunkWriter:
         self.written += count
 
 
-def _process_clip(root, index, params_dict, codebook):
-    """One clip's fragments: the dask task (runs in a worker thread or process)."""
+def _process_clip(root, index, params_dict, codebook, frames=None):
+    """One clip's fragments: the dask task (runs in a worker thread or process).
+
+    ``frames``: the clip's stored frames, if the caller has them in memory (else read).
+    """
     import zarr
 
     params = DatabaseParams.from_dict(params_dict)
     root = Path(root)
     group = zarr.open_group(str(root), mode="a", zarr_format=3)
     clip = group[clip_group(index)]
-    frames = clip["frames"][...]
+    if frames is None:
+        frames = clip["frames"][...]
     layout = fragment_layout(params)
     names = [n for n in FRAGMENT_ARRAYS if n != "words"]
     writer = _ChunkWriter(clip, {n: layout[n] for n in names})
@@ -524,6 +528,10 @@ class _Ingest:
 
     def step(self, k):
         """Store source ``k`` (after sources 0 .. k - 1); returns its record."""
+        return self.store(k)[0]
+
+    def store(self, k):
+        """:meth:`step`, returning the record and the clip's frames as stored (uint8)."""
         root, index = self.root, self.base + k
         src = self.sources[k]
         try:
@@ -567,7 +575,7 @@ class _Ingest:
         self.state["clips"] = self.records
         write_json_atomically(self.state_file, self.state)
         _pause("ingested")
-        return rec
+        return rec, video.frames
 
     def finish(self):
         """Check that a resume was given every clip the interrupted run had."""
@@ -609,7 +617,9 @@ def _pipeline(ingest, params, codebook, workers, report):
     the making holds up only this thread, never a cutting one: every worker cuts
     from the first clips on (when the storing had a worker of its own, the second
     worker waited for all the clips to be made, and ended cutting ~1 s after the
-    first).
+    first). The workers are handed the frames as stored, not read back; a clip is
+    stored when one is free or about to be (at most ``workers + 1`` clips' frames in
+    memory, whatever the number of sources).
     """
     from concurrent.futures import FIRST_COMPLETED, wait
 
@@ -640,10 +650,14 @@ def _pipeline(ingest, params, codebook, workers, report):
     pool = ThreadPoolExecutor(workers, thread_name_prefix="fluidnb-videodb")
     try:
         for k in range(n):
-            record = ingest.step(k)
+            while len(cutting) > workers:  # every worker busy and one clip waiting
+                collect(block=True)
+            record, frames = ingest.store(k)
             read += 1
             tick("clips read" if read == n else f"read clip {read}/{n}")
-            cutting[pool.submit(_cut_clip, str(root), params_dict, codebook, record)] = k
+            job = pool.submit(_cut_clip, str(root), params_dict, codebook, record, frames)
+            cutting[job] = k
+            del frames  # the worker's, until it has cut the clip
             collect(block=False)
         while cutting:
             collect(block=True)
@@ -657,7 +671,7 @@ def _pipeline(ingest, params, codebook, workers, report):
     return records, counts
 
 
-def _cut_clip(root, params_dict, codebook, record):
+def _cut_clip(root, params_dict, codebook, record, frames):
     """One stored clip's fragments, unless a run before finished them; returns the count."""
     index = record["index"]
     done = _read_done(root, index)
@@ -667,7 +681,7 @@ def _cut_clip(root, params_dict, codebook, record):
         import zarr
 
         zarr.open_group(root, mode="a", zarr_format=3)[_BUILD].require_group(f"{index:05d}")
-    return _process_clip(root, index, params_dict, codebook)
+    return _process_clip(root, index, params_dict, codebook, frames)
 
 
 def _mark_ingested(root, index):
