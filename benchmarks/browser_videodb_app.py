@@ -18,8 +18,10 @@ water and one stroke set from code. Every time is taken in the page
   drawn while dragging, its lag behind the value it shows (latest value wins: values
   overtaken are never drawn), the maps drawn per second, and the lag of the last value's
   map and preview after the mouse stops;
-- *Render*: from the press to the status line saying the clip is rendered (the clip is
-  in the player); *Play*: from the press to the next frame, and frames shown a second.
+- *Render*: from the press to the clip's first frames in the player (the app streams
+  the clip as it is made) and to the status line saying the whole clip is rendered;
+  *Play*: from the press to the next frame, and frames shown a second; Render pressed
+  while the clip plays: the frames shown a second while the new clip streams in.
 
 No asserts: it prints fastest / median, with the machine's load average.
 """
@@ -92,6 +94,15 @@ WATCH = """() => {
       log.push({t: now(), kind: 'frame', caption: player.textContent});
     }
   }).observe(player, {subtree: true, childList: true, attributes: true, characterData: true});
+  // The player's caption ("k of n frames so far" while a clip streams in).
+  let caption = null;
+  new MutationObserver(() => {
+    const text = player.textContent;
+    if (text !== caption) {
+      caption = text;
+      log.push({t: now(), kind: 'caption', text});
+    }
+  }).observe(player, {subtree: true, childList: true, characterData: true});
   const status = app.querySelector('.fluidnb-status');
   new MutationObserver(() => log.push({t: now(), kind: 'status', text: status.textContent}))
     .observe(status, {subtree: true, childList: true, characterData: true});
@@ -99,6 +110,10 @@ WATCH = """() => {
 }"""
 
 NAMES = {"sigma": 0, "lam": 1, "rho": 2}
+
+
+def now_ms(page):
+    return page.evaluate("() => performance.now()")
 
 
 def close(a, b):
@@ -144,9 +159,9 @@ def e_name(log, t):
     return None
 
 
-def settle(page, timeout=120):
-    """Wait until the app rests: the clip in the player, no render running, and nothing
-    on screen changed for 0.8 s."""
+def settle(page, timeout=120, playing=False):
+    """Wait until the app rests: the whole clip in the player, no render running, and
+    nothing on screen changed for 0.8 s (``playing``: frames may change)."""
     deadline = time.monotonic() + timeout
     seen = -1
     while time.monotonic() < deadline:
@@ -157,7 +172,7 @@ def settle(page, timeout=120):
               / frames, /.test(document.querySelector('.fluidnb-app .fluidnb-player').textContent),
             ]"""
         )
-        if n == seen and clip and not rendering:
+        if (n == seen or playing) and clip and not rendering:
             return
         seen = n
         page.wait_for_timeout(800)
@@ -285,35 +300,49 @@ def report(page, args):
                 final_map += [lag for kind, _, lag in mine if kind == "map"][:1]
                 final_preview += [lag for kind, _, lag in mine if kind == "frame"][:1]
 
-    # Render: from the press to the clip's first frame in the player; then Play: from
-    # the press to the next frame, and the frames shown per second while it plays.
-    render_first, play_first, play_rate = [], [], []
+    # Render: from the press to the clip's first frames in the player (the app streams
+    # the clip as it is made: the caption says "k of n frames so far") and to the status
+    # line naming the whole clip; then Play: from the press to the next frame, and the
+    # frames shown per second while it plays. Last, Render while the clip plays: the
+    # frames shown per second while the new clip streams in.
+    render_first, render_whole, play_first, play_rate, stream_rate = [], [], [], [], []
     play = page.locator(".fluidnb-app .fluidnb-player .widget-play button").first
+    render = page.locator(".fluidnb-app .fluidnb-vdb-render")
     for _ in range(args.rounds):
         page.evaluate("() => { window.__log.length = 0; }")
-        page.locator(".fluidnb-app .fluidnb-vdb-render").click()
+        render.click()
         page.wait_for_timeout(300)
         settle(page)
         log = page.evaluate("() => window.__log")
         press = [e["t"] for e in log if e["kind"] == "press"]
-        # The same values give the same first frame: the status names the new clip.
-        done = [
-            e["t"]
-            for e in log
-            if e["kind"] == "status" and "rendered in" in e["text"] and press and e["t"] > press[0]
-        ]
+        after = [e for e in log if press and e["t"] > press[0]]
+        first = [e["t"] for e in after if e["kind"] == "caption" and "frames so far" in e["text"]]
+        done = [e["t"] for e in after if e["kind"] == "status" and "rendered in" in e["text"]]
+        if first:
+            render_first.append(first[0] - press[0])
         if done:
-            render_first.append(done[0] - press[0])
+            render_whole.append(done[0] - press[0])
         page.evaluate("() => { window.__log.length = 0; }")
         play.click()
         page.wait_for_timeout(2000)
-        play.click()  # pause
         log = page.evaluate("() => window.__log")
         press = [e["t"] for e in log if e["kind"] == "press"]
-        frames = [e["t"] for e in log if e["kind"] == "frame" and press[0] < e["t"] < press[-1]]
+        frames = [e["t"] for e in log if e["kind"] == "frame" and press[0] < e["t"]]
         if frames:
             play_first.append(frames[0] - press[0])
-            play_rate.append(1000 * len(frames) / (press[-1] - press[0]))
+            play_rate.append(1000 * len(frames) / (now_ms(page) - press[0]))
+        # Still playing: Render again, and count the frames shown while it streams.
+        page.evaluate("() => { window.__log.length = 0; }")
+        render.click()
+        page.wait_for_timeout(300)
+        settle(page, playing=True)
+        log = page.evaluate("() => window.__log")
+        press = [e["t"] for e in log if e["kind"] == "press"]
+        done = [e["t"] for e in log if e["kind"] == "status" and "rendered in" in e["text"]]
+        if press and done:
+            shown = [e for e in log if e["kind"] == "frame" and press[0] < e["t"] < done[0]]
+            stream_rate.append(1000 * len(shown) / (done[0] - press[0]))
+        play.click()  # pause
     print(f"load average before the drags: {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
     print("fastest / median, value on the readout -> on screen:")
     print(f"  step, map:                {stats(step_map)}")
@@ -321,7 +350,12 @@ def report(page, args):
     print(f"  drag, each preview:       {stats(drag_preview)}")
     print(f"  drag, last value's map:   {stats(final_map)}")
     print(f"  drag, last value preview: {stats(final_preview)}")
-    print(f"Render pressed -> the clip in the player ('rendered in'): {stats(render_first)}")
+    print(f"Render pressed -> its first frames in the player: {stats(render_first)}")
+    print(f"Render pressed -> the whole clip in the player ('rendered in'): {stats(render_whole)}")
+    print(
+        "Render pressed while playing -> frames shown per second until the whole clip: "
+        f"{np.median(stream_rate) if stream_rate else 0:.1f}"
+    )
     print(
         f"Play pressed -> next frame: {stats(play_first)}; frames shown per second "
         f"while playing: {np.median(play_rate) if play_rate else 0:.1f}"

@@ -65,6 +65,8 @@ class FramePlayer(W.VBox):
         self.export_dir = None if export_dir is None else Path(export_dir)
         self.label = label
         self._png = {}
+        self._ready = 0  # frames of the clip that are made (all but while streaming)
+        self._streaming = None  # the clip being streamed (stream), until it is set
         self.image = W.Image(format="png", layout=W.Layout(width=f"{self.display_width}px"))
         self.image.add_class("fluidnb-frame")
         self._play = W.Play(interval=125, step=1, repeat=True, show_repeat=True)
@@ -110,22 +112,44 @@ class FramePlayer(W.VBox):
 
     @observe("clip")
     def _clip_changed(self, change):
-        clip = change["new"]
+        clip, old = change["new"], change.get("old")
         if clip is not None and not isinstance(clip, Clip):
             raise ValueError(f"clip must be a fluidnb.Clip, got {type(clip).__name__}")
+        if _same_pictures(old, clip):
+            self._streaming = None
+            # The finished clip of a stream (the same frames, now with their metadata):
+            # keep the encoded frames and whatever is playing.
+            self._ready = len(clip)
+            self._show_state(clip)
+            return
         self._png = {}
+        streamed = clip is not None and clip is self._streaming
+        if not streamed:
+            self._streaming = None
+        self._ready = 0 if clip is None else (self._ready if streamed else len(clip))
         # An export link belongs to the clip it was written from.
         self.link.value = ""
         self.exported = ""
-        n = 0 if clip is None else len(clip)
         with self.hold_sync():
             self._play.playing = False
-            self._play.max = max(n - 1, 0)
-            self._slider.max = max(n - 1, 0)
             if clip is not None:
                 self._fps.value = min(max(float(clip.fps), 0.5), 60)
-            for b in (self._gif, self._mp4, self._play, self._slider):
+            self._show_state(clip)
+        if clip is None:
+            return
+        self.frame = min(self.frame, self._ready - 1)
+        self._show(self.frame)
+
+    def _show_state(self, clip):
+        """Slider range, buttons, size and the info line for ``clip`` (``_ready`` frames made)."""
+        n, ready = (0, 0) if clip is None else (len(clip), self._ready)
+        with self.hold_sync():
+            self._play.max = max(ready - 1, 0)
+            self._slider.max = max(ready - 1, 0)
+            for b in (self._play, self._slider):
                 b.disabled = clip is None
+            for b in (self._gif, self._mp4):  # a clip still being made is not exported
+                b.disabled = clip is None or ready < n
         if clip is None:
             self.info.value = "<i>no clip yet</i>"
             self.image.value = b""
@@ -137,12 +161,42 @@ class FramePlayer(W.VBox):
         self.image.layout.width = f"{self.display_width}px"
         # Tiny grids are enlarged by the browser; keep their cells crisp.
         self.image.layout.object_fit = "contain"
-        parts = [f"{n} frames", f"{w}x{h}", f"{clip.fps:g} fps"]
+        count = f"{n} frames" if ready == n else f"{ready} of {n} frames so far"
+        parts = [count, f"{w}x{h}", f"{clip.fps:g} fps"]
         if clip.metadata.get("method"):
             parts.append(html.escape(str(clip.metadata["method"])))
         self.info.value = f"<span style='opacity:0.75'>{', '.join(parts)}</span>"
-        self.frame = min(self.frame, n - 1)
-        self._show(self.frame)
+
+    def stream(self, clip, ready):
+        """Show a clip that is still being made: its first ``ready`` frames are final.
+
+        Play and the frame slider run over those frames; each later call with the
+        same clip (more frames made) widens them without stopping playback, and
+        setting :attr:`clip` to the finished clip (the same frames) keeps the frames
+        already encoded and keeps playing. A new clip keeps the player playing if it
+        was. GIF and MP4 wait for the whole clip.
+
+        Parameters
+        ----------
+        clip : fluidnb.Clip
+            The clip's frames (those from ``ready`` on are not made yet).
+        ready : int
+            How many frames, from the first, are final (1 to ``len(clip)``).
+        """
+        if not isinstance(clip, Clip):
+            raise ValueError(f"clip must be a fluidnb.Clip, got {type(clip).__name__}")
+        if not 1 <= int(ready) <= len(clip):
+            raise ValueError(f"ready must be in [1, {len(clip)}], got {ready}")
+        if clip is not self.clip:
+            playing = self.playing
+            self._ready = int(ready)
+            self._streaming = clip
+            self.clip = clip  # shows its first frames (and stops playing)
+            if playing:
+                self.play(True)
+            return
+        self._ready = max(self._ready, int(ready))
+        self._show_state(clip)
 
     @observe("frame")
     def _frame_changed(self, change):
@@ -161,7 +215,7 @@ class FramePlayer(W.VBox):
         return png
 
     def _show(self, i):
-        i = int(min(max(i, 0), len(self.clip) - 1))
+        i = int(min(max(i, 0), self._ready - 1))
         self.image.value = self._encode(i)
         if self._slider.value != i:
             self._slider.value = i
@@ -170,7 +224,7 @@ class FramePlayer(W.VBox):
         """Show frame ``i`` (as the slider does)."""
         if self.clip is None:
             raise ValueError("there is no clip to show yet")
-        n = len(self.clip)
+        n = self._ready
         if not 0 <= int(i) < n:
             raise ValueError(f"frame must be in [0, {n - 1}], got {i}")
         self.frame = int(i)
@@ -201,6 +255,8 @@ class FramePlayer(W.VBox):
         """
         if self.clip is None:
             raise ValueError("there is no clip to export yet")
+        if self._ready < len(self.clip):
+            raise ValueError("the clip is still being made: export it when it is done")
         if fmt not in ("gif", "mp4"):
             raise ValueError(f"fmt must be 'gif' or 'mp4', got {fmt!r}")
         folder = output_dir() if self.export_dir is None else self.export_dir
@@ -224,6 +280,18 @@ class FramePlayer(W.VBox):
         )
         self.exported = shown
         return out
+
+
+def _same_pictures(a, b):
+    """Whether two clips show the very same frames (one array's memory, same layout)."""
+    if a is None or b is None or a is b:
+        return False
+    fa, fb = a.frames, b.frames
+    return (
+        fa.shape == fb.shape
+        and fa.strides == fb.strides
+        and fa.__array_interface__["data"][0] == fb.__array_interface__["data"][0]
+    )
 
 
 def _size(n):

@@ -1021,6 +1021,7 @@ class VideoDBApp(App):
         def task(params, progress):
             return self._run_task(params, progress, inputs, image, version)
 
+        self._superseded = False
         return self.start_task(
             task, self._ran, message="retrieving candidates…", busy=self._busy_widgets
         )
@@ -1036,8 +1037,7 @@ class VideoDBApp(App):
         db = self.database(progress=opening)
         a = assign(image, matte, db, params, direction=strokes, speed=speed, progress=assigning)
         self.retrievals += 1
-        animation = render(a, params, progress=rendering)
-        self.renders += 1
+        animation = self._render_streamed(a, params, rendering)
         self._base = a
         self.animation = animation
         self.assignment = a
@@ -1068,6 +1068,7 @@ class VideoDBApp(App):
         if self.assignment is None:
             self.say("nothing to render yet: press Run first", "error")
             return False
+        self._superseded = False
         return self.start_task(
             self._render_task, self._rendered, message="rendering…", busy=self._busy_widgets
         )
@@ -1083,10 +1084,34 @@ class VideoDBApp(App):
             # on screen at once, its clip follows. A drag has shown it already.
             progress(0.0, "a first frame")
             self._show_preview(a, params)
-        animation = render(a, params, progress=progress)
-        self.renders += 1
+        animation = self._render_streamed(a, params, progress)
         self.animation = animation
         return animation.clip
+
+    def _render_streamed(self, a, params, progress):
+        """:func:`~fluidnb.videodb.render`, its frames shown in the player as they are made."""
+        try:
+            # No stages: the app plays the clip (they would take ~1 GB at 480 px).
+            animation = render(a, params, progress=progress, on_frames=self._stream, stages=False)
+        except Cancelled:
+            if not self._superseded and self.result is not None:
+                self.player.clip = self.result  # the user's Cancel: the last clip again
+            raise
+        self.renders += 1
+        return animation
+
+    def _stream(self, clip, done):
+        """The clip's first frames into the player while the rest are made (render's on_frames)."""
+        if self._superseded:
+            return  # newer values are on their way: their preview shows, not this
+        if self.player.clip is not clip:  # the first frames: they replace the preview
+            self._previewing = False
+            playing, self._was_playing = self._was_playing, False
+            self.player.stream(clip, done)
+            if playing:  # the previews stopped the player: play the new clip
+                self.player.play(True)
+        else:
+            self.player.stream(clip, done)
 
     def _rendered(self, clip, seconds):
         if clip is None:  # a render on release that newer values made obsolete
@@ -1153,15 +1178,14 @@ class VideoDBApp(App):
         changed = int((new.labels != current.labels).sum())
         self.assignment = new
         self.resolves += 1
-        drawn = threading.Event()
-        self._on_main(lambda: (self._show_assignment(), drawn.set()))
+        self._on_main(self._show_assignment)
         # The map first; the preview when no newer value waits, or when the last one is
         # older than preview_every (a drag faster than re-solve and preview together
-        # shows every map it can, a preview now and then, and the last one). It starts
-        # once the map is drawn: the two would slow each other down.
+        # shows every map it can, a preview now and then, and the last one). The
+        # preview is made here while the kernel's thread draws the map (its kernels
+        # release the GIL).
         stale = time.monotonic() - self._preview_shown > self.preview_every
         if self.live_preview and (stale or not self._values_changed()):
-            drawn.wait(1.0)
             self._show_preview(new, params)
         if not self.running or self._live_render:
             # One line (a second would move the app under the mouse while it drags).
@@ -1218,14 +1242,15 @@ class VideoDBApp(App):
                 self._was_playing = self.player.playing
             self._previewing = True
             self._preview_shown = time.monotonic()
-            with self.player.hold_sync():
-                self.player.play(False)
-                self.player.image.value = png
-                self.player.image.layout.display = None
-                self.player.info.value = (
-                    f"<span class='fluidnb-vdb-preview' title='{html.escape(title)}' "
-                    f"style='opacity:0.85;white-space:nowrap'>{html.escape(note)}</span>"
-                )
+            self.player.play(False)
+            # The caption first: each widget sends its own message, and the picture
+            # should never show under the caption of the one before.
+            self.player.info.value = (
+                f"<span class='fluidnb-vdb-preview' title='{html.escape(title)}' "
+                f"style='opacity:0.85;white-space:nowrap'>{html.escape(note)}</span>"
+            )
+            self.player.image.value = png
+            self.player.image.layout.display = None
             self.previews += 1
 
         self._on_main(show)

@@ -211,7 +211,7 @@ def _line_average(img, v, times, weights, row0, row1, out):
 # Appearance matching: per-cell histogram matching, cells blended as in CLAHE
 # --------------------------------------------------------------------------------------
 
-#: Histogram bins per channel (over the value range of the frames and the reference).
+#: Histogram bins per channel (over each image's own value range).
 HISTOGRAM_BINS = 256
 # Quantiles that describe each cell's distribution (p = 0, 1/K, ..., 1).
 _QUANTILES = 128
@@ -263,8 +263,11 @@ def _bilinear_roles(n, centres):
 class _Cells:
     """What the fast and the reference matching share.
 
-    The checked inputs, the bins (per channel, over the range of the frames and the
-    reference), the cell grid and its bilinear roles.
+    The checked inputs, the bins, the cell grid and its bilinear roles. Every image is
+    binned over its own range, per channel: the reference over the reference's, each
+    frame over that frame's (:attr:`lo`, :attr:`step`, one row per frame). So a
+    frame's result does not depend on the other frames matched with it, and a clip
+    matched a few frames at a time is the clip matched at once, bit for bit.
     """
 
     def __init__(self, frames, reference, weight, cell):
@@ -277,11 +280,15 @@ class _Cells:
         self.frames, self.reference, self.weight = f, ref, w
         n_ch = f.shape[3]
         h, w_px = f.shape[1:3]
-        lo_f, hi_f = _channel_range(f.reshape(-1, n_ch))
-        lo_r, hi_r = _channel_range(ref.reshape(-1, n_ch))
-        self.lo = np.minimum(lo_f, lo_r).astype(np.float64)
-        hi = np.maximum(hi_f, hi_r).astype(np.float64)
-        self.step = np.where(hi > self.lo, (hi - self.lo) / HISTOGRAM_BINS, 1.0 / HISTOGRAM_BINS)
+        # Row 0: the reference; row t + 1: frame t.
+        ranges = [_channel_range(ref.reshape(-1, n_ch))]
+        ranges += [_channel_range(frame.reshape(-1, n_ch)) for frame in f]
+        lo = np.array([r[0] for r in ranges], np.float64)
+        hi = np.array([r[1] for r in ranges], np.float64)
+        step = np.where(hi > lo, (hi - lo) / HISTOGRAM_BINS, 1.0 / HISTOGRAM_BINS)
+        self.lo_ref, self.step_ref, self.inv_step_ref = lo[0], step[0], 1.0 / step[0]
+        #: (T, C): each frame's lowest bin edge and bin width per channel.
+        self.lo, self.step = lo[1:], step[1:]
         # Values are binned by multiplying with the inverse (a division per value costs
         # several times as much in the kernels).
         self.inv_step = 1.0 / self.step
@@ -482,20 +489,25 @@ def match_histograms_cells(frames, reference, weight, *, cell):
     f = cells.frames
     n_ch, bins = f.shape[3], HISTOGRAM_BINS
     counts = np.zeros((f.shape[0] + 1, n_ch, cells.n_cells, bins))
-    args = (cells.cid, cells.weight, cells.lo, cells.inv_step)
-    _histogram_kernel(cells.reference, *args, counts[0])
+    lo = np.vstack([cells.lo_ref, cells.lo])  # row 0 the reference, as counts
+    step = np.vstack([cells.step_ref, cells.step])
+    where = (cells.cid, cells.weight)
+    _histogram_kernel(cells.reference, *where, cells.lo_ref, cells.inv_step_ref, counts[0])
     # Frames are independent: their histograms, and then their mapping, on the
     # cores (the kernels release the GIL; each frame writes its own rows).
-    _each_frame(lambda t: _histogram_kernel(f[t], *args, counts[t + 1]), f.shape[0])
+    _each_frame(
+        lambda t: _histogram_kernel(f[t], *where, cells.lo[t], cells.inv_step[t], counts[t + 1]),
+        f.shape[0],
+    )
     q = np.empty(counts.shape[:3] + (_QUANTILES + 1,))
-    _quantiles_kernel(counts, cells.lo, cells.step, q)
+    _quantiles_kernel(counts, lo, step, q)
     luts = np.empty(counts.shape[:3] + (bins + 1,))
     _maps_kernel(q[1:], q[0], cells.lo, cells.step, np.array(_SLOPE_RANGE), luts[1:])
     out = np.empty_like(f)
     _each_frame(
         lambda t: _apply_kernel(
-            f[t], luts[t + 1], cells.lo, cells.inv_step, *cells.rows, *cells.cols, cells.mass,
-            cells.nx, out[t],
+            f[t], luts[t + 1], cells.lo[t], cells.inv_step[t], *cells.rows, *cells.cols,
+            cells.mass, cells.nx, out[t],
         ),
         f.shape[0],
     )  # fmt: skip
@@ -553,7 +565,10 @@ def _histogram_kernel(img, cid, weight, lo, inv_step, out):
 
 @njit(cache=True, nogil=True)
 def _quantiles_kernel(counts, lo, step, out):
-    """:func:`_quantiles_np` for counts (S, C, cells, bins) -> out (S, C, cells, K + 1)."""
+    """:func:`_quantiles_np` for counts (S, C, cells, bins) -> out (S, C, cells, K + 1).
+
+    ``lo``, ``step``: (S, C), the bins of each image.
+    """
     n_s, n_ch, n_cells, bins = counts.shape
     n_q = out.shape[3] - 1
     cdf = np.empty(bins + 1)
@@ -571,7 +586,7 @@ def _quantiles_kernel(counts, lo, step, out):
                         if first < 0:
                             first = j
                 if not total > 0.0:
-                    out[s, ch, k, :] = lo[ch] + step[ch] * bins
+                    out[s, ch, k, :] = lo[s, ch] + step[s, ch] * bins
                     continue
                 cdf[0] = 0.0
                 run = 0.0
@@ -588,16 +603,17 @@ def _quantiles_kernel(counts, lo, step, out):
                     c1 = cdf[ic]
                     frac = (p - c0) / (c1 - c0) if c1 > c0 else 1.0
                     frac = min(max(frac, 0.0), 1.0)
-                    out[s, ch, k, m] = lo[ch] + step[ch] * (ic - 1 + frac)
-                out[s, ch, k, 0] = lo[ch] + step[ch] * first
-                out[s, ch, k, n_q] = lo[ch] + step[ch] * last
+                    out[s, ch, k, m] = lo[s, ch] + step[s, ch] * (ic - 1 + frac)
+                out[s, ch, k, 0] = lo[s, ch] + step[s, ch] * first
+                out[s, ch, k, n_q] = lo[s, ch] + step[s, ch] * last
 
 
 @njit(cache=True, nogil=True)
 def _maps_kernel(q_f, q_r, lo, step, slope_range, out):
     """:func:`_maps_np` compiled.
 
-    q_f (T, C, cells, K + 1), q_r (C, cells, K + 1) -> out (T, C, cells, bins + 1).
+    q_f (T, C, cells, K + 1), q_r (C, cells, K + 1) -> out (T, C, cells, bins + 1),
+    sampled at each frame's bin edges (``lo``, ``step``: (T, C)).
     """
     n_t, n_ch, n_cells, n_k = q_f.shape
     n_e = out.shape[3]
@@ -611,7 +627,7 @@ def _maps_kernel(q_f, q_r, lo, step, slope_range, out):
                 slope = min(max(slope, slope_range[0]), slope_range[1])
                 i = 0
                 for j in range(n_e):
-                    e = lo[ch] + step[ch] * j
+                    e = lo[t, ch] + step[t, ch] * j
                     while i < n_k and xp[i] <= e:
                         i += 1
                     ic = min(max(i, 1), n_k - 1)

@@ -507,7 +507,7 @@ def _difference_frames(f, sin, cos, out):
                 o[j] = np.float32(m + sin[j] * head + cos[j] * tail)
 
 
-def play_loops(loops, offsets, *, rates=None, n_frames=None, mirrors=None):
+def play_loops(loops, offsets, *, rates=None, n_frames=None, mirrors=None, frames=None):
     r"""Every fragment's loop played from its offset, mirrored, at its rate, pixel-major.
 
     What :func:`fluidnb.videodb.stagger` does after making the loops, for loops
@@ -530,25 +530,37 @@ def play_loops(loops, offsets, *, rates=None, n_frames=None, mirrors=None):
         Frames to make (default :math:`L`).
     mirrors : ndarray, shape (P,), optional
         Per fragment -1, 0 or 1 (default -1).
+    frames : array_like of int, optional
+        Which frames :math:`t` to make (default ``range(n_frames)``): a renderer
+        makes a clip a few frames at a time; each frame is the same however the clip
+        is cut.
 
     Returns
     -------
-    ndarray, shape (P, s, s, n_frames), float32
+    ndarray, shape (P, s, s, len(frames)), float32
     """
     p = len(loops)
     offs = np.asarray(offsets, np.float64)
     if offs.shape != (p,):
         raise ValueError(f"offsets must have shape ({p},), got {offs.shape}")
+    if frames is not None:
+        t = np.asarray(frames)
+        if t.ndim != 1 or t.dtype.kind not in "iu" or (len(t) and t.min() < 0):
+            raise ValueError("frames must be a 1-D array of frame numbers >= 0")
     if p == 0:
-        return np.zeros((0, FRAGMENT, FRAGMENT, 0 if n_frames is None else n_frames), np.float32)
+        n = len(t) if frames is not None else (0 if n_frames is None else n_frames)
+        return np.zeros((0, FRAGMENT, FRAGMENT, n), np.float32)
     side, length = loops[0].shape[0], loops[0].shape[2]
-    n_frames = length if n_frames is None else check_int("n_frames", n_frames, 1)
+    if frames is None:
+        n_frames = length if n_frames is None else check_int("n_frames", n_frames, 1)
+        t = np.arange(n_frames)
+    n_frames = len(t)
     r = np.ones(p) if rates is None else np.asarray(rates, np.float64)
     flips = np.full(p, -1, np.int64) if mirrors is None else np.asarray(mirrors, np.int64)
     if r.shape != (p,) or flips.shape != (p,):
         raise ValueError(f"rates and mirrors must have shape ({p},)")
     # As stagger: times mod L in float64, the frame below and the fraction in float32.
-    times = np.mod(offs[:, None] + r[:, None] * np.arange(n_frames)[None, :], length)
+    times = np.mod(offs[:, None] + r[:, None] * t[None, :], length)
     i0 = np.floor(times).astype(np.int64)
     frac = (times - i0).astype(np.float32)
     out = np.empty((p, side, side, n_frames), np.float32)

@@ -379,15 +379,30 @@ def eulerian_loop(image, velocity, n_frames, *, cycle, maps=None, return_phases=
             f"maps must be displacement_maps(velocity, {steps}) of shape "
             f"({2 * steps + 1}, {img.shape[0]}, {img.shape[1]}, 2), got {maps.shape}"
         )
+    phases = np.empty((2, len(age_a)) + img.shape, np.float32) if return_phases else None
+    out = _loop_frames(img, maps, age_a, age_b, weight_a, phases)
+    if return_phases:
+        return out, phases[0], phases[1]
+    return out
+
+
+def _loop_frames(img, maps, age_a, age_b, weight_a, phases=None, *, out=None):
+    """The frames of :func:`eulerian_loop` at the given ages and weights (any run of them).
+
+    Each frame depends only on its own ages and weight, so a renderer may make the
+    loop a few frames at a time. ``phases`` (2, T, ...), if given, receives both
+    phases; ``out`` (T, ...), if given, the frames.
+    """
     have = (maps.shape[0] - 1) // 2
     grid = _grid(img.shape[:2])
-    out = np.empty((len(age_a),) + img.shape, np.float32)
-    phases = np.empty((2,) + out.shape, np.float32) if return_phases else None
+    if out is None:
+        out = np.empty((len(age_a),) + img.shape, np.float32)
     for t, (sa, sb, wa) in enumerate(zip(age_a, age_b, weight_a)):
         # A phase of weight 0 is not sampled unless asked for.
-        a = _remap(img, _at_age(maps, have, sa), grid) if wa > 0 or return_phases else None
-        b = _remap(img, _at_age(maps, have, sb), grid) if wa < 1 or return_phases else None
-        if return_phases:
+        both = phases is not None
+        a = _remap(img, _at_age(maps, have, sa), grid) if wa > 0 or both else None
+        b = _remap(img, _at_age(maps, have, sb), grid) if wa < 1 or both else None
+        if both:
             phases[0, t], phases[1, t] = a, b
         if wa == 1:
             out[t] = a
@@ -396,8 +411,6 @@ def eulerian_loop(image, velocity, n_frames, *, cycle, maps=None, return_phases=
         else:
             # b + w_a (a - b): where both phases agree (v = 0) this is exact.
             out[t] = b + np.float32(wa) * (a - b)
-    if return_phases:
-        return out, phases[0], phases[1]
     return out
 
 

@@ -371,13 +371,28 @@ def _expand(prob, labels, max_sweeps, report, terms=None):
     energies = [current]
     truncated = free_terms = 0
     sweeps = 0
+    # A move that failed is not tried again until the labels change: on the same
+    # labels it builds the same graph and fails the same way (so skipping it changes
+    # nothing, its term counts included). A converging run's last sweeps are mostly
+    # such moves.
+    changes = 0  # moves made so far: the labels' version
+    failed = {}  # alpha -> (version it failed on, its truncated and free terms)
     for sweep in range(max_sweeps):
         improved = False
         for alpha in range(k):
-            cap, cost1, n_trunc, n_free = terms(labels, alpha)
+            known = failed.get(alpha)
+            if known is not None and known[0] == changes:
+                n_trunc, n_free = known[1:]
+                moved = False
+            else:
+                cap, cost1, n_trunc, n_free = terms(labels, alpha)
+                labels, current, moved = _cut_and_move(prob, labels, current, alpha, cap, cost1)
+                if moved:
+                    changes += 1
+                else:
+                    failed[alpha] = (changes, n_trunc, n_free)
             truncated += n_trunc
             free_terms += n_free
-            labels, current, moved = _cut_and_move(prob, labels, current, alpha, cap, cost1)
             improved |= moved
             report((sweep + (alpha + 1) / k) / max_sweeps, f"alpha-expansion sweep {sweep + 1}")
         sweeps += 1

@@ -497,21 +497,23 @@ def reference_match_histograms_cells(frames, reference, weight, *, cell):
     cells = _Cells(frames, reference, weight, cell)
     f = cells.frames
     n_ch, n_cells, bins = f.shape[3], cells.n_cells, HISTOGRAM_BINS
-    lo = np.repeat(cells.lo, n_cells)[:, None]
-    step = np.repeat(cells.step, n_cells)[:, None]
-    edges = lo + step * np.arange(bins + 1)
 
-    def bin_of(img):
-        z = (img.astype(np.float64) - cells.lo) * cells.inv_step
+    def bins_of(lo, step):  # one image's bins -> per (channel, cell) row
+        return np.repeat(lo, n_cells)[:, None], np.repeat(step, n_cells)[:, None]
+
+    def bin_of(img, lo, step):
+        z = (img.astype(np.float64) - lo) * (1.0 / step)
         return z, np.minimum(np.where(z > 0, z, 0).astype(np.intp), bins - 1)
 
-    def histograms(img):  # (H, W, C) -> (C * cells, bins)
-        idx = (np.arange(n_ch) * n_cells + cells.cid[..., None]) * bins + bin_of(img)[1]
+    def histograms(img, lo, step):  # (H, W, C) -> (C * cells, bins)
+        idx = (np.arange(n_ch) * n_cells + cells.cid[..., None]) * bins + bin_of(img, lo, step)[1]
         wt = np.broadcast_to(cells.weight[..., None], idx.shape)
         counts = np.bincount(idx.ravel(), weights=wt.ravel(), minlength=n_ch * n_cells * bins)
         return counts.reshape(n_ch * n_cells, bins)
 
-    q_ref = _quantiles_np(histograms(cells.reference), lo, step)
+    # Every image over its own range: the reference's bins, then each frame's.
+    lo_r, step_r = cells.lo_ref, cells.step_ref
+    q_ref = _quantiles_np(histograms(cells.reference, lo_r, step_r), *bins_of(lo_r, step_r))
     (y0, y1, fy), (x0, x1, fx) = cells.rows, cells.cols
     roles = []
     for ys, wy in ((y0, 1 - fy), (y1, fy)):
@@ -523,9 +525,12 @@ def reference_match_histograms_cells(frames, reference, weight, *, cell):
     ch = np.arange(n_ch)
     out = np.empty_like(f)
     for t in range(f.shape[0]):
-        q_f = _quantiles_np(histograms(f[t]), lo, step)
+        lo, step = cells.lo[t], cells.step[t]
+        row_lo, row_step = bins_of(lo, step)
+        q_f = _quantiles_np(histograms(f[t], lo, step), row_lo, row_step)
+        edges = row_lo + row_step * np.arange(bins + 1)
         lut = _maps_np(edges, q_f, q_ref).reshape(n_ch, n_cells, bins + 1)
-        z, j = bin_of(f[t])
+        z, j = bin_of(f[t], lo, step)
         frac = z - j
         acc = np.zeros(z.shape)
         for c, w_c in roles:

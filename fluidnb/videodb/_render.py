@@ -32,8 +32,8 @@ from ._blend import BLEND_LEVELS, FEATHER, MARGIN, _blend, blend_values, play_lo
 from ._composite import _restore_area, composite, dynamic_matte, inpaint_background
 from ._desync import mirror_axes, temporal_offsets
 from ._flow_render import (
+    _loop_frames,
     displacement_maps,
-    eulerian_loop,
     extend_outside,
     flow_field,
     flow_timing,
@@ -67,7 +67,9 @@ class Animation:
         image (H, W, 3). The flow rendering's: ``"velocity"`` the motion field
         (H, W, 2), ``"phase_a"`` and ``"phase_b"`` the two advected phases
         (T, H, W, 3), ``"ages"`` and ``"weights"`` their ages (frames) and weights
-        (T, 2), ``"advected"`` their cross-fade (T, H, W, 3).
+        (T, 2), ``"advected"`` their cross-fade (T, H, W, 3). Rendered with
+        ``stages=False`` (:func:`render`), only the pictures of one frame's size and
+        the per-fragment and per-frame numbers are kept.
     timings : dict
         Seconds per stage (assignment and rendering).
     """
@@ -78,7 +80,16 @@ class Animation:
     timings: dict
 
 
-def render(assignment, params=None, *, background=None, fps=24.0, progress=None):
+def render(
+    assignment,
+    params=None,
+    *,
+    background=None,
+    fps=24.0,
+    progress=None,
+    on_frames=None,
+    stages=True,
+):
     r"""Render the animation of an assignment (Okabe et al., sec. 6, or beyond it).
 
     ``params.rendering`` chooses between the paper's rendering and the flow
@@ -121,6 +132,20 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
         Frame rate of the clip.
     progress : callable, optional
         ``progress(fraction, message)``; raise :class:`fluidnb.Cancelled` to stop.
+    on_frames : callable, optional
+        ``on_frames(clip, done)``: after the work all frames share, the frames are
+        made in runs (:data:`FIRST_RUN` frames, then :data:`CHUNK` at a time; each
+        frame is made from its own inputs, so the clip is the same however it is
+        cut), and after each run this hears the :class:`~fluidnb.Clip` being made,
+        of which the first ``done`` frames are final (the rest are not made yet). A
+        player can show and play those while the rest are made
+        (:meth:`fluidnb.widgets.FramePlayer.stream`); the returned
+        animation's clip has the same frames.
+    stages : bool
+        Keep every frame's intermediate pictures in :attr:`Animation.stages` (the
+        differences, the frames before matching, the flow rendering's phases...), for
+        the lesson. An app that only plays the clip passes False: at 480 px a
+        96-frame clip's stages take about a gigabyte. The clip is the same.
 
     Returns
     -------
@@ -142,8 +167,8 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
         background = as_image(background, mode="rgb", name="background")
         check_shape_match("background", background, (h, w))
     report = Progress(progress)
-    rebuild, blend, mean, match, comp = report.split(0.35, 0.6, 0.7, 0.9)
-    clock = {}
+    rebuild, setup, making = report.split(0.3, 0.35)
+    clock = dict.fromkeys(("rebuild", "blend"), 0.0)
 
     t = time.perf_counter()
     rebuild(0.0, f"rebuilding {len(target)} fragments from their source clips")
@@ -164,77 +189,165 @@ def render(assignment, params=None, *, background=None, fps=24.0, progress=None)
         offsets = temporal_offsets(ids, target.positions, n - params.loop)
         mirrors = mirror_axes(ids, target.positions, db.mean_motion[ids])
         if flow is not None and not np.all(flow["rates"] == 1):
-            # Fragments play at different rates: make all the clip's frames before the
-            # blend. At rate 1 the blended loop is simply repeated (see _render_flow).
+            # Fragments play at different rates: play all the clip's frames. At rate 1
+            # the blended loop is simply repeated (see _FlowFrames).
             rates, n_frames = flow["rates"], flow["n_frames"]
-    # Every fragment's loop played from its offset, mirrored, at its rate (what
-    # stagger does), pixel-major as the blend reads it.
-    diffs = play_loops(
-        [looped[f] for f in ids.tolist()], offsets, rates=rates, n_frames=n_frames, mirrors=mirrors
-    )
-    del looped
     clock["rebuild"] = time.perf_counter() - t
 
-    t = time.perf_counter()
-    blend(0.0, "blending the difference frames (Laplacian pyramids)")
-    # The private entry: these differences were made just above (finite, checked shape).
-    d = _blend(diffs, target.positions, (hc, wc), MARGIN, BLEND_LEVELS, FEATHER)
-    del diffs
-    clock["blend"] = time.perf_counter() - t
-    if flow is not None:
-        out, stages, flow_clock = _render_flow(
-            assignment, params, d, flow, background, report.sub(0.6, 1.0)
-        )
-        clock.update(flow_clock)
-        return _animation(assignment, params, out, stages, clock, (offsets, mirrors), fps)
-
-    t = time.perf_counter()
-    mean(0.0, "approximate mean image (pseudo motion blur)")
-    velocity = blend_values(db.mean_motion[ids], target.positions, (hc, wc))
-    approx = motion_blur(target.canvas, velocity, shutter=params.shutter, denoise=params.denoise)
-    clock["mean"] = time.perf_counter() - t
-
-    t = time.perf_counter()
-    match(0.0, "matching histograms cell by cell")
-    # The frames approx + D_i made straight in the colour axes, with the picture of
-    # them before matching, in one pass.
-    centre, axes = colour_axes(target.canvas, target.canvas_matte)
-    rotated, unmatched = frames_in_axes(approx, d, centre, axes, unmatched=(h, w))
-    matched = _match_in_axes(rotated, target, centre, axes, params.cell)
-    del rotated
-    clock["match"] = time.perf_counter() - t
-
-    t = time.perf_counter()
-    comp(0.0, "compositing")
-    if params.tau > 0:
-        per_fragment = db.motion[ids].astype(np.float32)  # (P, N - 1, 2)
-        for axis in (0, 1):  # a mirrored fragment moves mirrored
-            per_fragment[mirrors == axis, :, axis] *= -1
-        motion = blend_values(per_fragment, target.positions, (hc, wc))  # (Hc, Wc, N - 1, 2)
-        motion = np.moveaxis(motion, 2, 0)[: len(matched) - 1]
-        matte = dynamic_matte(target.canvas_matte, motion, tau=params.tau)
-        if background is None:
-            back = inpaint_background(target.canvas, target.canvas_matte)
-        else:
-            back = target.canvas.copy()
-            back[:h, :w] = background
+    setup(0.0, "preparing the frames")
+    loops = [looped[f] for f in ids.tolist()]
+    del looped
+    length = n_frames or (n - params.loop if params.loop else n)  # one loop's frames
+    blended = _BlendedFrames(
+        loops, offsets, rates, mirrors, length, target.positions, (hc, wc), clock
+    )
+    if flow is None:
+        frames = _PaperFrames(assignment, params, blended, mirrors, background, clock, stages)
     else:
-        matte = target.canvas_matte
-        back = target.canvas
-    out = composite(matched[:, :h, :w], back[:h, :w], matte[..., :h, :w])
-    np.clip(out, 0.0, 1.0, out=out)
-    clock["composite"] = time.perf_counter() - t
-    comp(1.0, "done")
-    stages = {
-        "differences": d[:, :h, :w],
-        "mean": np.clip(approx[:h, :w], 0, 1),
-        "unmatched": unmatched,
-        "matte": (matte if matte.ndim == 3 else np.broadcast_to(matte, (len(out), hc, wc)))[
-            :, :h, :w
-        ],
-        "background": back[:h, :w],
-    }
-    return _animation(assignment, params, out, stages, clock, (offsets, mirrors), fps)
+        frames = _FlowFrames(assignment, params, blended, flow, background, clock, stages)
+    # The frames a few at a time (CHUNK): each is made from its own inputs only
+    # (blend, warp, matching, composite), so the clip is the same however it is cut,
+    # the first frames can be shown while the rest are made, and the blend's
+    # pyramids stay small.
+    total = frames.n_frames
+    out = np.empty((total, h, w, 3), np.float32)
+    live = None  # the clip being made, as on_frames sees it (a read-only view of out)
+    for t0, t1 in _runs(total):
+        making(t0 / total, f"rendering frames {t0 + 1}-{t1} of {total}")
+        out[t0:t1] = frames.make(t0, t1)
+        if on_frames is not None:
+            if live is None:
+                live = Clip._trusted(out.view(), fps, {})
+            on_frames(live, t1)
+    making(1.0, "done")
+    return _animation(assignment, params, out, frames.stages, clock, (offsets, mirrors), fps)
+
+
+#: Frames :func:`render` makes at a time, after the work all frames share (the clip
+#: is the same whatever it is; :func:`render`'s ``on_frames`` hears of each run). The
+#: first run is :data:`FIRST_RUN` frames: what an app shows first comes sooner.
+CHUNK = 12
+FIRST_RUN = 4
+
+
+def _runs(total):
+    """The runs of frames (t0, t1) :func:`render` makes one after the other."""
+    t0 = 0
+    while t0 < total:
+        t1 = min(t0 + (min(FIRST_RUN, CHUNK) if t0 == 0 else CHUNK), total)
+        yield t0, t1
+        t0 = t1
+
+
+def _tick(clock, key, t):
+    """Add the seconds since ``t`` to ``clock[key]``; the time now."""
+    now = time.perf_counter()
+    clock[key] = clock.get(key, 0.0) + now - t
+    return now
+
+
+class _BlendedFrames:
+    """The blended difference frames :math:`D_i` (Hc, Wc) on demand, each made once.
+
+    ``get(idx)`` plays the fragments' loops (:func:`play_loops`: from their offsets,
+    mirrored, at their rates) at the frames ``idx`` not made yet and blends them
+    (:func:`blend_differences`), in one batch. ``length`` frames in all: the clip's
+    (fragments at different rates) or one loop's (the loop is then repeated).
+    """
+
+    def __init__(self, loops, offsets, rates, mirrors, length, positions, canvas, clock):
+        self.loops, self.offsets, self.rates, self.mirrors = loops, offsets, rates, mirrors
+        self.positions, self.canvas, self.clock = positions, canvas, clock
+        self.length = length
+        self.done = np.zeros(self.length, bool)
+        self.frames = np.empty((self.length,) + canvas, np.float32)
+
+    def get(self, idx):
+        idx = np.asarray(idx)
+        todo = np.unique(idx[~self.done[idx]])
+        if len(todo):
+            t = time.perf_counter()
+            # Every fragment's loop played from its offset, mirrored, at its rate (what
+            # stagger does), pixel-major as the blend reads it.
+            played = play_loops(
+                self.loops, self.offsets, rates=self.rates, mirrors=self.mirrors, frames=todo
+            )
+            t = _tick(self.clock, "rebuild", t)
+            # The private entry: these differences were made just above (finite,
+            # checked shape).
+            self.frames[todo] = _blend(
+                played, self.positions, self.canvas, MARGIN, BLEND_LEVELS, FEATHER
+            )
+            self.done[todo] = True
+            _tick(self.clock, "blend", t)
+        return self.frames[idx]
+
+
+class _PaperFrames:
+    """The paper's rendering after the blend (steps 3-5 of :func:`render`), by frames."""
+
+    def __init__(self, assignment, params, blended, mirrors, background, clock, keep):
+        db, target = assignment.db, assignment.target
+        h, w = target.shape
+        hc, wc = target.canvas.shape[:2]
+        self.target, self.params, self.blended, self.clock = target, params, blended, clock
+        self.n_frames = n = blended.length
+        ids = assignment.fragments
+        t = time.perf_counter()
+        velocity = blend_values(db.mean_motion[ids], target.positions, (hc, wc))
+        self.approx = motion_blur(
+            target.canvas, velocity, shutter=params.shutter, denoise=params.denoise
+        )
+        t = _tick(clock, "mean", t)
+        self.centre, self.axes = colour_axes(target.canvas, target.canvas_matte)
+        if params.tau > 0:
+            per_fragment = db.motion[ids].astype(np.float32)  # (P, N - 1, 2)
+            for axis in (0, 1):  # a mirrored fragment moves mirrored
+                per_fragment[mirrors == axis, :, axis] *= -1
+            motion = blend_values(per_fragment, target.positions, (hc, wc))  # (Hc, Wc, N-1, 2)
+            motion = np.moveaxis(motion, 2, 0)[: n - 1]
+            matte = dynamic_matte(target.canvas_matte, motion, tau=params.tau)
+            if background is None:
+                back = inpaint_background(target.canvas, target.canvas_matte)
+            else:
+                back = target.canvas.copy()
+                back[:h, :w] = background
+        else:
+            matte = target.canvas_matte
+            back = target.canvas
+        self.matte, self.back = matte[..., :h, :w], back[:h, :w]
+        _tick(clock, "composite", t)
+        self.stages = {"mean": np.clip(self.approx[:h, :w], 0, 1), "background": self.back}
+        self.keep = keep
+        if keep:
+            self.stages["differences"] = np.empty((n, h, w), np.float32)
+            self.stages["unmatched"] = np.empty((n, h, w, 3), np.float32)
+            self.stages["matte"] = (
+                self.matte if matte.ndim == 3 else np.broadcast_to(self.matte, (n, h, w))
+            )
+
+    def make(self, t0, t1):
+        """Frames ``t0 .. t1 - 1`` of the clip, (k, H, W, 3) in [0, 1]."""
+        target, st = self.target, self.stages
+        h, w = target.shape
+        d = self.blended.get(np.arange(t0, t1))
+        t = time.perf_counter()
+        # The frames approx + D_i made straight in the colour axes, with the picture of
+        # them before matching, in one pass.
+        if self.keep:
+            st["differences"][t0:t1] = d[:, :h, :w]
+            rotated, st["unmatched"][t0:t1] = frames_in_axes(
+                self.approx, d, self.centre, self.axes, unmatched=(h, w)
+            )
+        else:
+            rotated = frames_in_axes(self.approx, d, self.centre, self.axes)
+        matched = _match_in_axes(rotated, target, self.centre, self.axes, self.params.cell)
+        t = _tick(self.clock, "match", t)
+        matte = self.matte[t0:t1] if self.matte.ndim == 3 else self.matte
+        out = composite(matched[:, :h, :w], self.back, matte)
+        np.clip(out, 0.0, 1.0, out=out)
+        _tick(self.clock, "composite", t)
+        return out
 
 
 def _animation(assignment, params, out, stages, clock, desync, fps):
@@ -284,96 +397,120 @@ def _flow_plan(assignment, params, n):
     return {"velocity": velocity, "n_frames": n_frames, "cycle": cycle, "rates": rates}
 
 
-def _render_flow(assignment, params, d, plan, background, progress):
-    r"""The flow rendering's steps after the blend (beyond the paper; see :func:`render`).
+class _FlowFrames:
+    r"""The flow rendering's steps after the blend (beyond the paper; :func:`render`), by frames.
 
-    Returns the frames (T, H, W, 3), the stages and the seconds per step.
+    The motion field's displacement maps, the layer that is advected (the photo
+    extended outside the matte) and the colour axes are made once; each run of frames
+    is then warped (:func:`eulerian_loop`), given its detail, matched and composited.
     """
-    target = assignment.target
-    h, w = target.shape
-    hc, wc = target.canvas.shape[:2]
-    field, advect, match, comp = Progress(progress).split(0.15, 0.6, 0.85)
-    clock = {}
 
-    t = time.perf_counter()
-    field(0.0, "the motion field's displacement maps")
-    velocity, n_frames, cycle = plan["velocity"], plan["n_frames"], plan["cycle"]
-    age_a, age_b, weight_a = loop_phases(n_frames, cycle)
-    steps = int(np.ceil(max(np.abs(age_a).max(), np.abs(age_b).max())))
-    maps = displacement_maps(velocity, steps)
-    clock["field"] = time.perf_counter() - t
-
-    t = time.perf_counter()
-    advect(0.0, "advecting the photo in two phases (Eulerian loop)")
-    # What flows in across the matte's edge is the fluid's own texture, mirrored.
-    layer = extend_outside(target.canvas, target.canvas_matte)
-    moved, phase_a, phase_b = eulerian_loop(
-        layer, velocity, n_frames, cycle=cycle, maps=maps, return_phases=True
-    )
-    # The differences' loop, repeated to the clip's length (or already that long).
-    d = d[np.arange(n_frames) % len(d)]
-    frames = moved + np.float32(params.detail) * d[..., None]
-    clock["advect"] = time.perf_counter() - t
-
-    t = time.perf_counter()
-    match(0.0, "matching histograms cell by cell")
-    matched = _match_to_target(frames, target, params.cell)
-    clock["match"] = time.perf_counter() - t
-
-    t = time.perf_counter()
-    comp(0.0, "compositing")
-    alpha = target.canvas_matte
-    if params.tau > 0:
-        # The outline moves with the fluid by the same loop (frame 0 is alpha, the
-        # loop closes), pulled towards alpha by 1 - tau as the paper's B_i are.
-        carried = eulerian_loop(alpha, velocity, n_frames, cycle=cycle, maps=maps)
-        matte = np.float32(params.tau) * carried + np.float32(1 - params.tau) * alpha
-        np.clip(matte, 0.0, 1.0, out=matte)
-        area = float(alpha.sum(dtype=np.float64))
-        for b in matte[1:]:
-            _restore_area(b, area)
-        if background is None:
-            back = inpaint_background(target.canvas, alpha)
+    def __init__(self, assignment, params, blended, plan, background, clock, keep):
+        target = assignment.target
+        h, w = target.shape
+        self.target, self.params, self.blended, self.clock = target, params, blended, clock
+        t = time.perf_counter()
+        velocity, self.n_frames, cycle = plan["velocity"], plan["n_frames"], plan["cycle"]
+        n = self.n_frames
+        self.ages = loop_phases(n, cycle)  # age_a, age_b, weight_a
+        age_a, age_b, weight_a = self.ages
+        steps = int(np.ceil(max(np.abs(age_a).max(), np.abs(age_b).max())))
+        self.maps = displacement_maps(velocity, steps)
+        t = _tick(clock, "field", t)
+        # What flows in across the matte's edge is the fluid's own texture, mirrored.
+        self.layer = extend_outside(target.canvas, target.canvas_matte)
+        t = _tick(clock, "advect", t)
+        self.centre, self.axes = colour_axes(target.canvas, target.canvas_matte)
+        self.alpha = target.canvas_matte
+        if params.tau > 0:
+            self.area = float(self.alpha.sum(dtype=np.float64))
+            if background is None:
+                back = inpaint_background(target.canvas, self.alpha)
+            else:
+                back = target.canvas.copy()
+                back[:h, :w] = background
         else:
-            back = target.canvas.copy()
-            back[:h, :w] = background
-    else:
-        matte = alpha
-        back = target.canvas
-    out = composite(matched, back, matte)[:, :h, :w]
-    np.clip(out, 0.0, 1.0, out=out)
-    clock["composite"] = time.perf_counter() - t
-    comp(1.0, "done")
-    stages = {
-        "velocity": velocity[:h, :w],
-        "phase_a": phase_a[:, :h, :w],
-        "phase_b": phase_b[:, :h, :w],
-        "weights": np.stack([weight_a, 1.0 - weight_a], axis=1),
-        "ages": np.stack([age_a, age_b], axis=1),
-        "advected": moved[:, :h, :w],
-        "differences": d[:, :h, :w],
-        "unmatched": np.clip(frames[:, :h, :w], 0, 1),
-        "matte": (matte if matte.ndim == 3 else np.broadcast_to(matte, (len(out), hc, wc)))[
-            :, :h, :w
-        ],
-        "background": back[:h, :w],
-    }
-    return out, stages, clock
+            back = target.canvas
+        self.back = back
+        _tick(clock, "composite", t)
+        self.stages = {
+            "velocity": velocity[:h, :w],
+            "weights": np.stack([weight_a, 1.0 - weight_a], axis=1),
+            "ages": np.stack([age_a, age_b], axis=1),
+            "background": back[:h, :w],
+        }
+        self.keep = keep
+        if keep:
+            # The lesson's pictures, written run by run: the phases and their cross-fade
+            # on the canvas (the warp writes them in place), shown cropped.
+            self.phases = np.empty((2, n) + self.layer.shape, np.float32)
+            self.moved = np.empty((n,) + self.layer.shape, np.float32)
+            self.stages.update(
+                phase_a=self.phases[0, :, :h, :w],
+                phase_b=self.phases[1, :, :h, :w],
+                advected=self.moved[:, :h, :w],
+                differences=np.empty((n, h, w), np.float32),
+                unmatched=np.empty((n, h, w, 3), np.float32),
+                matte=(
+                    np.empty((n, h, w), np.float32)
+                    if params.tau > 0
+                    else np.broadcast_to(self.alpha[:h, :w], (n, h, w))
+                ),
+            )
 
-
-def _match_to_target(frames, target, cell):
-    """Each frame's histograms matched to the target's, cell by cell (Okabe et al., sec. 6).
-
-    In the target's principal colour axes (Heeger & Bergen 1995 decorrelate colour by
-    PCA): matching R, G and B independently can mix hues the photo does not have (a
-    white-hot flame turned lilac); matching decorrelated axes keeps its colours.
-    """
-    centre, axes = colour_axes(target.canvas, target.canvas_matte)
-    return _match_in_axes(colours_in_axes(frames, centre, axes), target, centre, axes, cell)
+    def make(self, t0, t1):
+        """Frames ``t0 .. t1 - 1`` of the clip, (k, H, W, 3) in [0, 1]."""
+        target, params, st = self.target, self.params, self.stages
+        h, w = target.shape
+        idx = np.arange(t0, t1)
+        # The differences' loop, repeated to the clip's length (or already that long).
+        d = self.blended.get(idx % self.blended.length)
+        t = time.perf_counter()
+        ages = [x[t0:t1] for x in self.ages]
+        if self.keep:
+            moved = _loop_frames(
+                self.layer, self.maps, *ages, self.phases[:, t0:t1], out=self.moved[t0:t1]
+            )
+        else:  # a phase of weight 0 is not even sampled
+            moved = _loop_frames(self.layer, self.maps, *ages)
+        frames = moved + np.float32(params.detail) * d[..., None]
+        if self.keep:
+            st["differences"][t0:t1] = d[:, :h, :w]
+            np.clip(frames[:, :h, :w], 0, 1, out=st["unmatched"][t0:t1])
+        t = _tick(self.clock, "advect", t)
+        matched = _match_in_axes(
+            colours_in_axes(frames, self.centre, self.axes), target, self.centre, self.axes,
+            params.cell,
+        )  # fmt: skip
+        t = _tick(self.clock, "match", t)
+        if params.tau > 0:
+            # The outline moves with the fluid by the same loop (frame 0 is alpha, the
+            # loop closes), pulled towards alpha by 1 - tau as the paper's B_i are.
+            carried = _loop_frames(self.alpha, self.maps, *ages)
+            matte = np.float32(params.tau) * carried + np.float32(1 - params.tau) * self.alpha
+            np.clip(matte, 0.0, 1.0, out=matte)
+            for k, b in zip(idx, matte):
+                if k > 0:
+                    _restore_area(b, self.area)
+            if self.keep:
+                st["matte"][t0:t1] = matte[:, :h, :w]
+        else:
+            matte = self.alpha
+        out = composite(matched, self.back, matte)[:, :h, :w]
+        np.clip(out, 0.0, 1.0, out=out)
+        _tick(self.clock, "composite", t)
+        return out
 
 
 def _match_in_axes(rotated, target, centre, axes, cell):
-    """:func:`_match_to_target` for frames already in the colour axes; back in RGB."""
+    """Each frame's histograms matched to the target's, cell by cell (Okabe et al., sec. 6).
+
+    In the target's principal colour axes (Heeger & Bergen 1995 decorrelate colour by
+    PCA; ``rotated`` are the frames in them, ``centre``, ``axes`` from
+    :func:`colour_axes`): matching R, G and B independently can mix hues the photo
+    does not have (a white-hot flame turned lilac); matching decorrelated axes keeps
+    its colours. Back in RGB.
+    """
     matched = match_histograms_cells(
         rotated, (target.canvas - centre) @ axes, target.canvas_matte, cell=cell
     )

@@ -248,6 +248,42 @@ def test_the_lesson_pictures_are_there(anim, photo):
         np.testing.assert_allclose(s["weights"].sum(axis=1), 1.0)
 
 
+def test_render_hands_out_its_frames_as_they_are_made(anim, monkeypatch):
+    # What the app streams to its player: runs of final frames, in order, that make
+    # up the clip render returns.
+    from fluidnb.videodb import _render
+
+    monkeypatch.setattr(_render, "CHUNK", 4)
+    params = AnimateParams.from_dict(anim.clip.metadata["params"])
+    runs, shown = [], 0
+
+    def on_frames(clip, done):
+        nonlocal shown
+        assert clip.frames.shape == anim.clip.frames.shape
+        assert done > shown
+        runs.append(clip.frames[shown:done].copy())
+        shown = done
+
+    again = render(anim.assignment, params, on_frames=on_frames)
+    t = len(anim.clip)
+    assert [len(r) for r in runs] == [4] * (t // 4) + ([t % 4] if t % 4 else [])
+    np.testing.assert_array_equal(np.concatenate(runs), again.clip.frames)
+    # Cut in other runs (one frame at a time), the clip is the same: every frame is
+    # made from its own inputs (to float32 round-off of the batched pyramids).
+    monkeypatch.setattr(_render, "CHUNK", 1)
+    np.testing.assert_allclose(
+        render(anim.assignment, params).clip.frames, again.clip.frames, rtol=0, atol=1e-5
+    )
+    np.testing.assert_allclose(again.clip.frames, anim.clip.frames, rtol=0, atol=1e-5)
+    # Without the lesson's stages (what the app asks for): the same clip, no big arrays.
+    monkeypatch.setattr(_render, "CHUNK", 4)
+    bare = render(anim.assignment, params, stages=False)
+    np.testing.assert_array_equal(bare.clip.frames, again.clip.frames)
+    assert max(np.asarray(v).ndim for v in bare.stages.values()) <= 3
+    assert "unmatched" not in bare.stages
+    assert "differences" not in bare.stages
+
+
 def test_a_dynamic_matte_keeps_its_area(db, photo):
     img, matte = photo
     a = assign(img, matte, db, FEW)

@@ -247,3 +247,21 @@ def test_matching_on_threads_is_matching_on_one(monkeypatch):
     threads = match_histograms_cells(frames, ref, weight, cell=16)
     monkeypatch.setattr(_appearance, "_THREADS", 1)
     assert np.array_equal(match_histograms_cells(frames, ref, weight, cell=16), threads)
+
+
+def test_matching_a_clip_in_parts_is_matching_it_at_once():
+    # Each frame is binned over its own range: a frame's result does not depend on
+    # the frames matched with it, so a renderer may match a clip a few frames at a
+    # time (the app streams its clips so) and get the clip matched at once.
+    gen = np.random.default_rng(13)
+    ref = ndi.gaussian_filter(gen.random((30, 44, 3)), (2, 2, 0)).astype(np.float32)
+    weight = gen.random((30, 44))
+    # Frames of very different ranges: one alone would have had other bins in a batch.
+    frames = np.stack([0.5 * ref + 0.2, 3.0 * ref - 1.0, ref**2]).astype(np.float32)
+    whole = match_histograms_cells(frames, ref, weight, cell=10)
+    for t in range(len(frames)):
+        part = match_histograms_cells(frames[t : t + 1], ref, weight, cell=10)
+        np.testing.assert_array_equal(part[0], whole[t])
+    ref_whole = reference_match_histograms_cells(frames, ref, weight, cell=10)
+    ref_part = reference_match_histograms_cells(frames[1:2], ref, weight, cell=10)
+    np.testing.assert_array_equal(ref_part[0], ref_whole[1])

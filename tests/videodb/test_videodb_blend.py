@@ -312,3 +312,12 @@ def test_play_loops_is_stagger_on_loops_already_made():
     assert np.array_equal(play_loops(pixel_major, np.zeros(5)), np.moveaxis(loops, 1, 3))
     with pytest.raises(ValueError, match="offsets must have shape"):
         play_loops(pixel_major, offsets[:2])
+    # Any frames of the clip, in any order: those frames of the whole clip (a
+    # renderer makes the clip a run of frames at a time).
+    kw = {"rates": rates, "mirrors": mirrors}
+    whole = play_loops(pixel_major, offsets, n_frames=14, **kw)
+    for frames in ([0, 1, 2], [13, 5, 5], [9]):
+        part = play_loops(pixel_major, offsets, frames=np.array(frames), **kw)
+        assert np.array_equal(part, whole[..., frames])
+    with pytest.raises(ValueError, match="frames must be a 1-D array"):
+        play_loops(pixel_major, offsets, frames=np.array([-1, 2]))

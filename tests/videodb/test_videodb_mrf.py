@@ -288,3 +288,35 @@ def test_the_compiled_solvers_handle_a_problem_without_edges():
         got = fast(unary, pairwise, edges, 1.0)
         assert got.labels.tolist() == [1, 0]
         assert np.array_equal(got.energies, plain(unary, pairwise, edges, 1.0).energies)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_moves_that_failed_on_the_same_labels_are_skipped_without_changing_the_result(seed):
+    # _expand does not try a move again that failed while the labels have not changed
+    # since: here against the same sweeps trying every move every time.
+    from fluidnb.videodb._mrf import _compiled_move_terms, _cut_and_move, _problem
+
+    gen = np.random.default_rng(40 + seed)
+    k = [4, 7, 10, 6][seed]
+    unary, pairwise, edges = random_problem(gen, (5, 6), k)
+    lam = [0.5, 1.0, 2.0, 4.0][seed]
+    got = alpha_expansion(unary, pairwise, edges, lam, max_sweeps=8)
+    prob = _problem(unary, pairwise, edges, lam)
+    terms = _compiled_move_terms(prob)
+    labels = np.argmin(prob.unary, axis=1)
+    current = prob.energy(labels)
+    energies, truncated, free, tried = [current], 0, 0, 0
+    for _ in range(8):
+        improved = False
+        for alpha in range(k):
+            cap, cost1, n_trunc, n_free = terms(labels, alpha)
+            truncated, free, tried = truncated + n_trunc, free + n_free, tried + 1
+            labels, current, moved = _cut_and_move(prob, labels, current, alpha, cap, cost1)
+            improved |= moved
+        energies.append(current)
+        if not improved:
+            break
+    assert np.array_equal(got.labels, labels)
+    assert np.array_equal(got.energies, energies)
+    assert got.nonsubmodular == (truncated / free if free else 0.0)
+    assert got.sweeps == len(energies) - 1 >= 2  # a last sweep of skips, at least

@@ -48,11 +48,12 @@ def test_at_full_size_it_is_the_renders_frame(scene):
 
 def test_outside_the_matte_it_is_the_photo_exactly(scene):
     a, _ = scene
-    # Shrunk by block means of the padded target (the canvas), then cut to size.
+    # Shrunk by block means of the padded target (the canvas, in float32), then cut
+    # to size.
     inside = downsample(a.target.canvas_matte, 2)[:63, :80] > 0
     out = preview_frame(a, factor=2)
     assert out.shape == (63, 80, 3)
-    photo = np.clip(downsample(a.target.canvas, 2)[:63, :80], 0, 1)
+    photo = np.clip(downsample(a.target.canvas, 2, precision="float32")[:63, :80], 0, 1)
     np.testing.assert_array_equal(out[~inside], photo[~inside])
     assert np.abs(out[inside] - photo[inside]).mean() > 1e-3  # the fluid is animated
 

@@ -108,3 +108,46 @@ def test_info_line_and_small_file_sizes_read_well(tmp_path):
     p.export("gif")
     assert "bytes)" in p.link.value
     assert "(0 KB)" not in p.link.value
+
+
+def test_a_clip_streams_in_and_keeps_playing_when_finished(tmp_path):
+    # What an app does while a clip is rendered: the first frames play at once, more
+    # come without stopping playback, and the finished clip (the same frames, with
+    # its metadata) keeps the encoded frames and the playing.
+    p = FramePlayer(clip(4), export_dir=tmp_path)
+    p.play()
+    frames = np.zeros((6, 8, 12), np.float32)  # the renderer's array, filled in runs
+    frames[:2] = 0.5
+    streamed = Clip._trusted(frames.view(), 6, {})
+    p.stream(streamed, 2)
+    assert p.clip is streamed
+    assert p.playing
+    assert p._play.max == p._slider.max == 1
+    assert "2 of 6 frames so far" in p.info.value
+    assert p._gif.disabled
+    assert p._mp4.disabled
+    with pytest.raises(ValueError, match="still being made"):
+        p.export("gif")
+    with pytest.raises(ValueError, match=r"frame must be in \[0, 1\]"):
+        p.show(4)
+    p.show(1)
+    encoded = p._png[1]
+    frames[2:] = 1.0
+    p.stream(streamed, 6)
+    assert p._play.max == 5
+    assert p.playing
+    assert not p._gif.disabled
+    final = Clip._trusted(frames, 6, {}).with_metadata(method="demo")
+    p.clip = final
+    assert p.playing
+    assert p._png[1] is encoded
+    assert p._play.max == 5
+    assert "6 frames" in p.info.value
+    assert "demo" in p.info.value
+    assert Clip.load(p.export("gif")).n_frames == 6
+    # Another clip is a new start: the cache goes, playback stops.
+    p.clip = clip(3)
+    assert not p.playing
+    assert set(p._png) == {1}
+    with pytest.raises(ValueError, match="ready must be in"):
+        p.stream(clip(3), 0)

@@ -736,3 +736,52 @@ def test_a_starter_database_built_on_first_use_fills_most_of_the_bar(db, monkeyp
         assert seen == pytest.approx([0.0, 0.075, 0.15])
     finally:
         app.close()
+
+
+def test_render_shows_the_first_frames_while_the_rest_are_made(app, monkeypatch):
+    # The player gets the clip a few frames at a time (render's on_frames), keeps
+    # playing, and the finished clip is the same frames with its metadata.
+    from fluidnb.videodb import _render
+
+    draw_scene(app)
+    app.run(timeout=120)
+    app.player.play(True)
+    monkeypatch.setattr(_render, "CHUNK", 2)
+    seen = []
+    real = app.player.stream
+
+    def stream(clip, ready):
+        seen.append((clip, ready, app.player.playing))
+        real(clip, ready)
+
+    monkeypatch.setattr(app.player, "stream", stream)
+    clip = app.render_clip(timeout=120)
+    assert len(seen) == (len(clip) + 1) // 2
+    assert [r for _, r, _ in seen] == [min(2 * k, len(clip)) for k in range(1, len(seen) + 1)]
+    assert all(c is seen[0][0] for c, _, _ in seen)
+    np.testing.assert_array_equal(seen[0][0].frames, clip.frames)
+    assert app.player.clip is clip
+    assert app.player.playing  # from the first frames to the end, it never stopped
+    assert not app.player._gif.disabled
+
+
+def test_cancel_while_frames_stream_in_puts_the_last_clip_back(app, monkeypatch):
+    from fluidnb.videodb import _render
+
+    draw_scene(app)
+    first = app.run(timeout=120)
+    monkeypatch.setattr(_render, "CHUNK", 1)
+    real = app.player.stream
+
+    def stream(clip, ready):
+        real(clip, ready)
+        if ready == 2:
+            app.cancel()  # the user's Cancel, two frames in
+
+    monkeypatch.setattr(app.player, "stream", stream)
+    app.panel.set("detail", 0.5)  # a rendering setting: the next clip differs
+    app.render_clip(timeout=120)
+    assert "cancelled" in app.status
+    assert app.player.clip is first
+    assert app.result is first
+    assert not app.player._gif.disabled
