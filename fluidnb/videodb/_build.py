@@ -4,10 +4,10 @@ The build runs in four stages, each of which can be interrupted and resumed:
 
 1. **ingest** (sequential): each source is read once (:func:`read_video`), scaled down
    if needed and stored as ``clips/<i>/frames``;
-2. **fragments** (parallel across clips, on dask): per clip, optical flow once
-   (:func:`optical_flow`), then for every temporal window and augmented version
-   (:func:`sample_version`, :func:`transform_flow`) the fragments' features
-   (:func:`window_features`) and dense SIFT descriptors of their mean images;
+2. **fragments** (parallel across clips, on local threads or a dask cluster): per
+   clip, optical flow once (:func:`optical_flow`), then for every temporal window and
+   augmented version (:func:`sample_version`, :func:`transform_flow`) the fragments'
+   features (:func:`window_features`) and dense SIFT descriptors of their mean images;
 3. **codebook**: repeated cluster bisectioning on a seeded sample of the descriptors
    (:func:`fit_codebook`), then every descriptor's nearest visual word;
 4. **manifest**: parameters, codebook, clips with their fingerprints and checksums,
@@ -42,6 +42,7 @@ import os
 import shutil
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -59,12 +60,15 @@ from ._store import (
     FORMAT_VERSION,
     FRAGMENT_ARRAYS,
     MANIFEST,
+    RAM_ARRAYS,
     STATE,
+    built_database,
     checksum,
     clip_group,
     create_array,
     folder_state,
     fragment_layout,
+    load_clip_arrays,
     open_database,
     pending_addition,
     read_manifest,
@@ -204,15 +208,19 @@ class _ChunkWriter:
         self.written += count
 
 
-def _process_clip(root, index, params_dict, codebook):
-    """One clip's fragments: the dask task (runs in a worker thread or process)."""
+def _process_clip(root, index, params_dict, codebook, frames=None):
+    """One clip's fragments: the dask task (runs in a worker thread or process).
+
+    ``frames``: the clip's stored frames, if the caller has them in memory (else read).
+    """
     import zarr
 
     params = DatabaseParams.from_dict(params_dict)
     root = Path(root)
     group = zarr.open_group(str(root), mode="a", zarr_format=3)
     clip = group[clip_group(index)]
-    frames = clip["frames"][...]
+    if frames is None:
+        frames = clip["frames"][...]
     layout = fragment_layout(params)
     names = [n for n in FRAGMENT_ARRAYS if n != "words"]
     writer = _ChunkWriter(clip, {n: layout[n] for n in names})
@@ -288,9 +296,9 @@ def build_database(
         Seeds the codebook's sample of descriptors and its clustering: same sources,
         params and seed, same database, byte for byte.
     client : dask.distributed.Client, optional
-        Run the per-clip work on this cluster; default dask's local threaded scheduler.
+        Run the per-clip work on this cluster; default: local threads.
     workers : int, optional
-        Threads of the local scheduler (default: all cores).
+        Local threads cutting clips into fragments (default: all cores).
     resume : bool
         Continue an interrupted build in ``path`` (same sources, params and seed).
     progress : callable, optional
@@ -313,6 +321,27 @@ def build_database(
         :class:`~fluidnb.videodb._lock.DatabaseBusy` (a ValueError) if another process
         is building into or adding to the folder.
     """
+    folder, arrays = _build(
+        sources,
+        path,
+        kind=kind,
+        params=params,
+        seed=seed,
+        client=client,
+        workers=workers,
+        resume=resume,
+        progress=progress,
+    )
+    return built_database(folder, arrays)
+
+
+def _build(sources, path, *, kind, params, seed, client, workers, resume, progress):
+    """:func:`build_database` up to the open database: its folder and clips' arrays.
+
+    ``arrays`` maps each clip's index to the arrays a database holds in memory, as
+    stored: :func:`~fluidnb.videodb._store.built_database` makes the database of them
+    -- after moving the folder, for a starter database built in ``<path>.partial``.
+    """
     params = _check_params(params)
     kind = _check_kind(kind)
     seed = check_int("seed", seed, 0)
@@ -334,18 +363,26 @@ def build_database(
         stage = report.split(0.85, 0.95)
         undo = functools.partial(_roll_back_build, root, created)
         with _failing_input(undo, kept="build" if resuming else None, root=root):
+            _import_in_background("sklearn.cluster")  # the codebook's, while clips are cut
             ingest = _Ingest(root, sources, state, resuming, params.max_side, base=0)
             records, counts = _ingest_and_run(ingest, params, None, client, workers, stage[0])
             if sum(counts.values()) == 0:
                 raise ValueError(f"no fragment: {_why(records)}")
-            codebook = _train_codebook(root, counts, params, seed, stage[1])
-            _pause("codebook")
-            stage[2](0.0, "visual words")
-            _quantise_clips(root, counts, codebook, workers)
-            manifest = _manifest(root, kind, params, seed, codebook, records, counts)
+            with ThreadPoolExecutor(1, thread_name_prefix="fluidnb-read") as reader:
+                # The arrays the database holds in memory, but for the words, read back
+                # while the codebook is fitted (which leaves a core free).
+                held = reader.submit(_read_back, root, counts, params)
+                codebook = _train_codebook(root, counts, params, seed, stage[1])
+                _pause("codebook")
+                stage[2](0.0, "visual words")
+                words = _quantise_clips(root, counts, codebook, params, workers)
+                arrays = held.result()
+            for index, clip_words in words.items():
+                arrays[index]["words"] = clip_words
+            manifest = _manifest(root, kind, params, seed, codebook, records, counts, (), arrays)
             _finish(root, manifest)
         stage[2](1.0, "database ready")
-        return open_database(root)
+    return root, arrays
 
 
 @contextlib.contextmanager
@@ -491,6 +528,10 @@ class _Ingest:
 
     def step(self, k):
         """Store source ``k`` (after sources 0 .. k - 1); returns its record."""
+        return self.store(k)[0]
+
+    def store(self, k):
+        """:meth:`step`, returning the record and the clip's frames as stored (uint8)."""
         root, index = self.root, self.base + k
         src = self.sources[k]
         try:
@@ -534,7 +575,7 @@ class _Ingest:
         self.state["clips"] = self.records
         write_json_atomically(self.state_file, self.state)
         _pause("ingested")
-        return rec
+        return rec, video.frames
 
     def finish(self):
         """Check that a resume was given every clip the interrupted run had."""
@@ -549,11 +590,11 @@ class _Ingest:
 def _ingest_and_run(ingest, params, codebook, client, workers, report):
     """Every source stored (in order) and cut into fragments: ``(records, counts)``.
 
-    On the local scheduler both run in one dask graph: the clips are stored one after
-    the other (a chain of tasks, as the state lists them in order), and each clip is
-    cut into fragments as soon as it is stored, on another thread, while the next one
-    is read (or, for a starter database, still made). On a cluster the clips are
-    stored here first, then sent out.
+    Locally both run at once (:func:`_pipeline`): the clips are stored one after the
+    other (as the state lists them, in order), and each clip is cut into fragments as
+    soon as it is stored, on another thread, while the next one is read (or, for a
+    starter database, still made). On a cluster the clips are stored here first, then
+    sent out.
     """
     n = len(ingest)
     if client is not None:
@@ -568,50 +609,58 @@ def _ingest_and_run(ingest, params, codebook, client, workers, report):
 
 
 def _pipeline(ingest, params, codebook, workers, report):
-    """:func:`_ingest_and_run` on dask's local threaded scheduler."""
-    from concurrent.futures import ThreadPoolExecutor
+    """:func:`_ingest_and_run` on local threads.
 
-    import dask
-    from dask.callbacks import Callback
+    The clips are stored one after the other on this thread -- each waits here for its
+    source to be read or, for a starter database, made -- and each is cut into
+    fragments on one of ``workers`` threads as soon as it is stored. A clip still in
+    the making holds up only this thread, never a cutting one: every worker cuts
+    from the first clips on (when the storing had a worker of its own, the second
+    worker waited for all the clips to be made, and ended cutting ~1 s after the
+    first). The workers are handed the frames as stored, not read back; a clip is
+    stored when one is free or about to be (at most ``workers + 1`` clips' frames in
+    memory, whatever the number of sources).
+    """
+    from concurrent.futures import FIRST_COMPLETED, wait
 
     root, n = ingest.root, len(ingest)
     if codebook is None:  # the descriptors' groups are made here, once
         import zarr
 
         zarr.open_group(str(root), mode="a", zarr_format=3).require_group(_BUILD)
-    steps, cuts, tasks, previous = {}, {}, [], None
-    for k in range(n):
-        # ``previous`` orders the steps; each cut waits for its clip's step only.
-        step = dask.delayed(_ingest_step, pure=False)(ingest, k, previous)
-        cut = dask.delayed(_cut_clip, pure=False)(str(root), params.to_dict(), codebook, step)
-        steps[step.key], cuts[cut.key], previous = k, k, step
-        tasks.append(cut)
+    params_dict = params.to_dict()
+    cutting = {}  # future -> clip
     read = cut_done = 0
 
-    def tick(key):
+    def tick(message):
         # Reading a clip counts for 1, cutting it for 5: one bar, always forward.
-        nonlocal read, cut_done
-        if key in steps:
-            read += 1
-            message = "clips read" if read == n else f"read clip {read}/{n}"
-        else:
-            cut_done += 1
-            name = ingest.records[cuts[key]]["name"]
-            message = f"fragments: {cut_done}/{n} clips done ({name})"
         report(min((read + 5 * cut_done) / (6 * n), 0.999), message)
-        if key in cuts:
-            _pause("fragments")
 
-    class _Tick(Callback):
-        def _posttask(self, key, result, dsk, state, worker_id):
-            if key in steps or key in cuts:
-                tick(key)
+    def collect(block):
+        nonlocal cut_done
+        done, _ = wait(list(cutting), timeout=None if block else 0, return_when=FIRST_COMPLETED)
+        for job in sorted(done, key=cutting.get):
+            k = cutting.pop(job)
+            job.result()  # a clip that failed stops the build here
+            cut_done += 1
+            tick(f"fragments: {cut_done}/{n} clips done ({ingest.records[k]['name']})")
+            _pause("fragments")
 
     report(0.0, f"reading clip 1/{n}")
     pool = ThreadPoolExecutor(workers, thread_name_prefix="fluidnb-videodb")
     try:
-        with _Tick():
-            dask.compute(*tasks, scheduler="threads", pool=pool)
+        for k in range(n):
+            while len(cutting) > workers:  # every worker busy and one clip waiting
+                collect(block=True)
+            record, frames = ingest.store(k)
+            read += 1
+            tick("clips read" if read == n else f"read clip {read}/{n}")
+            job = pool.submit(_cut_clip, str(root), params_dict, codebook, record, frames)
+            cutting[job] = k
+            del frames  # the worker's, until it has cut the clip
+            collect(block=False)
+        while cutting:
+            collect(block=True)
     finally:
         # On an error or a cancel, let the clips in flight finish writing before
         # returning, so a resume never races a worker still writing.
@@ -622,12 +671,7 @@ def _pipeline(ingest, params, codebook, workers, report):
     return records, counts
 
 
-def _ingest_step(ingest, k, previous):
-    """Store clip ``k`` (``previous``, the step before, only orders the steps)."""
-    return ingest.step(k)
-
-
-def _cut_clip(root, params_dict, codebook, record):
+def _cut_clip(root, params_dict, codebook, record, frames):
     """One stored clip's fragments, unless a run before finished them; returns the count."""
     index = record["index"]
     done = _read_done(root, index)
@@ -637,7 +681,7 @@ def _cut_clip(root, params_dict, codebook, record):
         import zarr
 
         zarr.open_group(root, mode="a", zarr_format=3)[_BUILD].require_group(f"{index:05d}")
-    return _process_clip(root, index, params_dict, codebook)
+    return _process_clip(root, index, params_dict, codebook, frames)
 
 
 def _mark_ingested(root, index):
@@ -694,8 +738,6 @@ def _run_clips(root, records, params, codebook, client, workers, report):
             client.cancel(futures)
             raise
     elif tasks:
-        from concurrent.futures import ThreadPoolExecutor
-
         from dask.callbacks import Callback
 
         class _Tick(Callback):
@@ -714,6 +756,25 @@ def _run_clips(root, records, params, codebook, client, workers, report):
     counts = {i: _read_done(root, i) for i in counts}
     report(1.0, "fragments done")
     return counts
+
+
+def _import_in_background(*modules):
+    """Import ``modules`` on a thread of their own, now, rather than when first used.
+
+    A fresh process building a database imports scikit-learn (~0.5 s of CPU) only
+    for the codebook, when every clip has been cut and the other core waits: done
+    meanwhile, on cores that are busy anyway, it leaves the end of the build. An
+    import that fails here fails again, with its message, where it is used.
+    """
+    import importlib
+    import threading
+
+    def run():
+        for name in modules:
+            with contextlib.suppress(Exception):
+                importlib.import_module(name)
+
+    threading.Thread(target=run, name="fluidnb-import", daemon=True).start()
 
 
 def _train_codebook(root, counts, params, seed, report):
@@ -747,20 +808,21 @@ def _train_codebook(root, counts, params, seed, report):
     return codebook
 
 
-def _quantise_clips(root, counts, codebook, workers):
+def _quantise_clips(root, counts, codebook, params, workers):
     """Every clip's visual words, clips side by side on ``workers`` threads.
 
     Each thread's matrix products on one BLAS thread: OpenBLAS's own threads spin
     while they wait, and beside ours (or other programs) they only slowed it down
     (measured: 1.5-2x the wall time with two of them on two busy cores). The words
     are the same whatever the threads (:func:`quantise` is exact).
-    """
-    from concurrent.futures import ThreadPoolExecutor
 
+    Returns each clip's words as stored (read back), for :func:`_read_back`'s arrays.
+    """
     with _one_blas_thread(), ThreadPoolExecutor(max(1, min(workers, len(counts)))) as pool:
-        jobs = [pool.submit(_quantise_clip, root, i, n, codebook) for i, n in counts.items()]
-        for job in jobs:
-            job.result()
+        jobs = {
+            i: pool.submit(_quantise_clip, root, i, n, codebook, params) for i, n in counts.items()
+        }
+        return {i: job.result() for i, job in jobs.items()}
 
 
 def _one_blas_thread():
@@ -771,7 +833,7 @@ def _one_blas_thread():
     return threadpool_limits(limits=1, user_api="blas")
 
 
-def _quantise_clip(root, index, count, codebook):
+def _quantise_clip(root, index, count, codebook, params):
     import zarr
 
     from ._words import quantise
@@ -782,9 +844,25 @@ def _quantise_clip(root, index, count, codebook):
     for lo in range(0, count, CHUNK):
         writer.add({"words": quantise(descs[lo : lo + CHUNK], codebook)})
     writer.close()
+    return load_clip_arrays(group, root, index, count, params, names=("words",))["words"]
 
 
-def _manifest(root, kind, params, seed, codebook, records, counts, old_clips=()):
+def _read_back(root, counts, params):
+    """Each clip's arrays a database holds in memory (but for its words), from the store.
+
+    The manifest's checksums and the database :func:`build_database` returns are made
+    of them (:func:`~fluidnb.videodb._store.built_database`), with the words: read
+    here while the codebook is fitted, not again, one clip after the other, at the end.
+    """
+    import zarr
+
+    group = zarr.open_group(str(root), mode="r", zarr_format=3)
+    names = [name for name in RAM_ARRAYS if name != "words"]
+    return {i: load_clip_arrays(group, root, i, n, params, names=names) for i, n in counts.items()}
+
+
+def _manifest(root, kind, params, seed, codebook, records, counts, old_clips=(), arrays=None):
+    """The manifest; ``arrays``, each clip's in-memory arrays if the caller has them."""
     import zarr
 
     from ._store import RAM_ARRAYS
@@ -794,8 +872,11 @@ def _manifest(root, kind, params, seed, codebook, records, counts, old_clips=())
     first = sum(c["fragments"] for c in clips)
     for rec in records:
         count = counts[rec["index"]]
-        arrays = {n: group[f"{clip_group(rec['index'])}/{n}"][...] for n in RAM_ARRAYS}
-        clip = {**rec, "first": first, "fragments": count, "checksum": checksum(arrays)}
+        if arrays is not None:
+            held = arrays[rec["index"]]
+        else:
+            held = {n: group[f"{clip_group(rec['index'])}/{n}"][...] for n in RAM_ARRAYS}
+        clip = {**rec, "first": first, "fragments": count, "checksum": checksum(held)}
         if count == 0:
             # Kept (the record says what went in) but it adds nothing: say why.
             clip["note"] = f"no fragment: {_why([rec])}"

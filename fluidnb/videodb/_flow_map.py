@@ -149,7 +149,8 @@ def _flow_map(tex, v, n_frames, period, jitter, preserve, gen, report=None, *, c
 
     ``compiled=False`` warps with :func:`fluidnb.fields.backward_warp` and blends with
     numpy, literally; the default runs the same arithmetic in two numba kernels, value
-    for value (the tests compare the two), about 5 times as fast.
+    for value (the tests compare the two), about 4 times as fast (each phase's
+    corners found once a pixel, for all its channels).
     """
     h, w = tex.shape[:2]
     half = period // 2
@@ -234,24 +235,35 @@ def _frame(texture, maps, offset, wa, mean, preserve, out):
 
 
 @njit(cache=True, nogil=True, inline="always")
+def _wrap(i, n):
+    """``i % n`` (Python's, in [0, n)) without a division for ``-n <= i < 2 n``."""
+    if i >= n:
+        i -= n
+        if i >= n:
+            i %= n
+    elif i < 0:
+        i += n
+        if i < 0:
+            i %= n
+    return i
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _corner(c, n, wrap):
     """backward_warp's neighbours of coordinate ``c`` (float64): lo, hi, float32 fraction."""
     if wrap:
         lo = math.floor(c)
         f = np.float32(c - lo)
-        i = int(lo)
-        return i % n, (i + 1) % n, f
+        i = _wrap(int(lo), n)
+        return i, 0 if i == n - 1 else i + 1, f
     c = min(max(c, 0.0), n - 1.0)
     i = int(c)
     return i, min(i + 1, n - 1), np.float32(c - i)
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _bilinear_at(src, y, x, wrap, k):
-    """backward_warp's bilinear sample of channel ``k`` at (y, x), in its order."""
-    h, w = src.shape[0], src.shape[1]
-    y0, y1, fy = _corner(y, h, wrap)
-    x0, x1, fx = _corner(x, w, wrap)
+def _bilinear(src, y0, y1, fy, x0, x1, fx, k):
+    """backward_warp's bilinear sample of channel ``k`` between the corners, in its order."""
     top = (src[y0, x1, k] - src[y0, x0, k]) * fx + src[y0, x0, k]
     bottom = (src[y1, x1, k] - src[y1, x0, k]) * fx + src[y1, x0, k]
     return (bottom - top) * fy + top
@@ -264,10 +276,11 @@ def _advance(maps, v, out):
     for i in range(h):
         for j in range(w):
             dy, dx = v[i, j, 0], v[i, j, 1]
-            y = np.float64(-dy) + i
-            x = np.float64(-dx) + j
+            # The corners once for the four channels (both phases' maps).
+            y0, y1, fy = _corner(np.float64(-dy) + i, h, False)
+            x0, x1, fx = _corner(np.float64(-dx) + j, w, False)
             for k in range(4):
-                out[i, j, k] = _bilinear_at(maps, y, x, False, k)
+                out[i, j, k] = _bilinear(maps, y0, y1, fy, x0, x1, fx, k)
             out[i, j, 0] -= dy
             out[i, j, 1] -= dx
             out[i, j, 2] -= dy
@@ -280,14 +293,18 @@ def _blend_phases(texture, maps, offset, both, ka, kb, mean_term, preserve, out)
     h, w, c = texture.shape
     for i in range(h):
         for j in range(w):
-            yb = np.float64(maps[i, j, 2] + offset[1, 0]) + i
-            xb = np.float64(maps[i, j, 3] + offset[1, 1]) + j
-            ya = np.float64(maps[i, j, 0] + offset[0, 0]) + i
-            xa = np.float64(maps[i, j, 1] + offset[0, 1]) + j
+            # Each phase's corners once for all channels.
+            by0, by1, bfy = _corner(np.float64(maps[i, j, 2] + offset[1, 0]) + i, h, True)
+            bx0, bx1, bfx = _corner(np.float64(maps[i, j, 3] + offset[1, 1]) + j, w, True)
+            ay0, ay1, afy = by0, by1, bfy
+            ax0, ax1, afx = bx0, bx1, bfx
+            if both:
+                ay0, ay1, afy = _corner(np.float64(maps[i, j, 0] + offset[0, 0]) + i, h, True)
+                ax0, ax1, afx = _corner(np.float64(maps[i, j, 1] + offset[0, 1]) + j, w, True)
             for k in range(c):
-                b = _bilinear_at(texture, yb, xb, True, k)
+                b = _bilinear(texture, by0, by1, bfy, bx0, bx1, bfx, k)
                 if both:
-                    a = _bilinear_at(texture, ya, xa, True, k)
+                    a = _bilinear(texture, ay0, ay1, afy, ax0, ax1, afx, k)
                     # in _frame_numpy's order: (b kb + a ka) + mean, or b + (a - b) wa
                     b = (b * kb + a * ka) + mean_term[k] if preserve else b + (a - b) * ka
                 out[i, j, k] = min(max(b, np.float32(0.0)), np.float32(1.0))

@@ -26,11 +26,11 @@ from pathlib import Path
 from .._cache import cache_dir
 from .._progress import Progress
 from .._validation import check_choice
-from ._build import build_database
+from ._build import _build
 from ._lock import locked
 from ._params import DatabaseParams
 from ._starter_clips import STARTER_KINDS
-from ._store import folder_state, open_database
+from ._store import built_database, folder_state, open_database
 
 __all__ = [
     "STARTER_KINDS",
@@ -42,7 +42,10 @@ __all__ = [
 
 
 # Bump when the clips or the build change what a starter database holds.
-_VERSION = 5  # 4: format version 2 (chunk checksums); 5: water clips whose motion changes in time
+# 4: format version 2 (chunk checksums); 5: water clips whose motion changes in time;
+# 6: the water clips' flows made in float32, their random fields blurred by an untruncated
+# Gaussian (the same flows to < 0.01 px/frame, the clips' frames a little different).
+_VERSION = 6
 
 
 def _quick(quick):
@@ -119,8 +122,8 @@ def starter_database(kind="water", *, quick=None, rebuild=False, progress=None):
                 db = open_database(path)
                 report(1.0, f"starter {kind} database (built by another process)")
                 return db
-        _build_starter(kind, quick, path, report)
-    return open_database(path)
+        arrays = _build_starter(kind, quick, path, report)
+    return open_database(path) if arrays is None else built_database(path, arrays)
 
 
 def prebuild_starters(kinds=STARTER_KINDS, *, quick=None, progress=None):
@@ -163,13 +166,16 @@ def _build_starter(kind, quick, path, report):
     """Build into ``<path>.partial`` (resuming what a killed process left), then move it.
 
     The clips are made on threads of their own while the build cuts each into
-    fragments as soon as it is made (their futures are the build's sources).
+    fragments as soon as it is made (their futures are the build's sources). Returns
+    the clips' in-memory arrays, for :func:`built_database` (None if a process before
+    had built it all and only the move was left).
     """
     from concurrent.futures import ThreadPoolExecutor
 
     from ._starter_clips import submit_clips
 
     partial = path.parent / f"{path.name}.partial"
+    arrays = None
     if folder_state(partial) != "database":  # else: built, then killed before the move
         if folder_state(partial) in ("file", "foreign"):
             _remove(partial)
@@ -179,23 +185,27 @@ def _build_starter(kind, quick, path, report):
             try:
 
                 def run(resume):
-                    build_database(
+                    # Not build_database: it would open the database in .partial; it
+                    # is made of the arrays in memory once moved.
+                    return _build(
                         [future.result for future in futures],
                         partial,
                         kind=kind,
                         params=starter_params(),
                         seed=0,
+                        client=None,
+                        workers=None,
                         resume=resume,
                         progress=progress.second,
                     )
 
                 try:
-                    run(resume=True)  # an unfinished build of the same clips, or a fresh one
+                    _, arrays = run(resume=True)  # an unfinished build of these clips, or new
                 except ValueError:
                     if folder_state(partial) != "unfinished":
                         raise
                     _remove(partial)  # an unfinished build of other clips: start afresh
-                    run(resume=False)
+                    _, arrays = run(resume=False)
             except BaseException:
                 for future in futures:
                     future.cancel()
@@ -203,6 +213,7 @@ def _build_starter(kind, quick, path, report):
     if path.exists():
         _remove(path)
     os.replace(partial, path)
+    return arrays
 
 
 class _Blend:

@@ -28,6 +28,8 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.fft
+from numba import njit
 from scipy import ndimage as ndi
 
 from .._clip import Clip
@@ -268,11 +270,25 @@ def _water_texture(spec, shape, gen):
     return _mosaic(sources, shape, spec.get("patch", (96, 128)), gen)
 
 
+def _smooth_noise(shape, gen, sigma):
+    r"""The 2-D real FFT of a standard normal field blurred by a Gaussian of ``sigma`` px.
+
+    A periodic blur, applied as a product of spectra: the Gaussian's transfer function
+    :math:`e^{-\sigma^2 k^2 / 2}` (``scipy.ndimage.gaussian_filter(..., mode="wrap")``
+    but for its kernel's truncation at 4 sigma, ~1e-4 of the field apart; ~1 ms
+    instead of ~10 at the starter clips' size), so that the spectrum is nil, to
+    round-off, beyond a few wavenumbers.
+    """
+    ky, kx = _wavenumbers(shape)
+    spectrum = scipy.fft.rfft2(gen.standard_normal(shape))
+    spectrum *= np.exp(-0.5 * sigma**2 * ky**2)
+    spectrum *= np.exp(-0.5 * sigma**2 * kx**2)
+    return spectrum
+
+
 def _stream_function(shape, gen, scale):
     """A smooth, periodic random stream function, as its 2-D real FFT, unit maximum slope."""
-    h, w = shape
-    psi = ndi.gaussian_filter(gen.standard_normal((h, w)), scale, mode="wrap")
-    spectrum = np.fft.rfft2(psi)
+    spectrum = _smooth_noise(shape, gen, scale)
     vy, vx = _curl(spectrum, shape)
     return spectrum / max(float(np.hypot(vy, vx).max()), 1e-12)
 
@@ -285,10 +301,14 @@ def _wavenumbers(shape):
 
 
 def _curl(spectrum, shape):
-    """The divergence-free velocity (dy, dx) = (-dpsi/dx, dpsi/dy) of a stream function."""
+    """The divergence-free velocity (dy, dx) = (-dpsi/dx, dpsi/dy) of a stream function.
+
+    ``spectrum`` is (..., H, W // 2 + 1), complex128 or complex64 (then float32 out).
+    """
     ky, kx = _wavenumbers(shape)
-    vy = np.fft.irfft2(-1j * kx * spectrum, s=shape)
-    vx = np.fft.irfft2(1j * ky * spectrum, s=shape)
+    dtype = spectrum.dtype
+    vy = scipy.fft.irfft2((-1j * kx).astype(dtype) * spectrum, s=shape)
+    vx = scipy.fft.irfft2((1j * ky).astype(dtype) * spectrum, s=shape)
     return vy, vx
 
 
@@ -364,53 +384,147 @@ def _water_flow(spec, shape, n_frames, gen):
     flow = spec["flow"]
     base = _steady_flow(flow, shape, gen)
     n = max(n_frames - 1, 0)
-    t = np.arange(n, dtype=np.float64)[:, None, None]
-    out = np.repeat(base[None], n, axis=0)
+    t = np.arange(n, dtype=np.float64)
     mean = base.reshape(-1, 2).mean(axis=0)
     yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
-    # Filmed water is choppy in places and calm in others: the eddies and waves are
-    # scaled by a smooth random envelope, exp(s n - s^2 / 2) (mean 1), n a smooth
-    # standard normal field.
-    patchy = flow.get("patchy", 0.5)
-    noise = ndi.gaussian_filter(gen.standard_normal(shape), 0.2 * min(h, w), mode="wrap")
-    noise /= max(float(noise.std()), 1e-12)
-    envelope = np.exp(patchy * noise - 0.5 * patchy**2)[..., None]
-    unsteady = np.zeros_like(out)
-    if "gust" in flow and n:
+    envelope = _envelope(flow, shape, gen)
+    out = np.empty((n, h, w, 2), np.float32)
+    if not n:
+        return out
+    # Each time-varying term is a sum of products of a function of time and a field
+    # (sin(a - b) = sin a cos b - cos a sin b): the fields and the per-frame
+    # coefficients are made here, the (T - 1, H, W, 2) sequence in one pass of
+    # _assemble_flow. gains: 1 + sum_f coefs[k, f] fields[f] scales the steady flow;
+    # sways: coefs[k, f] fields[f] along directions[f].
+    gains, gain_coefs = [], []
+    if "gust" in flow:
         amplitude, period, wavelength = flow["gust"]
         along = mean / max(float(np.hypot(*mean)), 1e-12)
-        s = yy * along[0] + xx * along[1]
-        phase = 2.0 * np.pi * (t / period - s[None] / wavelength) + gen.uniform(0, 2 * np.pi)
-        out *= (1.0 + amplitude * np.sin(phase))[..., None]
+        s = 2.0 * np.pi * (yy * along[0] + xx * along[1]) / wavelength
+        a = 2.0 * np.pi * t / period + gen.uniform(0, 2 * np.pi)
+        # amplitude sin(a - s) = amplitude (sin a cos s - cos a sin s)
+        gains += [np.cos(s), np.sin(s)]
+        gain_coefs += [amplitude * np.sin(a), -amplitude * np.cos(a)]
+    eddies = np.zeros((2, 0, 1, 1), np.float32)
     turbulence = flow.get("turbulence", 0.0)
-    if turbulence > 0 and n:
+    if turbulence > 0:
         scale = flow.get("eddy", 0.14) * min(h, w)
         psi1 = _stream_function(shape, gen, scale)
         psi2 = _stream_function(shape, gen, scale)
-        ky, kx = _wavenumbers(shape)
         carry = flow.get("carried", 1.0) * mean  # px/frame the eddies drift
-        cycle = flow.get("cycle", 24.0)
-        for k in range(n):
-            phase = 2.0 * np.pi * k / cycle
-            spectrum = math.cos(phase) * psi1 + math.sin(phase) * psi2
-            spectrum = spectrum * np.exp(-1j * k * (ky * carry[0] + kx * carry[1]))
-            vy, vx = _curl(spectrum, shape)
-            unsteady[k, ..., 0] += turbulence * vy
-            unsteady[k, ..., 1] += turbulence * vx
+        eddies = _eddies(psi1, psi2, shape, t, carry, flow.get("cycle", 24.0))
+    sways, sway_coefs, directions = [], [], []
     for amplitude, period, wavelength, angle in flow.get("waves", ()):
-        if not n:
-            break
         rad = math.radians(angle)
         direction = np.array([-math.sin(rad), math.cos(rad)])  # (dy, dx), up is -y
-        along = yy * direction[0] + xx * direction[1]
-        phase = 2.0 * np.pi * (along[None] / wavelength - t / period) + gen.uniform(0, 2 * np.pi)
-        # Across the direction of travel: divergence-free, the texture sways without
-        # being squeezed (a wave pushing along its direction would crowd the texture
-        # into a visible egg-crate pattern where two of them cross).
-        across = np.array([direction[1], -direction[0]])
-        unsteady += (amplitude * np.cos(phase))[..., None] * across
-    out += unsteady * envelope
-    return out.astype(np.float32)
+        s = 2.0 * np.pi * (yy * direction[0] + xx * direction[1]) / wavelength
+        a = 2.0 * np.pi * t / period - gen.uniform(0, 2 * np.pi)
+        # amplitude cos(s - a) = amplitude (cos a cos s + sin a sin s), across the
+        # direction of travel: divergence-free, the texture sways without being
+        # squeezed (a wave pushing along its direction would crowd the texture into a
+        # visible egg-crate pattern where two of them cross).
+        sways += [np.cos(s), np.sin(s)]
+        sway_coefs += [amplitude * np.cos(a), amplitude * np.sin(a)]
+        directions += [(direction[1], -direction[0])] * 2
+
+    def fields(f):
+        return np.array(f, np.float32).reshape(len(f), h, w)
+
+    def coefs(c):
+        return np.array(c, np.float32).reshape(len(c), n).T.copy()
+
+    _assemble_flow(
+        base.astype(np.float32),
+        fields(gains),
+        coefs(gain_coefs),
+        eddies,
+        np.float32(turbulence),
+        fields(sways),
+        coefs(sway_coefs),
+        np.array(directions, np.float32).reshape(-1, 2),
+        envelope.astype(np.float32),
+        out,
+    )
+    return out
+
+
+def _eddies(psi1, psi2, shape, t, carry, cycle):
+    """The eddies' velocity (2, T - 1, H, W) float32, frame after frame.
+
+    Frame k's stream function is between the two patterns (``psi1``, ``psi2``: their
+    spectra), shifted by k ``carry`` (a phase ramp); its curl is the velocity. One
+    batched inverse FFT in single precision, over the columns of the spectra that hold
+    anything (> 1e-12 of the largest): the stream functions are a Gaussian blur of
+    noise (:func:`_smooth_noise`), their spectra nil beyond a few wavenumbers.
+    """
+    h, w = shape
+    strength = np.maximum(np.abs(psi1), np.abs(psi2)).max(axis=0)
+    cols = int(np.flatnonzero(strength > 1e-12 * strength.max())[-1]) + 1
+    ky, kx = _wavenumbers(shape)
+    kx = kx[:, :cols]
+    phase = 2.0 * np.pi * t / cycle
+    shift_y = np.exp(-1j * t[:, None, None] * ky[None] * carry[0]).astype(np.complex64)
+    shift_x = np.exp(-1j * t[:, None, None] * kx[None] * carry[1]).astype(np.complex64)
+    spectra = _outer(np.cos(phase), psi1[:, :cols].astype(np.complex64))
+    spectra += _outer(np.sin(phase), psi2[:, :cols].astype(np.complex64))
+    spectra *= shift_y
+    spectra *= shift_x
+    out = np.empty((2, len(t), h, w), np.float32)
+    # The curl (dy, dx) = (-dpsi/dx, dpsi/dy); irfft2 is a complex inverse FFT along
+    # y, then a real one along x (the columns left out are zeros).
+    for c, factor in enumerate((-1j * kx, 1j * ky)):
+        along_y = scipy.fft.ifft(factor.astype(np.complex64) * spectra, axis=1)
+        out[c] = scipy.fft.irfft(along_y, n=w, axis=2)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _assemble_flow(
+    base, gains, gain_coefs, eddies, turbulence, sways, sway_coefs, directions, envelope, out
+):
+    """The water's velocity, every (T - 1, H, W) term in one pass, in float32.
+
+    ``out[k] = base (1 + sum_f gain_coefs[k, f] gains[f]) + envelope u_k``, where
+    ``u_k = turbulence eddies[:, k] + sum_f sway_coefs[k, f] sways[f] directions[f]``
+    (``eddies`` may have no frames: no eddies).
+    """
+    n, h, w = out.shape[0], out.shape[1], out.shape[2]
+    with_eddies = eddies.shape[1] > 0
+    for k in range(n):
+        for i in range(h):
+            for j in range(w):
+                g = np.float32(1.0)
+                for f in range(gains.shape[0]):
+                    g += gain_coefs[k, f] * gains[f, i, j]
+                u0 = np.float32(0.0)
+                u1 = np.float32(0.0)
+                if with_eddies:
+                    u0 = turbulence * eddies[0, k, i, j]
+                    u1 = turbulence * eddies[1, k, i, j]
+                for f in range(sways.shape[0]):
+                    c = sway_coefs[k, f] * sways[f, i, j]
+                    u0 += c * directions[f, 0]
+                    u1 += c * directions[f, 1]
+                e = envelope[i, j]
+                out[k, i, j, 0] = base[i, j, 0] * g + u0 * e
+                out[k, i, j, 1] = base[i, j, 1] * g + u1 * e
+
+
+def _envelope(flow, shape, gen):
+    """The smooth random envelope (H, W) of a recipe's eddies and waves, mean 1.
+
+    Filmed water is choppy in places and calm in others: exp(s n - s^2 / 2), n a
+    smooth standard normal field, s the recipe's ``patchy``.
+    """
+    patchy = flow.get("patchy", 0.5)
+    noise = scipy.fft.irfft2(_smooth_noise(shape, gen, 0.2 * min(shape)), s=shape)
+    noise /= max(float(noise.std()), 1e-12)
+    return np.exp(patchy * noise - 0.5 * patchy**2)
+
+
+def _outer(a, field):
+    """``a[k] * field`` for every k: (len(a), *field.shape), in complex64."""
+    return np.multiply(np.asarray(a, np.complex64)[:, None, None], field.astype(np.complex64))
 
 
 def _water(recipe, size, seed, report=None):

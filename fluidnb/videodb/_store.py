@@ -556,24 +556,58 @@ def open_database(path, *, progress=None):
         raise ValueError(f"db: {str(root)!r}: cannot open the zarr store ({exc})") from None
     clips = manifest["clips"]
     checked = manifest["version"] >= 2
-    done, n_steps = 0, max(1, len(clips) * len(RAM_ARRAYS))
-    for clip in clips:
+    for done, clip in enumerate(clips):
         first, count = int(clip["first"]), int(clip["fragments"])
-        where = clip_group(int(clip["index"]))
-        arrays = {}
+        arrays = load_clip_arrays(group, root, int(clip["index"]), count, params, checked=checked)
         for name in RAM_ARRAYS:
-            shape, dtype = layout[name]
-            arr = _open_array(group, root, f"{where}/{name}", (count, *shape), dtype)
-            arrays[name] = read_rows(arr, root, slice(None), checked=checked)
             data[name][first : first + count] = arrays[name]
-            done += 1
-            report(done / n_steps, f"loading {clip['name']} ({name})")
+        report((done + 1) / max(1, len(clips)), f"loaded {clip['name']}")
         if checksum(arrays) != clip.get("checksum"):
             raise ValueError(
-                f"db: {str(root / where)!r}: the arrays do not match the manifest's checksum "
-                "(a file was changed or damaged); rebuild the database"
+                f"db: {str(root / clip_group(int(clip['index'])))!r}: the arrays do not match "
+                "the manifest's checksum (a file was changed or damaged); rebuild the database"
             )
     report(1.0, f"{total} fragments loaded")
+    return _database(root, manifest, params, codebook, data)
+
+
+def built_database(path, arrays):
+    """A database just built in ``path``, from its clips' arrays already in memory.
+
+    :func:`open_database` without reading every array again: ``arrays`` maps each
+    clip's index to its :data:`RAM_ARRAYS` as the build read them back from the store
+    (and made the manifest's checksums of).
+    """
+    root = Path(path)
+    manifest, params, codebook = read_manifest(root)
+    layout = fragment_layout(params)
+    clips = [arrays[int(clip["index"])] for clip in manifest["clips"]]
+    data = {
+        name: np.concatenate([clip[name] for clip in clips]).astype(layout[name][1], copy=False)
+        for name in RAM_ARRAYS
+    }
+    if len(data["words"]) != int(manifest["fragments"]):
+        raise ValueError(f"db: {str(root)!r}: the built arrays do not match its manifest")
+    return _database(root, manifest, params, codebook, data)
+
+
+def load_clip_arrays(group, root, index, count, params, *, checked=True, names=RAM_ARRAYS):
+    """Clip ``index``'s :data:`RAM_ARRAYS` (or ``names``) read from the store at ``root``.
+
+    Each array's shape and dtype checked against ``count`` fragments and ``params``,
+    each of its chunks accounted for (:func:`read_rows`); ValueError naming the file.
+    """
+    layout = fragment_layout(params)
+    where = clip_group(index)
+    arrays = {}
+    for name in names:
+        shape, dtype = layout[name]
+        arr = _open_array(group, root, f"{where}/{name}", (count, *shape), dtype)
+        arrays[name] = read_rows(arr, root, slice(None), checked=checked)
+    return arrays
+
+
+def _database(root, manifest, params, codebook, data):
     for arr in data.values():
         arr.setflags(write=False)
     return VideoDatabase(
@@ -581,7 +615,7 @@ def open_database(path, *, progress=None):
         kind=str(manifest.get("kind", "")),
         params=params,
         codebook=codebook,
-        clips=clips,
+        clips=manifest["clips"],
         manifest=manifest,
         **data,
     )

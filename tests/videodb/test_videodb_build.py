@@ -41,6 +41,23 @@ def test_build_records_what_went_in(built):
     assert not (db.path / "build").exists()
 
 
+def test_the_built_database_is_the_one_that_opens(built):
+    # build_database makes the database it returns of the arrays it read back for the
+    # manifest's checksums, not by opening the folder: the same database.
+    opened = open_database(built.path)
+    for name in ("words", "mean_motion", "motion", "spectra", "texture", "source"):
+        a, b = getattr(built, name), getattr(opened, name)
+        assert a.dtype == b.dtype, name
+        assert a.shape == b.shape, name
+        assert np.array_equal(a, b), name
+        assert not a.flags.writeable, name
+    assert built.manifest == opened.manifest
+    assert built.clips == opened.clips
+    assert np.array_equal(built.codebook, opened.codebook)
+    assert built.params == opened.params
+    assert built.kind == opened.kind
+
+
 def test_mean_motion_follows_the_clip_and_its_mirror(built):
     db = built
     right = db.source[:, 0] == 0

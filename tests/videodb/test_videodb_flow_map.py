@@ -104,3 +104,13 @@ def test_the_compiled_flow_map_equals_the_plain_one_bit_for_bit(preserve, channe
     plain = _flow_map(*args, np.random.default_rng(1), compiled=False)
     assert fast.shape == (15, *tex.shape)
     assert np.array_equal(fast.view(np.uint32), plain.view(np.uint32))
+
+
+def test_the_kernels_wrap_is_pythons_modulo():
+    # The kernels' wrap skips the division for -n <= i < 2n (where nearly all the
+    # coordinates are); everywhere else it must still be Python's i % n.
+    from fluidnb.videodb._flow_map import _wrap
+
+    for n in (1, 2, 7, 23):
+        for i in range(-5 * n - 3, 5 * n + 4):
+            assert _wrap(i, n) == i % n, (i, n)

@@ -242,3 +242,36 @@ def test_mosaic_is_periodic_and_keeps_the_sources_statistics():
     inner = np.abs(np.diff(texture, axis=1)).mean()
     seam = np.abs(texture[:, 0] - texture[:, -1]).mean()
     assert seam < 2 * inner
+
+
+@pytest.mark.parametrize("recipe", [r["name"] for r in sc._WATER])
+def test_water_flow_equals_the_frame_by_frame_reference(recipe):
+    # _water_flow makes the whole sequence at once in float32 (products of functions of
+    # time and of space, one batched FFT); the reference writes each frame's formula
+    # out in float64. Same random draws, so the same flow to float32 round-off.
+    from fluidnb.videodb._reference import reference_water_flow
+
+    spec = next(r for r in sc._WATER if r["name"] == recipe)
+    shape, n_frames = sc._QUICK.shape, 12
+    fast = sc._water_flow(spec, shape, n_frames, np.random.default_rng(3))
+    plain = reference_water_flow(spec, shape, n_frames, np.random.default_rng(3))
+    assert fast.dtype == np.float32
+    assert fast.shape == plain.shape == (n_frames - 1, *shape, 2)
+    np.testing.assert_allclose(fast, plain, rtol=0, atol=1e-5)
+    # The time-varying part is there (not only the steady flow).
+    assert np.abs(np.diff(plain, axis=0)).max() > 0.05
+
+
+@pytest.mark.parametrize("sigma", [6.0, 18.0])
+def test_smooth_noise_is_a_periodic_gaussian_blur_of_the_noise(sigma):
+    # The blur is applied to the noise's spectrum; in space it is scipy's periodic
+    # Gaussian filter (with a kernel long enough that its truncation does not show).
+    import scipy.fft
+    from scipy import ndimage as ndi
+
+    shape = (96, 160)
+    noise = np.random.default_rng(1).standard_normal(shape)
+    expected = ndi.gaussian_filter(noise, sigma, mode="wrap", truncate=8.0)
+    spectrum = sc._smooth_noise(shape, np.random.default_rng(1), sigma)
+    got = scipy.fft.irfft2(spectrum, s=shape)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
