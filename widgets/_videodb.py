@@ -1106,14 +1106,13 @@ class VideoDBApp(App):
         """The clip's first frames into the player while the rest are made (render's on_frames)."""
         if self._superseded:
             return  # newer values are on their way: their preview shows, not this
-        if self.player.clip is not clip:  # the first frames: they replace the preview
+        first = self.player.clip is not clip  # the first frames: they replace the preview
+        self.player.stream(clip, done)
+        if first:
             self._previewing = False
-            playing, self._was_playing = self._was_playing, False
-            self.player.stream(clip, done)
-            if playing:  # the previews stopped the player: play the new clip
+            if self._was_playing:  # the previews stopped the player: play the new clip
+                self._was_playing = False
                 self.player.play(True)
-        else:
-            self.player.stream(clip, done)
 
     def _rendered(self, clip, seconds):
         if clip is None:  # a render on release that newer values made obsolete

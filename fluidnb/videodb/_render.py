@@ -176,9 +176,7 @@ def render(
     # Each fragment's D_i = F_i - A, with ``loop`` made a loop of its own (its end
     # cross-faded into its start; difference_frames): made on the rebuild's threads,
     # each fragment once, and kept in the database's cache for the next render.
-    looped = rebuild_fragments(
-        db, ids, margin=MARGIN, grey=True, differences=params.loop, progress=rebuild
-    )
+    looped = _rebuild(assignment, params, rebuild)
     offsets = np.zeros(len(ids), np.int64)
     mirrors = np.full(len(ids), -1, np.int8)
     rates = n_frames = None
@@ -247,7 +245,12 @@ def prefetch(assignment, params=None, *, progress=None):
     if not isinstance(assignment, Assignment):
         raise ValueError(f"assignment must be an Assignment, got {type(assignment).__name__}")
     params = assignment.params if params is None else _check_params(params, assignment.db)
-    got = rebuild_fragments(
+    return len(_rebuild(assignment, params, progress))
+
+
+def _rebuild(assignment, params, progress):
+    """Each chosen fragment's loop of :math:`D_i` (render's step 1; cached by the database)."""
+    return rebuild_fragments(
         assignment.db,
         assignment.fragments,
         margin=MARGIN,
@@ -255,7 +258,19 @@ def prefetch(assignment, params=None, *, progress=None):
         differences=params.loop,
         progress=progress,
     )
-    return len(got)
+
+
+def _behind(target, background):
+    """What shows where a moving matte uncovers the scene, on the canvas.
+
+    The given background, or the target filled behind its matte with its own texture.
+    """
+    if background is None:
+        return inpaint_background(target.canvas, target.canvas_matte)
+    back = target.canvas.copy()
+    h, w = target.shape
+    back[:h, :w] = background
+    return back
 
 
 #: Frames :func:`render` makes at a time, after the work all frames share (the clip
@@ -342,11 +357,7 @@ class _PaperFrames:
             motion = blend_values(per_fragment, target.positions, (hc, wc))  # (Hc, Wc, N-1, 2)
             motion = np.moveaxis(motion, 2, 0)[: n - 1]
             matte = dynamic_matte(target.canvas_matte, motion, tau=params.tau)
-            if background is None:
-                back = inpaint_background(target.canvas, target.canvas_matte)
-            else:
-                back = target.canvas.copy()
-                back[:h, :w] = background
+            back = _behind(target, background)
         else:
             matte = target.canvas_matte
             back = target.canvas
@@ -459,11 +470,7 @@ class _FlowFrames:
         self.alpha = target.canvas_matte
         if params.tau > 0:
             self.area = float(self.alpha.sum(dtype=np.float64))
-            if background is None:
-                back = inpaint_background(target.canvas, self.alpha)
-            else:
-                back = target.canvas.copy()
-                back[:h, :w] = background
+            back = _behind(target, background)
         else:
             back = target.canvas
         self.back = back
