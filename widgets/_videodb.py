@@ -290,7 +290,10 @@ class VideoDBApp(App):
     (:func:`fluidnb.videodb.preview_frame`, one frame at half size) shows in the
     player; once the values rest for :attr:`settle` seconds (the kernel hears no
     "mouse released") the clip is rendered. A rendering setting renders again the
-    same way; **Render** renders on demand.
+    same way; **Render** renders on demand. While the values rest, the re-solve's new
+    fragments are rebuilt ahead (:func:`fluidnb.videodb.prefetch`); every clip streams
+    into the player as it is made (``render(on_frames=...)``,
+    :meth:`FramePlayer.stream`), its first frames playing while the rest come.
 
     Views: the clip in the player (play, loop, GIF/MP4 export); the assignment map
     (each fragment tinted by its source clip, with the assigned motion as arrows and
