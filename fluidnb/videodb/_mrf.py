@@ -51,12 +51,12 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-import maxflow
 import numpy as np
 from numba import njit
 
 from .._progress import Progress
 from .._validation import check_array, check_int, check_range
+from . import _maxflow
 
 __all__ = [
     "MRFSolution",
@@ -271,29 +271,6 @@ class SolverRun:
         return float(self.energies[-1])
 
 
-def _cut_and_move(prob, labels, current, alpha, cap, cost1):
-    """The minimum cut of one expansion move's graph, and the move if it lowers Eq. (4).
-
-    ``cap`` holds the (truncated) pairwise capacities of the edges ``(p, q)`` and
-    ``cost1`` each node's cost of taking ``alpha`` (Kolmogorov & Zabih's construction on
-    PyMaxflow's ``Graph[float]``). Returns (labels, energy, whether it moved).
-    """
-    n_nodes, p, q = prob.n_nodes, prob.p, prob.q
-    g = maxflow.Graph[float](n_nodes, len(p))
-    nodes = g.add_nodes(n_nodes)
-    g.add_edges(nodes[p], nodes[q], cap, np.zeros(len(p)))
-    # A node in the sink segment (x = 1) pays its source capacity.
-    g.add_grid_tedges(nodes, np.maximum(cost1, 0.0), np.maximum(-cost1, 0.0))
-    g.maxflow()
-    take = g.get_grid_segments(nodes) & (labels != alpha)
-    if take.any():
-        proposal = np.where(take, alpha, labels)
-        new = prob.energy(proposal)
-        if new < current:
-            return proposal, new, True
-    return labels, current, False
-
-
 @njit(cache=True, nogil=True)
 def _move_terms(flat, base, k, unary, labels, p, q, lam, alpha, cap, cost1, sp, sq):
     """One expansion move's graph terms in one pass over the edges.
@@ -335,70 +312,178 @@ def _move_terms(flat, base, k, unary, labels, p, q, lam, alpha, cap, cost1, sp, 
     return truncated, free_terms
 
 
-def _compiled_move_terms(prob):
-    """``terms(labels, alpha) -> (cap, cost1, truncated, free)`` by :func:`_move_terms`.
+@njit(cache=True, nogil=True)
+def _block_sum(a, lo, n):
+    """The sum of one block of up to 128 values as numpy adds it: eight running sums."""
+    if n < 8:
+        total = 0.0
+        for i in range(lo, lo + n):
+            total += a[i]
+        return total
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    whole = n - n % 8
+    for i in range(lo + 8, lo + whole, 8):
+        r0 += a[i]
+        r1 += a[i + 1]
+        r2 += a[i + 2]
+        r3 += a[i + 3]
+        r4 += a[i + 4]
+        r5 += a[i + 5]
+        r6 += a[i + 6]
+        r7 += a[i + 7]
+    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    for i in range(lo + whole, lo + n):
+        total += a[i]
+    return total
 
-    The buffers are reused from move to move (each move's cut reads them at once).
+
+@njit(cache=True, nogil=True)
+def _pairwise_sum(a):
+    """``a.sum()`` of a contiguous float64 array, to the bit (numpy's pairwise sum).
+
+    numpy sums blocks of up to 128 values (:func:`_block_sum`) and halves longer
+    ranges (the first half a multiple of 8), adding the two halves' sums; here with a
+    stack of ranges instead of recursion (numba's cache cannot load a function that
+    calls a recursive one: it crashes).
     """
-    n_nodes, k = prob.n_nodes, prob.n_labels
-    cap, cost1 = np.empty(len(prob.p)), np.empty(n_nodes)
-    sp, sq = np.empty(n_nodes), np.empty(n_nodes)
-    flat, base = prob.flat, np.ascontiguousarray(prob.base, np.int64)
-    unary = np.ascontiguousarray(prob.unary)
+    n = len(a)
+    if n <= 128:
+        return 0.0 + _block_sum(a, 0, n)  # numpy adds to its start value, 0
+    # Tasks: (lo, n) to sum, or (-1, 0) to add the two last sums.
+    task_lo = np.empty(192, np.int64)
+    task_n = np.empty(192, np.int64)
+    sums = np.empty(96)
+    task_lo[0], task_n[0] = 0, n
+    tasks, found = 1, 0
+    while tasks:
+        tasks -= 1
+        lo, m = task_lo[tasks], task_n[tasks]
+        if lo < 0:
+            found -= 1
+            sums[found - 1] += sums[found]  # (left + right): addition commutes exactly
+        elif m <= 128:
+            sums[found] = _block_sum(a, lo, m)
+            found += 1
+        else:
+            half = m // 2
+            half -= half % 8
+            task_lo[tasks], task_n[tasks] = -1, 0
+            task_lo[tasks + 1], task_n[tasks + 1] = lo + half, m - half
+            task_lo[tasks + 2], task_n[tasks + 2] = lo, half
+            tasks += 3
+    return 0.0 + sums[0]
 
-    def terms(labels, alpha):
+
+@njit(cache=True, nogil=True)
+def _energy(flat, base, k, unary, labels, p, q, lam, data, pair):
+    """Eq. (4) as :meth:`_Problem.energy` computes it, to the bit.
+
+    ``data`` and ``pair`` are scratch space of P and E values.
+    """
+    for n in range(unary.shape[0]):
+        data[n] = unary[n, labels[n]]
+    for e in range(p.shape[0]):
+        pair[e] = flat[base[e] + labels[p[e]] * k + labels[q[e]]]
+    return _pairwise_sum(data) + lam * _pairwise_sum(pair)
+
+
+@njit(cache=True, nogil=True)
+def _expansion_sweep(
+    flat, base, unary, p, q, lam, graph, labels, current, changes, failed, scratch, work
+):
+    """One sweep of alpha-expansion moves over every alpha, in place.
+
+    For each alpha: the move's graph terms (:func:`_move_terms`), its minimum cut
+    (:func:`~fluidnb.videodb._maxflow.maxflow`: the nodes on the sink side take alpha)
+    and, if some node moves, the true energy (:func:`_energy`), the move kept only if
+    it drops. ``failed[0, alpha]`` is the number of moves made (the labels' version)
+    when alpha last failed, -1 if never, ``failed[1:, alpha]`` that move's truncated
+    and free terms: a move that failed is not tried again on the same labels (it
+    would build the same graph and fail the same way). Returns (whether a move was
+    made, the energy, moves made so far, and this sweep's truncated terms, free terms
+    and cuts).
+    """
+    n_nodes, k = unary.shape
+    n_edges = len(p)
+    first, following, head = graph
+    r_cap, tr_cap, sp, sq, data, pair = scratch
+    cap = r_cap[0::2]  # arc 2 e: p -> q; arc 2 e + 1: q -> p, capacity 0
+    proposal = np.empty(n_nodes, np.int64)
+    improved = False
+    truncated = free_terms = cuts = 0
+    for alpha in range(k):
+        if failed[0, alpha] == changes:
+            truncated += failed[1, alpha]
+            free_terms += failed[2, alpha]
+            continue
+        # A node on the sink side (x = 1) pays its source capacity: the node's
+        # terminal residual (source minus sink capacity) is its cost of taking alpha.
         n_trunc, n_free = _move_terms(
-            flat, base, k, unary, labels, prob.p, prob.q, prob.lam, alpha, cap, cost1, sp, sq
+            flat, base, k, unary, labels, p, q, lam, alpha, cap, tr_cap, sp, sq
         )
-        return cap, cost1, n_trunc, n_free
+        truncated += n_trunc
+        free_terms += n_free
+        for e in range(n_edges):
+            r_cap[2 * e + 1] = 0.0
+        _maxflow.maxflow(first, following, head, r_cap, tr_cap, work)
+        cuts += 1
+        moves = False
+        for n in range(n_nodes):
+            take = work[0, n] != -1 and work[4, n] != 0 and labels[n] != alpha
+            proposal[n] = alpha if take else labels[n]
+            moves |= take
+        moved = False
+        if moves:
+            new = _energy(flat, base, k, unary, proposal, p, q, lam, data, pair)
+            if new < current:
+                labels[:] = proposal
+                current = new
+                changes += 1
+                moved = improved = True
+        if not moved:
+            failed[0, alpha] = changes
+            failed[1, alpha] = n_trunc
+            failed[2, alpha] = n_free
+    return improved, current, changes, truncated, free_terms, cuts
 
-    return terms
 
+def _expand(prob, labels, max_sweeps, report, counts=None):
+    """Alpha-expansion over label indices with Rother-style truncation, compiled.
 
-def _expand(prob, labels, max_sweeps, report, terms=None):
-    """Alpha-expansion over label indices with Rother-style truncation.
-
-    Sweeps over every alpha until one brings no improvement: each move's graph terms
-    from ``terms(labels, alpha)`` (default :func:`_move_terms`, compiled;
-    :func:`~fluidnb.videodb.reference_alpha_expansion` passes the same terms built with
-    numpy), then its minimum cut (:func:`_cut_and_move`).
+    Sweeps over every alpha until one brings no improvement, each sweep one call of
+    :func:`_expansion_sweep` (moves, cuts and energies in compiled code); Python only
+    between sweeps, to report progress (and so to cancel). ``counts``, a dict, gets
+    the number of minimum cuts computed (``"cuts"``).
     """
     t0 = time.perf_counter()
-    k = prob.n_labels
-    terms = _compiled_move_terms(prob) if terms is None else terms
+    n_nodes, k, n_edges = prob.n_nodes, prob.n_labels, len(prob.p)
+    unary = np.ascontiguousarray(prob.unary)
+    base = np.ascontiguousarray(prob.base, np.int64)
+    graph = _maxflow.arcs(n_nodes, prob.p, prob.q)
+    work = _maxflow.workspace(n_nodes)
+    scratch = (np.empty(2 * n_edges),) + tuple(np.empty(n_nodes) for _ in range(4))
+    scratch += (np.empty(n_edges),)
+    failed = np.full((3, k), -1, np.int64)
     labels = labels.copy()
     current = prob.energy(labels)
     energies = [current]
-    truncated = free_terms = 0
-    sweeps = 0
-    # A move that failed is not tried again until the labels change: on the same
-    # labels it builds the same graph and fails the same way (so skipping it changes
-    # nothing, its term counts included). A converging run's last sweeps are mostly
-    # such moves.
-    changes = 0  # moves made so far: the labels' version
-    failed = {}  # alpha -> (version it failed on, its truncated and free terms)
+    truncated = free_terms = changes = sweeps = cuts = 0
     for sweep in range(max_sweeps):
-        improved = False
-        for alpha in range(k):
-            known = failed.get(alpha)
-            if known is not None and known[0] == changes:
-                n_trunc, n_free = known[1:]
-                moved = False
-            else:
-                cap, cost1, n_trunc, n_free = terms(labels, alpha)
-                labels, current, moved = _cut_and_move(prob, labels, current, alpha, cap, cost1)
-                if moved:
-                    changes += 1
-                else:
-                    failed[alpha] = (changes, n_trunc, n_free)
-            truncated += n_trunc
-            free_terms += n_free
-            improved |= moved
-            report((sweep + (alpha + 1) / k) / max_sweeps, f"alpha-expansion sweep {sweep + 1}")
+        improved, current, changes, n_trunc, n_free, n_cuts = _expansion_sweep(
+            prob.flat, base, unary, prob.p, prob.q, prob.lam, graph, labels, current,
+            changes, failed, scratch, work,
+        )  # fmt: skip
+        truncated += n_trunc
+        free_terms += n_free
+        cuts += n_cuts
         sweeps += 1
         energies.append(current)
+        report((sweep + 1) / max_sweeps, f"alpha-expansion sweep {sweep + 1}")
         if not improved:
             break
+    if counts is not None:
+        counts["cuts"] = cuts
     return SolverRun(
         labels=labels,
         energies=np.array(energies),
