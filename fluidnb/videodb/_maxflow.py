@@ -59,7 +59,7 @@ from numba import njit
 
 __all__ = ["arcs", "maxflow", "min_cut", "workspace"]
 
-# A node's parent: an arc index (the arc from the node to its parent), or one of these.
+# A node's parent: an arc (the arc from the node to its parent), or one of these.
 _FREE = -1  # in no tree
 _TERMINAL = -2  # joined to its tree's terminal directly
 _ORPHAN = -3  # cut off its tree by the last augmentation, waiting for adoption
@@ -74,7 +74,12 @@ _INFINITE = 1 << 40  # a distance no path reaches
 
 
 def arcs(n_nodes, tails, heads):
-    """The graph's arcs as linked lists: each node's arcs, last added first.
+    """The graph's arcs grouped by node, each node's in the library's order.
+
+    Edge ``e`` is two arcs, ``p -> q`` then ``q -> p``; the library keeps each node's
+    arcs as a list with the newest first, so a node's arcs are visited from its last
+    edge back. Here they are stored in that order, node after node (compressed rows:
+    the same visits, without following a chain of pointers).
 
     Parameters
     ----------
@@ -85,13 +90,15 @@ def arcs(n_nodes, tails, heads):
 
     Returns
     -------
-    first : ndarray of int64, shape (P,)
-        Each node's first arc (-1: none).
-    following : ndarray of int64, shape (2 E,)
-        The arc after each arc in its tail's list (-1: the last).
+    start : ndarray of int64, shape (P + 1,)
+        Node ``i``'s arcs are ``start[i]`` to ``start[i + 1] - 1``.
     head : ndarray of int64, shape (2 E,)
-        Where each arc goes: arc ``2 e`` from ``tails[e]`` to ``heads[e]``, arc
-        ``2 e + 1`` back (an arc's reverse is ``a ^ 1``).
+        Where each arc goes.
+    sister : ndarray of int64, shape (2 E,)
+        Each arc's reverse.
+    slot : ndarray of int64, shape (2 E,)
+        Edge ``e``'s arcs: ``slot[2 e]`` is ``p -> q``, ``slot[2 e + 1]`` is ``q -> p``
+        (where to write their capacities).
     """
     tails = np.asarray(tails, np.int64)
     heads = np.asarray(heads, np.int64)
@@ -100,15 +107,26 @@ def arcs(n_nodes, tails, heads):
 
 @njit(cache=True, nogil=True)
 def _arcs(n_nodes, tails, heads):
-    first = np.full(n_nodes, _FREE, np.int64)
-    following = np.empty(2 * len(tails), np.int64)
-    head = np.empty(2 * len(tails), np.int64)
-    for e in range(len(tails)):
+    n_edges = len(tails)
+    start = np.zeros(n_nodes + 1, np.int64)
+    for e in range(n_edges):
+        start[tails[e] + 1] += 1
+        start[heads[e] + 1] += 1
+    for i in range(n_nodes):
+        start[i + 1] += start[i]
+    fill = start[1:].copy()  # each node's arcs are filled from its end back
+    head = np.empty(2 * n_edges, np.int64)
+    slot = np.empty(2 * n_edges, np.int64)
+    for e in range(n_edges):
         p, q = tails[e], heads[e]
-        # Prepended: a node's arcs run last added first.
-        following[2 * e], first[p], head[2 * e] = first[p], 2 * e, q
-        following[2 * e + 1], first[q], head[2 * e + 1] = first[q], 2 * e + 1, p
-    return first, following, head
+        fill[p] -= 1
+        fill[q] -= 1
+        slot[2 * e], slot[2 * e + 1] = fill[p], fill[q]
+        head[fill[p]], head[fill[q]] = q, p
+    sister = np.empty(2 * n_edges, np.int64)
+    for e in range(n_edges):
+        sister[slot[2 * e]], sister[slot[2 * e + 1]] = slot[2 * e + 1], slot[2 * e]
+    return start, head, sister, slot
 
 
 def workspace(n_nodes):
@@ -168,16 +186,16 @@ def _orphan_later(work, i):
 
 
 @njit(cache=True, nogil=True)
-def _augment(middle, head, r_cap, tr_cap, work):
+def _augment(middle, head, sister, r_cap, tr_cap, work):
     """Push the bottleneck along the path through ``middle`` (an arc from S to T)."""
     parent = work[_PARENT]
     # The bottleneck: the middle arc, S's arcs towards the node, T's away from it.
     bottleneck = r_cap[middle]
-    i = head[middle ^ 1]
+    i = head[sister[middle]]
     while parent[i] != _TERMINAL:
         a = parent[i]
-        if bottleneck > r_cap[a ^ 1]:
-            bottleneck = r_cap[a ^ 1]
+        if bottleneck > r_cap[sister[a]]:
+            bottleneck = r_cap[sister[a]]
         i = head[a]
     if bottleneck > tr_cap[i]:
         bottleneck = tr_cap[i]
@@ -190,14 +208,14 @@ def _augment(middle, head, r_cap, tr_cap, work):
     if bottleneck > -tr_cap[i]:
         bottleneck = -tr_cap[i]
     # Push it; a saturated arc (or terminal arc) makes its child an orphan.
-    r_cap[middle ^ 1] += bottleneck
+    r_cap[sister[middle]] += bottleneck
     r_cap[middle] -= bottleneck
-    i = head[middle ^ 1]
+    i = head[sister[middle]]
     while parent[i] != _TERMINAL:
         a = parent[i]
         r_cap[a] += bottleneck
-        r_cap[a ^ 1] -= bottleneck
-        if r_cap[a ^ 1] == 0:
+        r_cap[sister[a]] -= bottleneck
+        if r_cap[sister[a]] == 0:
             _orphan(work, i)
         i = head[a]
     tr_cap[i] -= bottleneck
@@ -206,7 +224,7 @@ def _augment(middle, head, r_cap, tr_cap, work):
     i = head[middle]
     while parent[i] != _TERMINAL:
         a = parent[i]
-        r_cap[a ^ 1] += bottleneck
+        r_cap[sister[a]] += bottleneck
         r_cap[a] -= bottleneck
         if r_cap[a] == 0:
             _orphan(work, i)
@@ -218,15 +236,14 @@ def _augment(middle, head, r_cap, tr_cap, work):
 
 
 @njit(cache=True, nogil=True)
-def _adopt(i, first, following, head, r_cap, work, time):
+def _adopt(i, start, head, sister, r_cap, work, time):
     """Find orphan ``i`` a parent in its tree, or free it (and orphan its children)."""
     parent, ts, dist, sink = work[_PARENT], work[_TS], work[_DIST], work[_SINK]
     in_t = sink[i]
     best, best_d = _FREE, _INFINITE
-    a0 = first[i]
-    while a0 != _FREE:
+    for a0 in range(start[i], start[i + 1]):
         # An arc from the neighbour towards i (S) or from i towards it (T) with room.
-        room = r_cap[a0] if in_t else r_cap[a0 ^ 1]
+        room = r_cap[a0] if in_t else r_cap[sister[a0]]
         j = head[a0]
         if room != 0 and sink[j] == in_t and parent[j] != _FREE:
             # Does j still reach the root? Walk up until a node stamped this round.
@@ -255,7 +272,6 @@ def _adopt(i, first, following, head, r_cap, work, time):
                     dist[j] = d
                     d -= 1
                     j = head[parent[j]]
-        a0 = following[a0]
     parent[i] = best
     if best != _FREE:
         ts[i] = time
@@ -263,29 +279,28 @@ def _adopt(i, first, following, head, r_cap, work, time):
         return
     # Free: neighbours of the same tree that could reach i become active, its
     # children orphans.
-    a0 = first[i]
-    while a0 != _FREE:
+    for a0 in range(start[i], start[i + 1]):
         j = head[a0]
         a = parent[j]
         if sink[j] == in_t and a != _FREE:
-            room = r_cap[a0] if in_t else r_cap[a0 ^ 1]
+            room = r_cap[a0] if in_t else r_cap[sister[a0]]
             if room != 0:
                 _set_active(work, j)
             if a != _TERMINAL and a != _ORPHAN and head[a] == i:
                 _orphan_later(work, j)
-        a0 = following[a0]
 
 
 @njit(cache=True, nogil=True)
-def maxflow(first, following, head, r_cap, tr_cap, work, flow=0.0):
+def maxflow(start, head, sister, r_cap, tr_cap, work, flow=0.0):
     """The maximum flow from source to sink; the trees it leaves in ``work``.
 
     Parameters
     ----------
-    first, following, head : ndarray of int64
+    start, head, sister : ndarray of int64
         The graph's arcs (:func:`arcs`).
     r_cap : ndarray of float64, shape (2 E,)
-        Each arc's capacity (>= 0); left holding the residuals.
+        Each arc's capacity (>= 0), in the order of ``head`` (edge ``e``'s at
+        ``slot[2 e]`` and ``slot[2 e + 1]``); left holding the residuals.
     tr_cap : ndarray of float64, shape (P,)
         Each node's source capacity minus its sink capacity; left holding the
         residuals.
@@ -301,7 +316,7 @@ def maxflow(first, following, head, r_cap, tr_cap, work, flow=0.0):
     float
         ``flow`` plus the flow pushed along augmenting paths, path by path.
     """
-    n = len(first)
+    n = len(start) - 1
     parent, nxt, ts, dist, sink = work[_PARENT], work[_NEXT], work[_TS], work[_DIST], work[_SINK]
     work[_HEADS, :] = _FREE
     work[_HEADS, _FIFO_HEAD] = work[_HEADS, _FIFO_TAIL] = 0
@@ -334,44 +349,42 @@ def maxflow(first, following, head, r_cap, tr_cap, work, flow=0.0):
                 break
         # Growth: from i over arcs with room (out of S, into T) until the trees meet.
         middle = _FREE
-        a = first[i]
         in_t = sink[i]
-        while a != _FREE:
-            room = r_cap[a ^ 1] if in_t else r_cap[a]
+        for a in range(start[i], start[i + 1]):
+            room = r_cap[sister[a]] if in_t else r_cap[a]
             if room != 0:
                 j = head[a]
                 if parent[j] == _FREE:
                     sink[j] = in_t
-                    parent[j] = a ^ 1
+                    parent[j] = sister[a]
                     ts[j] = ts[i]
                     dist[j] = dist[i] + 1
                     _set_active(work, j)
                 elif sink[j] != in_t:
-                    middle = a ^ 1 if in_t else a  # the arc from S's node to T's
+                    middle = sister[a] if in_t else a  # the arc from S's node to T's
                     break
                 elif ts[j] <= ts[i] and dist[j] > dist[i]:
                     # j is nearer its root through i (the library's heuristic)
-                    parent[j] = a ^ 1
+                    parent[j] = sister[a]
                     ts[j] = ts[i]
                     dist[j] = dist[i] + 1
-            a = following[a]
         time += 1
         if middle == _FREE:
             current = _FREE
             continue
         nxt[i] = i  # i keeps growing after this path: not queued meanwhile
         current = i
-        flow += _augment(middle, head, r_cap, tr_cap, work)
+        flow += _augment(middle, head, sister, r_cap, tr_cap, work)
         # Adoption: the augmentation's orphans in turn, each with those it makes.
         ends, fifo = work[_HEADS], work[_FIFO]
         while ends[_CHAIN] != _FREE:
             o = ends[_CHAIN]
             ends[_CHAIN] = work[_ORPHANS, o]
-            _adopt(o, first, following, head, r_cap, work, time)
+            _adopt(o, start, head, sister, r_cap, work, time)
             while ends[_FIFO_HEAD] != ends[_FIFO_TAIL]:
                 o = fifo[ends[_FIFO_HEAD] % len(fifo)]
                 ends[_FIFO_HEAD] += 1
-                _adopt(o, first, following, head, r_cap, work, time)
+                _adopt(o, start, head, sister, r_cap, work, time)
     return flow
 
 
@@ -413,14 +426,14 @@ def min_cut(n_nodes, edges, cap, rev_cap, source, sink):
     edges = np.asarray(edges, np.int64).reshape(-1, 2)
     source = np.asarray(source, np.float64)
     sink = np.asarray(sink, np.float64)
+    start, head, sister, slot = arcs(n_nodes, edges[:, 0], edges[:, 1])
     r_cap = np.empty(2 * len(edges))
-    r_cap[0::2] = cap
-    r_cap[1::2] = rev_cap
+    r_cap[slot[0::2]] = cap
+    r_cap[slot[1::2]] = rev_cap
     tr_cap = source - sink
     flow = 0.0
     for s, t in zip(source.tolist(), sink.tolist()):  # summed in the library's order
         flow += min(s, t)
-    graph = arcs(n_nodes, edges[:, 0], edges[:, 1])
     work = workspace(n_nodes)
-    flow = maxflow(*graph, r_cap, tr_cap, work, flow)
+    flow = maxflow(start, head, sister, r_cap, tr_cap, work, flow)
     return flow, sink_side(work, np.empty(n_nodes, bool))

@@ -272,15 +272,17 @@ class SolverRun:
 
 
 @njit(cache=True, nogil=True)
-def _move_terms(flat, base, k, unary, labels, p, q, lam, alpha, cap, cost1, sp, sq):
+def _move_terms(unary, labels, p, q, lam, alpha, tables, cap, cost1, sp, sq):
     """One expansion move's graph terms in one pass over the edges.
 
-    As :func:`~fluidnb.videodb.reference_alpha_expansion` builds them with numpy.
-
-    Writes the (truncated) pairwise capacities ``cap`` and the nodes' cost of taking
-    alpha ``cost1``, with the same operations in the same order as the plain version
-    (so the same bits); returns (truncated terms, free terms).
+    As :func:`~fluidnb.videodb.reference_alpha_expansion` builds them with numpy:
+    writes the (truncated) pairwise capacities ``cap`` and the nodes' cost of taking
+    alpha ``cost1``, with the same operations in the same order (so the same bits);
+    returns (truncated terms, free terms). The four values of :math:`W_{pq}` each edge
+    needs come from :func:`_label_tables` (rows read in order, not four scattered
+    reads of the (E, K, K) table).
     """
+    now, row, col, diag = tables
     n_nodes = unary.shape[0]
     truncated = 0
     free_terms = 0
@@ -290,11 +292,10 @@ def _move_terms(flat, base, k, unary, labels, p, q, lam, alpha, cap, cost1, sp, 
     for e in range(p.shape[0]):
         lp = labels[p[e]]
         lq = labels[q[e]]
-        b = base[e]
-        e00 = lam * flat[b + lp * k + lq]
-        e01 = lam * flat[b + lp * k + alpha]
-        e10 = lam * flat[b + alpha * k + lq]
-        e11 = lam * flat[b + alpha * k + alpha]
+        e00 = lam * now[e]
+        e01 = lam * row[alpha, e]
+        e10 = lam * col[alpha, e]
+        e11 = lam * diag[alpha, e]
         c = e01 + e10 - e00 - e11
         free = lp != alpha and lq != alpha
         if free:
@@ -310,6 +311,48 @@ def _move_terms(flat, base, k, unary, labels, p, q, lam, alpha, cap, cost1, sp, 
     for n in range(n_nodes):
         cost1[n] = (unary[n, alpha] - unary[n, labels[n]]) + sp[n] + sq[n]
     return truncated, free_terms
+
+
+@njit(cache=True, nogil=True)
+def _label_tables(w, labels, p, q):
+    """The values of W a move reads, per edge, for the current labels.
+
+    ``now[e]`` = :math:`W_e(l_p, l_q)`, ``row[a, e]`` = :math:`W_e(l_p, a)`,
+    ``col[a, e]`` = :math:`W_e(a, l_q)`, ``diag[a, e]`` = :math:`W_e(a, a)`: label-major,
+    so a move (one ``a``) reads each in edge order. :func:`_relabel` keeps them up to
+    date as labels change.
+    """
+    n_edges, k = w.shape[0], w.shape[1]
+    now = np.empty(n_edges)
+    row, col, diag = np.empty((k, n_edges)), np.empty((k, n_edges)), np.empty((k, n_edges))
+    for e in range(n_edges):
+        lp, lq = labels[p[e]], labels[q[e]]
+        now[e] = w[e, lp, lq]
+        for a in range(k):
+            row[a, e] = w[e, lp, a]
+            col[a, e] = w[e, a, lq]
+            diag[a, e] = w[e, a, a]
+    return now, row, col, diag
+
+
+@njit(cache=True, nogil=True)
+def _relabel(w, labels, proposal, p, q, tables, pair):
+    """Take ``proposal`` (the move's labels) and bring :func:`_label_tables` up to date.
+
+    ``pair[e]`` holds :math:`W_e` of the proposal (:func:`_energy` left it there).
+    """
+    now, row, col, _ = tables
+    k = w.shape[1]
+    for e in range(p.shape[0]):
+        now[e] = pair[e]
+        lp, lq = proposal[p[e]], proposal[q[e]]
+        if lp != labels[p[e]]:
+            for a in range(k):
+                row[a, e] = w[e, lp, a]
+        if lq != labels[q[e]]:
+            for a in range(k):
+                col[a, e] = w[e, a, lq]
+    labels[:] = proposal
 
 
 @njit(cache=True, nogil=True)
@@ -376,22 +419,32 @@ def _pairwise_sum(a):
 
 
 @njit(cache=True, nogil=True)
-def _energy(flat, base, k, unary, labels, p, q, lam, data, pair):
-    """Eq. (4) as :meth:`_Problem.energy` computes it, to the bit.
+def _energy(unary, proposal, alpha, p, q, lam, tables, data, pair):
+    """Eq. (4) of an expansion move's labels as :meth:`_Problem.energy` computes it.
 
-    ``data`` and ``pair`` are scratch space of P and E values.
+    The same values summed in the same order (numpy's, :func:`_pairwise_sum`), so the
+    same bits; each edge's :math:`W_e` is looked up in :func:`_label_tables` (a node
+    either kept its label or took alpha). ``data`` and ``pair`` are scratch space of P
+    and E values (``pair`` is left holding each edge's :math:`W_e`).
     """
+    now, row, col, diag = tables
     for n in range(unary.shape[0]):
-        data[n] = unary[n, labels[n]]
+        data[n] = unary[n, proposal[n]]
     for e in range(p.shape[0]):
-        pair[e] = flat[base[e] + labels[p[e]] * k + labels[q[e]]]
+        at_p, at_q = proposal[p[e]] == alpha, proposal[q[e]] == alpha
+        if at_p and at_q:
+            pair[e] = diag[alpha, e]
+        elif at_p:
+            pair[e] = col[alpha, e]
+        elif at_q:
+            pair[e] = row[alpha, e]
+        else:
+            pair[e] = now[e]
     return _pairwise_sum(data) + lam * _pairwise_sum(pair)
 
 
 @njit(cache=True, nogil=True)
-def _expansion_sweep(
-    flat, base, unary, p, q, lam, graph, labels, current, changes, failed, scratch, work
-):
+def _expansion_sweep(w, unary, p, q, lam, graph, labels, current, changes, failed, scratch, work):
     """One sweep of alpha-expansion moves over every alpha, in place.
 
     For each alpha: the move's graph terms (:func:`_move_terms`), its minimum cut
@@ -400,15 +453,15 @@ def _expansion_sweep(
     it drops. ``failed[0, alpha]`` is the number of moves made (the labels' version)
     when alpha last failed, -1 if never, ``failed[1:, alpha]`` that move's truncated
     and free terms: a move that failed is not tried again on the same labels (it
-    would build the same graph and fail the same way). Returns (whether a move was
+    would build the same graph and fail the same way). ``scratch`` holds the
+    :func:`_label_tables` of ``labels``, kept up to date. Returns (whether a move was
     made, the energy, moves made so far, and this sweep's truncated terms, free terms
     and cuts).
     """
     n_nodes, k = unary.shape
     n_edges = len(p)
-    first, following, head = graph
-    r_cap, tr_cap, sp, sq, data, pair = scratch
-    cap = r_cap[0::2]  # arc 2 e: p -> q; arc 2 e + 1: q -> p, capacity 0
+    start, head, sister, slot = graph
+    tables, (r_cap, cap, tr_cap, sp, sq, data, pair) = scratch
     proposal = np.empty(n_nodes, np.int64)
     improved = False
     truncated = free_terms = cuts = 0
@@ -419,14 +472,13 @@ def _expansion_sweep(
             continue
         # A node on the sink side (x = 1) pays its source capacity: the node's
         # terminal residual (source minus sink capacity) is its cost of taking alpha.
-        n_trunc, n_free = _move_terms(
-            flat, base, k, unary, labels, p, q, lam, alpha, cap, tr_cap, sp, sq
-        )
+        n_trunc, n_free = _move_terms(unary, labels, p, q, lam, alpha, tables, cap, tr_cap, sp, sq)
         truncated += n_trunc
         free_terms += n_free
-        for e in range(n_edges):
-            r_cap[2 * e + 1] = 0.0
-        _maxflow.maxflow(first, following, head, r_cap, tr_cap, work)
+        for e in range(n_edges):  # the edge's arcs p -> q and q -> p
+            r_cap[slot[2 * e]] = cap[e]
+            r_cap[slot[2 * e + 1]] = 0.0
+        _maxflow.maxflow(start, head, sister, r_cap, tr_cap, work)
         cuts += 1
         moves = False
         for n in range(n_nodes):
@@ -435,9 +487,9 @@ def _expansion_sweep(
             moves |= take
         moved = False
         if moves:
-            new = _energy(flat, base, k, unary, proposal, p, q, lam, data, pair)
+            new = _energy(unary, proposal, alpha, p, q, lam, tables, data, pair)
             if new < current:
-                labels[:] = proposal
+                _relabel(w, labels, proposal, p, q, tables, pair)
                 current = new
                 changes += 1
                 moved = improved = True
@@ -459,20 +511,20 @@ def _expand(prob, labels, max_sweeps, report, counts=None):
     t0 = time.perf_counter()
     n_nodes, k, n_edges = prob.n_nodes, prob.n_labels, len(prob.p)
     unary = np.ascontiguousarray(prob.unary)
-    base = np.ascontiguousarray(prob.base, np.int64)
     graph = _maxflow.arcs(n_nodes, prob.p, prob.q)
     work = _maxflow.workspace(n_nodes)
-    scratch = (np.empty(2 * n_edges),) + tuple(np.empty(n_nodes) for _ in range(4))
-    scratch += (np.empty(n_edges),)
-    failed = np.full((3, k), -1, np.int64)
     labels = labels.copy()
+    buffers = (np.empty(2 * n_edges), np.empty(n_edges))
+    buffers += tuple(np.empty(n_nodes) for _ in range(4)) + (np.empty(n_edges),)
+    scratch = (_label_tables(prob.pairwise, labels, prob.p, prob.q), buffers)
+    failed = np.full((3, k), -1, np.int64)
     current = prob.energy(labels)
     energies = [current]
     truncated = free_terms = changes = sweeps = cuts = 0
     for sweep in range(max_sweeps):
         improved, current, changes, n_trunc, n_free, n_cuts = _expansion_sweep(
-            prob.flat, base, unary, prob.p, prob.q, prob.lam, graph, labels, current,
-            changes, failed, scratch, work,
+            prob.pairwise, unary, prob.p, prob.q, prob.lam, graph, labels, current, changes,
+            failed, scratch, work,
         )  # fmt: skip
         truncated += n_trunc
         free_terms += n_free
