@@ -241,6 +241,11 @@ def test_solvers_refuse_bad_inputs():
     nan_unary[0, 0] = np.nan
     with pytest.raises(ValueError, match="unary contains 1 NaN"):
         alpha_expansion(nan_unary, pairwise, edges, 1.0)
+    for bad in (np.nan, np.inf, -np.inf):
+        bad_pairwise = pairwise.copy()
+        bad_pairwise[1, 2, 3] = bad
+        with pytest.raises(ValueError, match="pairwise contains 1 NaN or infinite"):
+            solve(unary, bad_pairwise, edges, 1.0)
     with pytest.raises(ValueError, match="lam must be >= 0"):
         icm(unary, pairwise, edges, -0.1)
     with pytest.raises(ValueError, match="edges must hold node indices"):
