@@ -318,23 +318,28 @@ def maxflow(start, head, sister, r_cap, tr_cap, work, flow=0.0):
     """
     n = len(start) - 1
     parent, nxt, ts, dist, sink = work[_PARENT], work[_NEXT], work[_TS], work[_DIST], work[_SINK]
-    work[_HEADS, :] = _FREE
-    work[_HEADS, _FIFO_HEAD] = work[_HEADS, _FIFO_TAIL] = 0
+    ends = work[_HEADS]
+    ends[:] = _FREE
+    ends[_FIFO_HEAD] = ends[_FIFO_TAIL] = 0
+    # Nodes joined to a terminal start its tree, all active in node order (written
+    # without branching on the sign, which is as good as random).
+    last = _FREE
     for i in range(n):
-        nxt[i] = _FREE
+        joined = tr_cap[i] != 0
+        sink[i] = tr_cap[i] < 0
+        parent[i] = _TERMINAL if joined else _FREE
         ts[i] = 0
-        if tr_cap[i] > 0:
-            sink[i] = 0
-            parent[i] = _TERMINAL
-            _set_active(work, i)
-            dist[i] = 1
-        elif tr_cap[i] < 0:
-            sink[i] = 1
-            parent[i] = _TERMINAL
-            _set_active(work, i)
-            dist[i] = 1
-        else:
-            parent[i] = _FREE
+        dist[i] = 1
+        nxt[i] = _FREE
+        if joined:
+            if last == _FREE:
+                ends[_Q1_FIRST] = i
+            else:
+                nxt[last] = i
+            last = i
+    if last != _FREE:
+        nxt[last] = last
+        ends[_Q1_LAST] = last
     time = 0
     current = _FREE
     while True:
