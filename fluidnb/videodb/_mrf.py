@@ -19,10 +19,13 @@ normalised histogram intersection :math:`I \in [0, 1]`. The paper writes
 :math:`V_p = I` (Eq. 5), which a minimisation would turn into a reward for
 *dissimilar* fragments; the caller passes :math:`1 - I`.
 
-The energy (:func:`energy`) and its solvers: alpha-expansion over label indices on
-PyMaxflow (:func:`alpha_expansion`), iterated conditional modes (:func:`icm`), the
-spec's recipe combining them (:func:`solve`), and exhaustive search for tiny problems
-(:func:`brute_force`).
+The energy (:func:`energy`) and its solvers: alpha-expansion over label indices
+(:func:`alpha_expansion`: each sweep of moves compiled, every move's minimum cut by our
+Boykov-Kolmogorov max-flow, :mod:`fluidnb.videodb._maxflow`), iterated conditional
+modes (:func:`icm`), the spec's recipe combining them (:func:`solve`), and exhaustive
+search for tiny problems (:func:`brute_force`). The plain versions,
+:func:`fluidnb.videodb.reference_alpha_expansion` (numpy and PyMaxflow) and
+:func:`fluidnb.videodb.reference_icm`, give the same labels and energies to the bit.
 
 Labels are per-node candidate *indices* (node :math:`p`'s label :math:`\alpha` is its
 :math:`\alpha`-th candidate, a different fragment from node :math:`q`'s), so
@@ -687,7 +690,8 @@ def alpha_expansion(unary, pairwise, edges, lam, *, init=None, max_sweeps=20, pr
     Boykov, Veksler & Zabih's expansion: for each :math:`\alpha = 0 \ldots K-1` in turn,
     every node either keeps its label or takes its own :math:`\alpha`-th candidate,
     whichever a minimum cut of the move's binary energy says (Kolmogorov & Zabih's
-    construction, built vectorised on PyMaxflow's ``Graph[float]``). Because labels
+    construction; the cut by Boykov & Kolmogorov's max-flow, the same cut PyMaxflow
+    gives, :mod:`fluidnb.videodb._maxflow`; each sweep in compiled code). Because labels
     are per-node candidate indices, :math:`W` is not a metric and a move's pairwise
     term :math:`(E_{00}, E_{01}, E_{10}, E_{11})` may be non-submodular
     (:math:`E_{01} + E_{10} < E_{00} + E_{11}`); such terms are truncated by lowering
@@ -715,7 +719,7 @@ def alpha_expansion(unary, pairwise, edges, lam, *, init=None, max_sweeps=20, pr
     max_sweeps : int
         Largest number of sweeps over all :math:`\alpha`.
     progress : callable, optional
-        ``progress(fraction, message)``, called after every move; raising
+        ``progress(fraction, message)``, called after every sweep; raising
         :class:`fluidnb.Cancelled` stops.
 
     Returns
