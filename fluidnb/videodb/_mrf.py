@@ -51,13 +51,17 @@ References
 
 from __future__ import annotations
 
+import os
+import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import TimeoutError as FuturesTimeout
 from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
 
-from .._progress import Progress
+from .._progress import Cancelled, Progress
 from .._validation import check_array, check_finite, check_int, check_range
 from . import _maxflow
 
@@ -819,7 +823,9 @@ def solve(unary, pairwise, edges, lam, *, max_sweeps=20, progress=None):
     Runs ICM from the unary argmin, then :func:`alpha_expansion` once from the unary
     argmin and once from ICM's result, and keeps the labelling of lower energy (the
     argmin start on a tie). Since expansion never raises the energy, the result is
-    never worse than ICM.
+    never worse than ICM. The run from the argmin does not wait for ICM: on two or
+    more cores it runs on a thread of its own beside the other two (the same result,
+    ~30 % sooner at the app's size).
 
     Parameters
     ----------
@@ -844,16 +850,28 @@ def solve(unary, pairwise, edges, lam, *, max_sweeps=20, progress=None):
     """
     prob = _problem(unary, pairwise, edges, lam)
     max_sweeps = check_int("max_sweeps", max_sweeps, 1)
-    stage_icm, stage_a, stage_b = Progress(progress).split(0.1, 0.55)
+    report = Progress(progress)
+    stage_icm, stage_b, stage_a = report.split(0.1, 0.55)
     start = prob.argmin()
-    base = _icm(prob, start, max_sweeps, stage_icm)
     diag = _diagonal(prob.pairwise)  # the same for both runs
-    from_argmin = _expand(prob, start, max_sweeps, stage_a, tables=_tables(prob, start, diag))
-    tables = _tables(prob, base.labels, diag)
-    from_icm = _expand(prob, base.labels, max_sweeps, stage_b, tables=tables)
+
+    def from_start(report):
+        return _expand(prob, start, max_sweeps, report, tables=_tables(prob, start, diag))
+
+    def from_icm_result():
+        base = _icm(prob, start, max_sweeps, stage_icm)
+        tables = _tables(prob, base.labels, diag)
+        return base, _expand(prob, base.labels, max_sweeps, stage_b, tables=tables)
+
+    if _side_by_side(prob):
+        base, from_icm, from_argmin = _beside(from_start, from_icm_result, stage_a)
+    else:
+        base, from_icm = from_icm_result()
+        from_argmin = from_start(stage_a)
     best, name = (from_argmin, "argmin")
     if from_icm.energy < from_argmin.energy:
         best, name = (from_icm, "icm")
+    report(1.0, "MRF solved")
     return MRFSolution(
         labels=best.labels,
         energy=best.energy,
@@ -868,6 +886,50 @@ def solve(unary, pairwise, edges, lam, *, max_sweeps=20, progress=None):
             "expansion_icm": from_icm.seconds,
         },
     )
+
+
+#: Problems with fewer node labels (P K) than this are solved on one thread (a thread
+#: costs ~0.1 ms; at the app's 171 x 100 the second one saves ~3 of 10 ms).
+_SIDE_BY_SIDE = 4096
+
+
+def _side_by_side(prob):
+    """Whether :func:`solve` runs its two expansions on two threads."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    return cores > 1 and prob.n_nodes * prob.n_labels >= _SIDE_BY_SIDE
+
+
+def _beside(aside, main, report):
+    """``aside(report)`` on a thread of its own while ``main()`` runs here.
+
+    The expansions release the GIL, so the two run at once on two cores. The caller's
+    ``report`` is only called from this thread: while waiting for ``aside``, with its
+    progress (so raising :class:`Cancelled` stops both; ``aside`` stops at its next
+    report). Returns ``(*main(), aside(...))``.
+    """
+    stop = threading.Event()
+    done = [0.0]
+
+    def relay(fraction, message):  # aside's reports, on its thread
+        if stop.is_set():
+            raise Cancelled("stopped with the other run")
+        done[0] = fraction
+
+    with ThreadPoolExecutor(1, thread_name_prefix="fluidnb-mrf") as pool:
+        future = pool.submit(aside, relay)
+        try:
+            result = main()
+            while True:
+                try:
+                    return (*result, future.result(timeout=0.05))
+                except FuturesTimeout:
+                    report(done[0], "alpha-expansion from the unary argmin")
+        except BaseException:
+            stop.set()
+            raise
 
 
 def brute_force(unary, pairwise, edges, lam, *, max_labelings=1 << 20):

@@ -378,6 +378,77 @@ def test_the_compiled_expansion_equals_the_plain_one_on_a_real_sized_problem():
     assert result.start == ("icm" if best is runs[1] else "argmin")
 
 
+def test_solve_runs_its_expansions_side_by_side_with_the_same_result(monkeypatch):
+    # On two cores the run from the argmin has a thread of its own; the result is the
+    # one-thread result, and the caller's progress is called from its own thread only,
+    # in order.
+    import threading
+
+    from fluidnb.videodb import _mrf
+
+    unary, pairwise, edges, lam = realistic_problem(1)
+    expand, threads = _mrf._expand, []
+
+    def recording(*args, **kwargs):
+        threads.append(threading.get_ident())
+        return expand(*args, **kwargs)
+
+    monkeypatch.setattr(_mrf, "_expand", recording)
+    monkeypatch.setattr(_mrf.os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    results, seen = [], []
+    for side_by_side in (True, False):
+        monkeypatch.setattr(_mrf, "_SIDE_BY_SIDE", 1 if side_by_side else 10**9)
+        threads.clear()
+        seen.clear()
+
+        def progress(fraction, message):
+            seen.append((fraction, threading.get_ident()))
+
+        results.append(solve(unary, pairwise, edges, lam, progress=progress))
+        assert len(set(threads)) == (2 if side_by_side else 1)
+        assert {ident for _, ident in seen} == {threading.get_ident()}
+        fractions = [f for f, _ in seen]
+        assert fractions == sorted(fractions)
+        assert fractions[-1] == 1.0
+    fast, plain = results
+    assert np.array_equal(fast.labels, plain.labels)
+    assert np.array_equal(fast.energies, plain.energies)
+    for name in ("energy", "icm_energy", "start", "sweeps", "nonsubmodular"):
+        assert getattr(fast, name) == getattr(plain, name)
+
+
+def test_cancelling_solve_stops_both_expansions(monkeypatch):
+    import threading
+
+    from fluidnb.videodb import _mrf
+
+    monkeypatch.setattr(_mrf, "_SIDE_BY_SIDE", 1)
+    monkeypatch.setattr(_mrf.os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    unary, pairwise, edges, lam = realistic_problem(2)
+    expand, ended = _mrf._expand, {}
+
+    def recording(*args, **kwargs):
+        try:
+            return expand(*args, **kwargs)
+        except Cancelled:
+            ended[threading.get_ident()] = "cancelled"
+            raise
+
+    monkeypatch.setattr(_mrf, "_expand", recording)
+    before = threading.active_count()
+
+    def progress(fraction, message):
+        if "ICM" in message:
+            raise Cancelled("stop")
+
+    with pytest.raises(Cancelled):
+        solve(unary, pairwise, edges, lam, progress=progress)
+    assert threading.active_count() == before  # the second thread has ended
+    # ... stopped at its next sweep, not run to its end.
+    assert list(ended.values()) == ["cancelled"]
+    assert threading.get_ident() not in ended
+
+
 def tie_problem(gen, kind):
     """Small problems full of exact ties (the cases where float residuals decide)."""
     shape, k = [((4, 5), 3), ((3, 3), 6), ((5, 5), 4), ((2, 6), 5)][gen.integers(0, 4)]
