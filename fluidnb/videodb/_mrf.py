@@ -297,6 +297,17 @@ class SolverRun:
         return float(self.energies[-1])
 
 
+def _finished(labels, energies, sweeps, t0, truncated=0, free_terms=0):
+    """The :class:`SolverRun` of a run started at ``t0`` (``time.perf_counter()``)."""
+    return SolverRun(
+        labels=labels,
+        energies=np.array(energies),
+        sweeps=sweeps,
+        nonsubmodular=truncated / free_terms if free_terms else 0.0,
+        seconds=time.perf_counter() - t0,
+    )
+
+
 @njit(cache=True, nogil=True)
 def _move_terms(unary, labels, p, q, lam, alpha, tables, cap, cost1, sp, sq):
     """One expansion move's graph terms in one pass over the edges.
@@ -579,13 +590,7 @@ def _expand(prob, labels, max_sweeps, report, counts=None, tables=None):
             break
     if counts is not None:
         counts["cuts"] = cuts
-    return SolverRun(
-        labels=labels,
-        energies=np.array(energies),
-        sweeps=sweeps,
-        nonsubmodular=truncated / free_terms if free_terms else 0.0,
-        seconds=time.perf_counter() - t0,
-    )
+    return _finished(labels, energies, sweeps, t0, truncated, free_terms)
 
 
 @njit(cache=True, nogil=True)
@@ -673,13 +678,7 @@ def _icm(prob, labels, max_sweeps, report, sweep=None):
         report((i + 1) / max_sweeps, f"ICM sweep {i + 1}")
         if not changed:
             break
-    return SolverRun(
-        labels=labels,
-        energies=np.array(energies),
-        sweeps=sweeps,
-        nonsubmodular=0.0,
-        seconds=time.perf_counter() - t0,
-    )
+    return _finished(labels, energies, sweeps, t0)
 
 
 def _start(prob, init):

@@ -72,7 +72,7 @@ from ._geometry import (
     TEXTURE_SIDE,
     VERSIONS,
 )
-from ._mrf import SolverRun, _icm, _problem, _start
+from ._mrf import _finished, _icm, _problem, _start
 from ._retrieval import _SLACK, MIN_MOTION, TopK, _check_filter
 from ._sift import _EPS, BINS, ORIENTATIONS, _check_images
 from ._smoothness import PairTables, _check_tables_input
@@ -791,13 +791,7 @@ def reference_alpha_expansion(unary, pairwise, edges, lam, *, init=None, max_swe
         energies.append(current)
         if not improved:
             break
-    return SolverRun(
-        labels=labels,
-        energies=np.array(energies),
-        sweeps=sweeps,
-        nonsubmodular=truncated / free_terms if free_terms else 0.0,
-        seconds=time.perf_counter() - t0,
-    )
+    return _finished(labels, energies, sweeps, t0, truncated, free_terms)
 
 
 def reference_icm(unary, pairwise, edges, lam, *, init=None, max_sweeps=20):
