@@ -317,6 +317,10 @@ def maxflow(start, head, sister, r_cap, tr_cap, work, flow=0.0):
         ``flow`` plus the flow pushed along augmenting paths, path by path.
     """
     n = len(start) - 1
+    if len(tr_cap) != n or len(r_cap) != len(head) or work.shape[0] != _ROWS:
+        raise ValueError("maxflow: r_cap, tr_cap or work do not fit the graph")
+    if work.shape[1] < n:
+        raise ValueError("maxflow: work is too small for the graph (see workspace)")
     parent, nxt, ts, dist, sink = work[_PARENT], work[_NEXT], work[_TS], work[_DIST], work[_SINK]
     ends = work[_HEADS]
     ends[:] = _FREE
@@ -429,8 +433,17 @@ def min_cut(n_nodes, edges, cap, rev_cap, source, sink):
     (1.0, [False, True])
     """
     edges = np.asarray(edges, np.int64).reshape(-1, 2)
-    source = np.asarray(source, np.float64)
-    sink = np.asarray(sink, np.float64)
+    cap, rev_cap = (np.asarray(c, np.float64) for c in (cap, rev_cap))
+    source, sink = (np.asarray(c, np.float64) for c in (source, sink))
+    shapes = (cap.shape, rev_cap.shape, source.shape, sink.shape)
+    if shapes != ((len(edges),),) * 2 + ((n_nodes,),) * 2:
+        raise ValueError(f"cap, rev_cap need one value per edge, source, sink per node: {shapes}")
+    if edges.size and (edges.min() < 0 or edges.max() >= n_nodes):
+        raise ValueError(f"edges must join nodes in [0, {n_nodes - 1}]")
+    if not all(np.all(np.isfinite(c)) for c in (cap, rev_cap, source, sink)):
+        raise ValueError("capacities must be finite")
+    if np.any(cap < 0) or np.any(rev_cap < 0):
+        raise ValueError("edge capacities must be >= 0 (terminal ones may be anything)")
     start, head, sister, slot = arcs(n_nodes, edges[:, 0], edges[:, 1])
     r_cap = np.empty(2 * len(edges))
     r_cap[slot[0::2]] = cap

@@ -586,6 +586,14 @@ def test_maxflow_cut_is_minimal_and_a_known_answer():
     # (a tie, nothing left either way, is the source side).
     flow, side = min_cut(3, np.zeros((0, 2), int), [], [], [1.0, 0.5, 2.0], [0.25, 2.0, 2.0])
     assert (flow, side.tolist()) == (2.75, [False, True, False])
+    with pytest.raises(ValueError, match="edge capacities must be >= 0"):
+        min_cut(2, [[0, 1]], [-1.0], [0.0], [3.0, 0.0], [0.0, 2.0])
+    with pytest.raises(ValueError, match="one value per edge"):
+        min_cut(2, [[0, 1]], [1.0, 2.0], [0.0], [3.0, 0.0], [0.0, 2.0])
+    with pytest.raises(ValueError, match=r"edges must join nodes in \[0, 1\]"):
+        min_cut(2, [[0, 2]], [1.0], [0.0], [3.0, 0.0], [0.0, 2.0])
+    with pytest.raises(ValueError, match="finite"):
+        min_cut(2, [[0, 1]], [1.0], [0.0], [np.inf, 0.0], [0.0, 2.0])
     # The flow equals the capacity of the cut it reports, on random graphs.
     gen = np.random.default_rng(8)
     for _ in range(50):
