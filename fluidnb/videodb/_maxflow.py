@@ -46,6 +46,11 @@ paths the flow took: on an exact tie another order can leave 1e-17 where the lib
 leaves 0, and a node changes side. Following the same paths in the same order gives
 the same bits, hence the same cut (the tests check this against PyMaxflow).
 
+(For whoever edits this module: numba caches a compiled caller with its callees built
+in and does not notice when a callee's module changes, so after an edit here clear
+``fluidnb/videodb/__pycache__``, or the cached :mod:`fluidnb.videodb._mrf` sweeps keep
+running the old max-flow.)
+
 References
 ----------
 .. [1] Y. Boykov, V. Kolmogorov, "An experimental comparison of min-cut/max-flow
