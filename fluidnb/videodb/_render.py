@@ -28,7 +28,7 @@ from ._appearance import (
     motion_blur,
 )
 from ._assign import Assignment, _check_params
-from ._blend import BLEND_LEVELS, FEATHER, MARGIN, _blend, blend_values, play_loops
+from ._blend import BLEND_LEVELS, FEATHER, MARGIN, _blend, _BlendPlan, blend_values, play_loops
 from ._composite import _restore_area, composite, dynamic_matte, inpaint_background
 from ._desync import mirror_axes, temporal_offsets
 from ._flow_render import (
@@ -311,6 +311,7 @@ class _BlendedFrames:
         self.length = length
         self.done = np.zeros(self.length, bool)
         self.frames = np.empty((self.length,) + canvas, np.float32)
+        self.plan = None  # the blend's weights (_BlendPlan), made with the first frames
 
     def get(self, idx):
         idx = np.asarray(idx)
@@ -323,10 +324,12 @@ class _BlendedFrames:
                 self.loops, self.offsets, rates=self.rates, mirrors=self.mirrors, frames=todo
             )
             t = _tick(self.clock, "rebuild", t)
+            if self.plan is None:
+                self.plan = _BlendPlan(self.positions, self.canvas, MARGIN, BLEND_LEVELS, FEATHER)
             # The private entry: these differences were made just above (finite,
             # checked shape).
             self.frames[todo] = _blend(
-                played, self.positions, self.canvas, MARGIN, BLEND_LEVELS, FEATHER
+                played, self.positions, self.canvas, MARGIN, BLEND_LEVELS, FEATHER, self.plan
             )
             self.done[todo] = True
             _tick(self.clock, "blend", t)
