@@ -393,24 +393,37 @@ def _loop_frames(img, maps, age_a, age_b, weight_a, phases=None, *, out=None):
     loop a few frames at a time. ``phases`` (2, T, ...), if given, receives both
     phases; ``out`` (T, ...), if given, the frames.
     """
-    have = (maps.shape[0] - 1) // 2
     grid = _grid(img.shape[:2])
     if out is None:
         out = np.empty((len(age_a),) + img.shape, np.float32)
     for t, (sa, sb, wa) in enumerate(zip(age_a, age_b, weight_a)):
-        # A phase of weight 0 is not sampled unless asked for.
         both = phases is not None
-        a = _remap(img, _at_age(maps, have, sa), grid) if wa > 0 or both else None
-        b = _remap(img, _at_age(maps, have, sb), grid) if wa < 1 or both else None
+        a, b = _phases(img, maps, sa, sb, wa, grid, both=both)
         if both:
             phases[0, t], phases[1, t] = a, b
-        if wa == 1:
-            out[t] = a
-        elif wa == 0:
-            out[t] = b
-        else:
-            # b + w_a (a - b): where both phases agree (v = 0) this is exact.
-            out[t] = b + np.float32(wa) * (a - b)
+        _cross_fade(a, b, wa, out[t])
+    return out
+
+
+def _phases(img, maps, sa, sb, wa, grid, *, both=False):
+    """One frame's two phases ``I(x + D_sa(x))``, ``I(x + D_sb(x))`` of :func:`eulerian_loop`.
+
+    A phase of weight 0 is not sampled (None) unless ``both``.
+    """
+    have = (maps.shape[0] - 1) // 2
+    a = _remap(img, _at_age(maps, have, sa), grid) if wa > 0 or both else None
+    b = _remap(img, _at_age(maps, have, sb), grid) if wa < 1 or both else None
+    return a, b
+
+
+def _cross_fade(a, b, wa, out):
+    """``b + w_a (a - b)`` into ``out``: where both phases agree (v = 0) this is exact."""
+    if wa == 1:
+        out[...] = a
+    elif wa == 0:
+        out[...] = b
+    else:
+        out[...] = b + np.float32(wa) * (a - b)
     return out
 
 

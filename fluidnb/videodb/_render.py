@@ -20,19 +20,23 @@ from .._image import as_image
 from .._progress import Progress
 from .._validation import check_fps, check_shape_match
 from ._appearance import (
+    _advected_in_axes,
+    _composite_from_axes,
+    _each_frame,
+    _Matching,
     colour_axes,
     colours_in_axes,
-    frames_from_axes,
     frames_in_axes,
-    match_histograms_cells,
     motion_blur,
 )
 from ._assign import Assignment, _check_params
 from ._blend import BLEND_LEVELS, FEATHER, MARGIN, _blend, _BlendPlan, blend_values, play_loops
-from ._composite import _restore_area, composite, dynamic_matte, inpaint_background
+from ._composite import _restore_area, dynamic_matte, inpaint_background
 from ._desync import mirror_axes, temporal_offsets
 from ._flow_render import (
-    _loop_frames,
+    _cross_fade,
+    _grid,
+    _phases,
     displacement_maps,
     extend_outside,
     flow_field,
@@ -212,7 +216,7 @@ def render(
     live = None  # the clip being made, as on_frames sees it (a read-only view of out)
     for t0, t1 in _runs(total):
         making(t0 / total, f"rendering frames {t0 + 1}-{t1} of {total}")
-        out[t0:t1] = frames.make(t0, t1)
+        frames.make(t0, t1, out[t0:t1])
         if on_frames is not None:
             if live is None:
                 live = Clip._trusted(out.view(), fps, {})
@@ -336,7 +340,53 @@ class _BlendedFrames:
         return self.frames[idx]
 
 
-class _PaperFrames:
+class _Frames:
+    """What both renderings do with a run of frames after the blend.
+
+    :meth:`make` blends the run's differences (one batch: :class:`_BlendedFrames`),
+    then makes each frame from its own inputs (:meth:`_frame`: the rendering's own
+    steps, then :meth:`_finish`: the matching in the colour axes and the composite)
+    on the cores, straight into the clip.
+    """
+
+    def _axes(self, target, cell):
+        """The target's colour axes and the matching to it in them, made once."""
+        self.centre, self.axes = colour_axes(target.canvas, target.canvas_matte)
+        # Heeger & Bergen 1995 decorrelate colour by PCA: matching R, G and B
+        # independently can mix hues the photo does not have (a white-hot flame turned
+        # lilac); matching decorrelated axes keeps its colours.
+        reference = (target.canvas - self.centre) @ self.axes
+        self.matching = _Matching(reference, target.canvas_matte.astype(np.float64), cell)
+
+    def make(self, t0, t1, out):
+        """Frames ``t0 .. t1 - 1`` of the clip into ``out`` (k, H, W, 3), in [0, 1]."""
+        d = self.blended.get(np.arange(t0, t1) % self.blended.length)
+        start = time.perf_counter()
+        times = [{} for _ in range(t1 - t0)]
+        _each_frame(lambda i: self._frame(t0 + i, d[i], out[i], times[i]), t1 - t0)
+        # The frames were made side by side: the run's seconds shared out between the
+        # stages by the time each took on its thread.
+        spent = {}
+        for each in times:
+            for k, v in each.items():
+                spent[k] = spent.get(k, 0.0) + v
+        total = sum(spent.values())
+        wall = time.perf_counter() - start
+        for k, v in spent.items():
+            self.clock[k] = self.clock.get(k, 0.0) + (wall * v / total if total > 0 else 0.0)
+
+    def _finish(self, rotated, matte, out):
+        """A frame in the colour axes (Hc, Wc, 3) matched, back in RGB and composited.
+
+        Each frame's histograms matched to the target's cell by cell (Okabe et al.,
+        sec. 6) in the target's principal colour axes, then laid over the background
+        through ``matte`` and clipped, into ``out`` (H, W, 3).
+        """
+        matched = self.matching.match(rotated, np.empty_like(rotated))
+        _composite_from_axes(matched, self.centre, self.axes, self.back, matte, out)
+
+
+class _PaperFrames(_Frames):
     """The paper's rendering after the blend (steps 3-5 of :func:`render`), by frames."""
 
     def __init__(self, assignment, params, blended, mirrors, background, clock, keep):
@@ -352,7 +402,7 @@ class _PaperFrames:
             target.canvas, velocity, shutter=params.shutter, denoise=params.denoise
         )
         t = _tick(clock, "mean", t)
-        self.centre, self.axes = colour_axes(target.canvas, target.canvas_matte)
+        self._axes(target, params.cell)
         if params.tau > 0:
             per_fragment = db.motion[ids].astype(np.float32)  # (P, N - 1, 2)
             for axis in (0, 1):  # a mirrored fragment moves mirrored
@@ -375,28 +425,23 @@ class _PaperFrames:
                 self.matte if matte.ndim == 3 else np.broadcast_to(self.matte, (n, h, w))
             )
 
-    def make(self, t0, t1):
-        """Frames ``t0 .. t1 - 1`` of the clip, (k, H, W, 3) in [0, 1]."""
-        target, st = self.target, self.stages
-        h, w = target.shape
-        d = self.blended.get(np.arange(t0, t1))
-        t = time.perf_counter()
-        # The frames approx + D_i made straight in the colour axes, with the picture of
-        # them before matching, in one pass.
+    def _frame(self, t, d, out, times):
+        """Frame ``t`` into ``out`` (H, W, 3), from its blended differences ``d`` (Hc, Wc)."""
+        st = self.stages
+        h, w = self.target.shape
+        clock = time.perf_counter()
+        # The frame approx + D_i made straight in the colour axes, with the picture of
+        # it before matching, in one pass.
         if self.keep:
-            st["differences"][t0:t1] = d[:, :h, :w]
-            rotated, st["unmatched"][t0:t1] = frames_in_axes(
-                self.approx, d, self.centre, self.axes, unmatched=(h, w)
+            st["differences"][t] = d[:h, :w]
+            rotated, st["unmatched"][t : t + 1] = frames_in_axes(
+                self.approx, d[None], self.centre, self.axes, unmatched=(h, w)
             )
         else:
-            rotated = frames_in_axes(self.approx, d, self.centre, self.axes)
-        matched = _match_in_axes(rotated, target, self.centre, self.axes, self.params.cell)
-        t = _tick(self.clock, "match", t)
-        matte = self.matte[t0:t1] if self.matte.ndim == 3 else self.matte
-        out = composite(matched[:, :h, :w], self.back, matte)
-        np.clip(out, 0.0, 1.0, out=out)
-        _tick(self.clock, "composite", t)
-        return out
+            rotated = frames_in_axes(self.approx, d[None], self.centre, self.axes)
+        clock = _tick(times, "match", clock)
+        self._finish(rotated[0], self.matte[t] if self.matte.ndim == 3 else self.matte, out)
+        _tick(times, "composite", clock)
 
 
 def _animation(assignment, params, out, stages, clock, desync, fps):
@@ -446,7 +491,7 @@ def _flow_plan(assignment, params, n):
     return {"velocity": velocity, "n_frames": n_frames, "cycle": cycle, "rates": rates}
 
 
-class _FlowFrames:
+class _FlowFrames(_Frames):
     r"""The flow rendering's steps after the blend (beyond the paper; :func:`render`), by frames.
 
     The motion field's displacement maps, the layer that is advected (the photo
@@ -469,7 +514,8 @@ class _FlowFrames:
         # What flows in across the matte's edge is the fluid's own texture, mirrored.
         self.layer = extend_outside(target.canvas, target.canvas_matte)
         t = _tick(clock, "advect", t)
-        self.centre, self.axes = colour_axes(target.canvas, target.canvas_matte)
+        self._axes(target, params.cell)
+        self.grid = _grid(target.canvas.shape[:2])
         self.alpha = target.canvas_matte
         if params.tau > 0:
             self.area = float(self.alpha.sum(dtype=np.float64))
@@ -503,60 +549,43 @@ class _FlowFrames:
                 ),
             )
 
-    def make(self, t0, t1):
-        """Frames ``t0 .. t1 - 1`` of the clip, (k, H, W, 3) in [0, 1]."""
-        target, params, st = self.target, self.params, self.stages
-        h, w = target.shape
-        idx = np.arange(t0, t1)
-        # The differences' loop, repeated to the clip's length (or already that long).
-        d = self.blended.get(idx % self.blended.length)
-        t = time.perf_counter()
-        ages = [x[t0:t1] for x in self.ages]
+    def _frame(self, t, d, out, times):
+        """Frame ``t`` into ``out`` (H, W, 3), from its blended differences ``d`` (Hc, Wc)."""
+        params, st = self.params, self.stages
+        h, w = self.target.shape
+        clock = time.perf_counter()
+        sa, sb, wa = (x[t] for x in self.ages)
+        # The photo carried by the loop (a phase of weight 0 is not even sampled, unless
+        # the lesson shows it), with the detail D_i on top, in the colour axes.
+        a, b = _phases(self.layer, self.maps, sa, sb, wa, self.grid, both=self.keep)
+        detail = np.float32(params.detail)
         if self.keep:
-            moved = _loop_frames(
-                self.layer, self.maps, *ages, self.phases[:, t0:t1], out=self.moved[t0:t1]
-            )
-        else:  # a phase of weight 0 is not even sampled
-            moved = _loop_frames(self.layer, self.maps, *ages)
-        frames = moved + np.float32(params.detail) * d[..., None]
-        if self.keep:
-            st["differences"][t0:t1] = d[:, :h, :w]
-            np.clip(frames[:, :h, :w], 0, 1, out=st["unmatched"][t0:t1])
-        t = _tick(self.clock, "advect", t)
-        matched = _match_in_axes(
-            colours_in_axes(frames, self.centre, self.axes), target, self.centre, self.axes,
-            params.cell,
-        )  # fmt: skip
-        t = _tick(self.clock, "match", t)
+            self.phases[0, t], self.phases[1, t] = a, b
+            frame = _cross_fade(a, b, wa, self.moved[t]) + detail * d[..., None]
+            st["differences"][t] = d[:h, :w]
+            np.clip(frame[:h, :w], 0, 1, out=st["unmatched"][t])
+            rotated = colours_in_axes(frame, self.centre, self.axes)
+        else:  # the same operations in one pass
+            rotated = np.empty(self.layer.shape, np.float32)
+            fade = 1 if wa == 1 else (0 if wa == 0 else 2)
+            _advected_in_axes(
+                b if a is None else a, a if b is None else b, np.float32(wa), fade, detail, d,
+                self.centre, self.axes, rotated,
+            )  # fmt: skip
+        clock = _tick(times, "advect", clock)
         if params.tau > 0:
             # The outline moves with the fluid by the same loop (frame 0 is alpha, the
             # loop closes), pulled towards alpha by 1 - tau as the paper's B_i are.
-            carried = _loop_frames(self.alpha, self.maps, *ages)
+            carried = _phases(self.alpha, self.maps, sa, sb, wa, self.grid)
+            carried = _cross_fade(*carried, wa, np.empty(self.alpha.shape, np.float32))
             matte = np.float32(params.tau) * carried + np.float32(1 - params.tau) * self.alpha
             np.clip(matte, 0.0, 1.0, out=matte)
-            for k, b in zip(idx, matte):
-                if k > 0:
-                    _restore_area(b, self.area)
+            if t > 0:
+                _restore_area(matte, self.area)
             if self.keep:
-                st["matte"][t0:t1] = matte[:, :h, :w]
+                st["matte"][t] = matte[:h, :w]
         else:
             matte = self.alpha
-        out = composite(matched, self.back, matte)[:, :h, :w]
-        np.clip(out, 0.0, 1.0, out=out)
-        _tick(self.clock, "composite", t)
-        return out
-
-
-def _match_in_axes(rotated, target, centre, axes, cell):
-    """Each frame's histograms matched to the target's, cell by cell (Okabe et al., sec. 6).
-
-    In the target's principal colour axes (Heeger & Bergen 1995 decorrelate colour by
-    PCA; ``rotated`` are the frames in them, ``centre``, ``axes`` from
-    :func:`colour_axes`): matching R, G and B independently can mix hues the photo
-    does not have (a white-hot flame turned lilac); matching decorrelated axes keeps
-    its colours. Back in RGB.
-    """
-    matched = match_histograms_cells(
-        rotated, (target.canvas - centre) @ axes, target.canvas_matte, cell=cell
-    )
-    return frames_from_axes(matched, centre, axes)
+        clock = _tick(times, "composite", clock)
+        self._finish(rotated, matte, out)
+        _tick(times, "match", clock)
