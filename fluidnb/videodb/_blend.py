@@ -264,8 +264,15 @@ def _fill(d, pos, m, shape, den=None):
     if den is None:
         den = _fill_weights(pos, m, shape)
     acc = np.zeros(shape + (d.shape[3],), dtype=np.float32)
-    _accumulate_windows(d, np.ascontiguousarray(pos, np.int64), m, tau, acc)
-    _divide_rows(acc, den)
+    pos = np.ascontiguousarray(pos, np.int64)
+    # Bands of rows on the cores: each pixel still sums the fragments in their order.
+    rows = np.linspace(0, shape[0], _THREADS + 1).astype(int)
+
+    def band(k):
+        _accumulate_windows(d, pos, m, tau, acc, rows[k], rows[k + 1])
+        _divide_rows(acc[rows[k] : rows[k + 1]], den[rows[k] : rows[k + 1]])
+
+    list(_in_order(band, range(_THREADS)))
     return acc
 
 
@@ -288,8 +295,8 @@ def _fill_weights(pos, m, shape):
 
 
 @njit(cache=True, nogil=True)
-def _accumulate_windows(d, pos, m, tau, acc):
-    """``acc += tau * D_k`` over every fragment's window (in order).
+def _accumulate_windows(d, pos, m, tau, acc, row0, row1):
+    """``acc += tau * D_k`` over every fragment's window (in order), on rows ``row0:row1``.
 
     The window of :func:`_window` (the core and ``m`` pixels of context, cut to the
     canvas): float32 products and sums in the order of the fragments, as the numpy
@@ -297,11 +304,11 @@ def _accumulate_windows(d, pos, m, tau, acc):
     """
     n = d.shape[3]
     s = d.shape[1]
-    h, w = acc.shape[:2]
+    w = acc.shape[1]
     for k in range(pos.shape[0]):
         r0 = pos[k, 0] - m
         c0 = pos[k, 1] - m
-        for i in range(max(0, -r0), min(s, h - r0)):
+        for i in range(max(0, row0 - r0), min(s, row1 - r0)):
             for j in range(max(0, -c0), min(s, w - c0)):
                 t = tau[i, j]
                 cell = acc[r0 + i, c0 + j]
@@ -654,12 +661,17 @@ def play_loops(loops, offsets, *, rates=None, n_frames=None, mirrors=None, frame
     times = np.mod(offs[:, None] + r[:, None] * t[None, :], length)
     i0 = np.floor(times).astype(np.int64)
     frac = (times - i0).astype(np.float32)
+    below, above = i0 % length, (i0 + 1) % length
     out = np.empty((p, side, side, n_frames), np.float32)
-    for k in range(p):
-        _play_loop(
-            np.ascontiguousarray(loops[k], np.float32), i0[k] % length, (i0[k] + 1) % length,
-            frac[k], flips[k], out[k],
-        )  # fmt: skip
+    loops = [np.ascontiguousarray(x, np.float32) for x in loops]
+
+    def play(k0, k1):
+        for k in range(k0, k1):
+            _play_loop(loops[k], below[k], above[k], frac[k], flips[k], out[k])
+
+    # Each fragment on its own (the kernel releases the GIL): half of them on each core.
+    bounds = np.linspace(0, p, _THREADS + 1).astype(int)
+    list(_in_order(lambda k: play(bounds[k], bounds[k + 1]), range(_THREADS)))
     return out
 
 

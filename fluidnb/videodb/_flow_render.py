@@ -28,11 +28,13 @@ to move the photo along that motion:
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 from scipy import ndimage as ndi
 
 from .._validation import check_array, check_int, check_range, check_vector_field
+from ._appearance import _each_frame
 from ._blend import fragment_weights
 from ._geometry import FRAGMENT
 
@@ -103,9 +105,20 @@ def flow_field(assignment):
     inside = (covered > 0.5).astype(np.float32)
     # Then a Gaussian of one stride within the fragments' cores (normalised
     # convolution): neighbours that move differently would otherwise shear the photo
-    # along a line between them (a visible seam).
-    num = _gaussian(acc.astype(np.float32) * inside[..., None])
-    den = _gaussian(inside)[..., None]
+    # along a line between them (a visible seam). Each channel is blurred on its own
+    # (the same numbers however they are grouped), the motion on one core and the
+    # rest on the other; the painted speed's channels only where a speed was painted.
+    weighted = acc.astype(np.float32) * inside[..., None]
+    parts = [weighted[..., :2], inside] + ([weighted[..., 2:]] if painted.any() else [])
+    blurred = [None] * len(parts)
+
+    def blur(k):
+        for i in range(k, len(parts), 2):
+            blurred[i] = _gaussian(np.ascontiguousarray(parts[i]))
+
+    _each_frame(blur, 2)
+    num = np.concatenate([blurred[0], blurred[2]], axis=2) if painted.any() else blurred[0]
+    den = blurred[1][..., None]
     field = np.divide(num, den, out=np.zeros_like(num), where=den > 1e-6) * inside[..., None]
     v = field[..., :2]
     if not painted.any():
@@ -285,15 +298,79 @@ def displacement_maps(velocity, steps):
     """
     v = check_vector_field("velocity", velocity).astype(np.float32)
     steps = check_int("steps", steps, 0)
-    h, w = v.shape[:2]
-    grid = _grid((h, w))
-    out = np.zeros((2 * steps + 1, h, w, 2), np.float32)
-    for sign in (1, -1):
-        for s in range(1, steps + 1):
-            prev = out[steps + sign * (s - 1)]
-            # D_{s+1}(x) = D_s(x - v) - v; backwards: D_{s-1}(x) = D_s(x + v) + v.
-            out[steps + sign * s] = _remap(prev, -sign * v, grid) - sign * v
-    return out
+    return _Maps(v, steps).wait(-steps, steps).maps
+
+
+class _Maps:
+    """:func:`displacement_maps` being made: the two recurrences on two threads.
+
+    Each map can be used as soon as it is made (:meth:`wait`): a renderer starts on
+    its first frames, whose phases are young or old, while the others are made.
+    """
+
+    def __init__(self, v, steps):
+        h, w = v.shape[:2]
+        self.steps = steps
+        self.maps = np.empty((2 * steps + 1, h, w, 2), np.float32)
+        self.maps[steps] = 0.0
+        self._made = {1: 0, -1: 0}  # steps made forwards and backwards
+        self._error = None
+        self._ready = threading.Condition()
+        grid = _grid((h, w))
+        for sign in (1, -1):
+            threading.Thread(target=self._run, args=(v, grid, sign), daemon=True).start()
+
+    def _run(self, v, grid, sign):
+        def made(s):
+            with self._ready:
+                self._made[sign] = s
+                self._ready.notify_all()
+
+        try:
+            _chain(self.maps, v, grid, self.steps, sign, made)
+        except BaseException as error:  # handed to whoever waits
+            with self._ready:
+                self._error = error
+                self._ready.notify_all()
+
+    def wait(self, *ages):
+        """Wait until the maps of these ages (fractional: both whole ones around) are made."""
+        need = {1: 0, -1: 0}
+        for age in ages:
+            for s in (math.floor(age), math.ceil(age)):
+                if s:
+                    sign = 1 if s > 0 else -1
+                    need[sign] = max(need[sign], abs(s))
+        with self._ready:
+            while self._error is None and any(self._made[k] < need[k] for k in need):
+                self._ready.wait()
+            if self._error is not None:
+                raise self._error
+        return self
+
+
+def _chain(out, v, grid, steps, sign, made=None):
+    """One recurrence of :func:`displacement_maps`: ``out[steps + sign * s]``, s = 1..steps.
+
+    ``D_{s+1}(x) = D_s(x - v) - v`` (sign 1); backwards ``D_{s-1}(x) = D_s(x + v) + v``
+    (sign -1). Every step samples at the same points ``x - sign v``, so they are
+    worked out once; each map is written in place (the operations of
+    ``_remap(prev, -sign * v, grid) - sign * v``).
+    """
+    import cv2
+
+    mx = grid[1] + (-sign * v)[..., 1]
+    my = grid[0] + (-sign * v)[..., 0]
+    step = sign * v
+    for s in range(1, steps + 1):
+        d = out[steps + sign * s]
+        cv2.remap(
+            out[steps + sign * (s - 1)], mx, my, cv2.INTER_LINEAR, dst=d,
+            borderMode=cv2.BORDER_REPLICATE,
+        )  # fmt: skip
+        np.subtract(d, step, out=d)
+        if made is not None:
+            made(s)
 
 
 def _at_age(maps, steps, age):

@@ -10,7 +10,10 @@ each stage's picture for the lesson.
 
 from __future__ import annotations
 
+import threading
 import time
+import weakref
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,8 +39,8 @@ from ._desync import mirror_axes, temporal_offsets
 from ._flow_render import (
     _cross_fade,
     _grid,
+    _Maps,
     _phases,
-    displacement_maps,
     extend_outside,
     flow_field,
     flow_timing,
@@ -166,7 +169,6 @@ def render(
             f"loop must be <= N/2 = {n // 2} frames for this database, got {params.loop}"
         )
     h, w = target.shape
-    hc, wc = target.canvas.shape[:2]
     if background is not None:
         background = as_image(background, mode="rgb", name="background")
         check_shape_match("background", background, (h, w))
@@ -175,16 +177,20 @@ def render(
     clock = dict.fromkeys(("rebuild", "blend"), 0.0)
 
     t = time.perf_counter()
+    # The flow rendering's motion field and timing, and its displacement maps: they
+    # do not need the fragments' frames, so they are made on threads of their own
+    # while the frames are rebuilt and blended.
+    flow = _Later(_flow_work, assignment, params, n) if params.rendering == "flow" else None
     rebuild(0.0, f"rebuilding {len(target)} fragments from their source clips")
     ids = assignment.fragments
     # Each fragment's D_i = F_i - A, with ``loop`` made a loop of its own (its end
     # cross-faded into its start; difference_frames): made on the rebuild's threads,
     # each fragment once, and kept in the database's cache for the next render.
     looped = _rebuild(assignment, params, rebuild)
+    flow = None if flow is None else flow.value
     offsets = np.zeros(len(ids), np.int64)
     mirrors = np.full(len(ids), -1, np.int8)
     rates = n_frames = None
-    flow = _flow_plan(assignment, params, n) if params.rendering == "flow" else None
     if params.loop:
         # Beyond the paper: neighbours that share a database fragment start its loop at
         # different times and mirrored (no tile pattern).
@@ -200,9 +206,7 @@ def render(
     loops = [looped[f] for f in ids.tolist()]
     del looped
     length = n_frames or (n - params.loop if params.loop else n)  # one loop's frames
-    blended = _BlendedFrames(
-        loops, offsets, rates, mirrors, length, target.positions, (hc, wc), clock
-    )
+    blended = _BlendedFrames(loops, offsets, rates, mirrors, length, target, clock)
     if flow is None:
         frames = _PaperFrames(assignment, params, blended, mirrors, background, clock, stages)
     else:
@@ -267,14 +271,54 @@ def _rebuild(assignment, params, progress):
 def _behind(target, background):
     """What shows where a moving matte uncovers the scene, on the canvas.
 
-    The given background, or the target filled behind its matte with its own texture.
+    The given background, or the target filled behind its matte with its own texture
+    (made once per target: :func:`_shared`).
     """
     if background is None:
-        return inpaint_background(target.canvas, target.canvas_matte)
+        return _shared(
+            target, "behind", lambda: inpaint_background(target.canvas, target.canvas_matte)
+        )
     back = target.canvas.copy()
     h, w = target.shape
     back[:h, :w] = background
     return back
+
+
+# What the renders of one target share, made once and kept while the target lives
+# (an app renders the same photo again and again: after a re-solve, with other
+# rendering settings): see _shared.
+_SHARED = weakref.WeakKeyDictionary()
+_SHARED_LOCK = threading.Lock()
+
+
+def _shared(owner, key, make):
+    """``make()`` for ``owner`` (a target) and ``key``, made once and kept while it lives.
+
+    What is kept is read-only: renders hand out views of it (their stages).
+    """
+    with _SHARED_LOCK:
+        kept = _SHARED.setdefault(owner, {})
+        if key in kept:
+            return kept[key]
+    value = make()
+    for v in value if isinstance(value, tuple) else (value,):
+        if isinstance(v, np.ndarray):
+            v.flags.writeable = False
+    with _SHARED_LOCK:
+        return _SHARED.setdefault(owner, {}).setdefault(key, value)
+
+
+class _Later:
+    """``fn(*args)`` made on a thread of its own while the caller goes on; :attr:`value` waits."""
+
+    def __init__(self, fn, *args):
+        pool = ThreadPoolExecutor(1)
+        self._future = pool.submit(fn, *args)
+        pool.shutdown(wait=False)
+
+    @property
+    def value(self):
+        return self._future.result()
 
 
 #: Frames :func:`render` makes at a time, after the work all frames share (the clip
@@ -309,13 +353,15 @@ class _BlendedFrames:
     (fragments at different rates) or one loop's (the loop is then repeated).
     """
 
-    def __init__(self, loops, offsets, rates, mirrors, length, positions, canvas, clock):
+    def __init__(self, loops, offsets, rates, mirrors, length, target, clock):
         self.loops, self.offsets, self.rates, self.mirrors = loops, offsets, rates, mirrors
-        self.positions, self.canvas, self.clock = positions, canvas, clock
+        self.target, self.clock = target, clock
+        self.positions, self.canvas = target.positions, target.canvas.shape[:2]
+        canvas = self.canvas
         self.length = length
         self.done = np.zeros(self.length, bool)
         self.frames = np.empty((self.length,) + canvas, np.float32)
-        self.plan = None  # the blend's weights (_BlendPlan), made with the first frames
+        self.plan = None  # the blend's weights (_BlendPlan), kept for the target
 
     def get(self, idx):
         idx = np.asarray(idx)
@@ -329,7 +375,10 @@ class _BlendedFrames:
             )
             t = _tick(self.clock, "rebuild", t)
             if self.plan is None:
-                self.plan = _BlendPlan(self.positions, self.canvas, MARGIN, BLEND_LEVELS, FEATHER)
+                self.plan = _shared(
+                    self.target, "blend",
+                    lambda: _BlendPlan(self.positions, self.canvas, MARGIN, BLEND_LEVELS, FEATHER),
+                )  # fmt: skip
             # The private entry: these differences were made just above (finite,
             # checked shape).
             self.frames[todo] = _blend(
@@ -351,16 +400,29 @@ class _Frames:
 
     def _axes(self, target, cell):
         """The target's colour axes and the matching to it in them, made once."""
-        self.centre, self.axes = colour_axes(target.canvas, target.canvas_matte)
-        # Heeger & Bergen 1995 decorrelate colour by PCA: matching R, G and B
-        # independently can mix hues the photo does not have (a white-hot flame turned
-        # lilac); matching decorrelated axes keeps its colours.
-        reference = (target.canvas - self.centre) @ self.axes
-        self.matching = _Matching(reference, target.canvas_matte.astype(np.float64), cell)
+
+        def make():
+            centre, axes = colour_axes(target.canvas, target.canvas_matte)
+            # Heeger & Bergen 1995 decorrelate colour by PCA: matching R, G and B
+            # independently can mix hues the photo does not have (a white-hot flame
+            # turned lilac); matching decorrelated axes keeps its colours.
+            reference = (target.canvas - centre) @ axes
+            weight = target.canvas_matte.astype(np.float64)
+            return centre, axes, _Matching(reference, weight, cell)
+
+        self.centre, self.axes, self.matching = _shared(target, ("axes", cell), make)
 
     def make(self, t0, t1, out):
         """Frames ``t0 .. t1 - 1`` of the clip into ``out`` (k, H, W, 3), in [0, 1]."""
-        d = self.blended.get(np.arange(t0, t1) % self.blended.length)
+        self._frames(t0, self._blend(t0, t1), out)
+
+    def _blend(self, t0, t1):
+        """The run's blended differences (T, Hc, Wc) (the loop repeated to the clip's length)."""
+        return self.blended.get(np.arange(t0, t1) % self.blended.length)
+
+    def _frames(self, t0, d, out):
+        """Each frame of the run from its differences ``d``, on the cores, into ``out``."""
+        t1 = t0 + len(d)
         start = time.perf_counter()
         times = [{} for _ in range(t1 - t0)]
         _each_frame(lambda i: self._frame(t0 + i, d[i], out[i], times[i]), t1 - t0)
@@ -491,6 +553,27 @@ def _flow_plan(assignment, params, n):
     return {"velocity": velocity, "n_frames": n_frames, "cycle": cycle, "rates": rates}
 
 
+def _flow_work(assignment, params, n):
+    """:func:`_flow_plan` with its displacement maps (made on a thread: ``plan["maps"]``).
+
+    Kept for the next render of the same assignment with the same loop and travel
+    (the last such only: the maps take ~150 MB at the app's size).
+    """
+    key = (params.loop, params.travel)
+    with _SHARED_LOCK:
+        last = _SHARED.setdefault(assignment.target, {}).get("flow")
+    if last is not None and last[0]() is assignment and last[1] == key:
+        return last[2]
+    plan = _flow_plan(assignment, params, n)
+    ages = loop_phases(plan["n_frames"], plan["cycle"])  # age_a, age_b, weight_a
+    steps = int(np.ceil(max(np.abs(ages[0]).max(), np.abs(ages[1]).max())))
+    plan.update(ages=ages, maps=_Maps(plan["velocity"], steps))
+    plan["velocity"].flags.writeable = False
+    with _SHARED_LOCK:
+        _SHARED.setdefault(assignment.target, {})["flow"] = (weakref.ref(assignment), key, plan)
+    return plan
+
+
 class _FlowFrames(_Frames):
     r"""The flow rendering's steps after the blend (beyond the paper; :func:`render`), by frames.
 
@@ -504,18 +587,17 @@ class _FlowFrames(_Frames):
         h, w = target.shape
         self.target, self.params, self.blended, self.clock = target, params, blended, clock
         t = time.perf_counter()
-        velocity, self.n_frames, cycle = plan["velocity"], plan["n_frames"], plan["cycle"]
+        velocity, self.n_frames = plan["velocity"], plan["n_frames"]
         n = self.n_frames
-        self.ages = loop_phases(n, cycle)  # age_a, age_b, weight_a
+        self.ages = plan["ages"]  # age_a, age_b, weight_a
         age_a, age_b, weight_a = self.ages
-        steps = int(np.ceil(max(np.abs(age_a).max(), np.abs(age_b).max())))
-        self.maps = displacement_maps(velocity, steps)
-        t = _tick(clock, "field", t)
+        self.maps = plan["maps"]  # being made: each frame waits for its own
         # What flows in across the matte's edge is the fluid's own texture, mirrored.
-        self.layer = extend_outside(target.canvas, target.canvas_matte)
+        canvas, matte = target.canvas, target.canvas_matte
+        self.layer = _shared(target, "layer", lambda: extend_outside(canvas, matte))
+        self.grid = _shared(target, "grid", lambda: _grid(canvas.shape[:2]))
         t = _tick(clock, "advect", t)
         self._axes(target, params.cell)
-        self.grid = _grid(target.canvas.shape[:2])
         self.alpha = target.canvas_matte
         if params.tau > 0:
             self.area = float(self.alpha.sum(dtype=np.float64))
@@ -557,7 +639,9 @@ class _FlowFrames(_Frames):
         sa, sb, wa = (x[t] for x in self.ages)
         # The photo carried by the loop (a phase of weight 0 is not even sampled, unless
         # the lesson shows it), with the detail D_i on top, in the colour axes.
-        a, b = _phases(self.layer, self.maps, sa, sb, wa, self.grid, both=self.keep)
+        maps = self.maps.wait(sa, sb).maps
+        clock = _tick(times, "field", clock)
+        a, b = _phases(self.layer, maps, sa, sb, wa, self.grid, both=self.keep)
         detail = np.float32(params.detail)
         if self.keep:
             self.phases[0, t], self.phases[1, t] = a, b
@@ -576,7 +660,7 @@ class _FlowFrames(_Frames):
         if params.tau > 0:
             # The outline moves with the fluid by the same loop (frame 0 is alpha, the
             # loop closes), pulled towards alpha by 1 - tau as the paper's B_i are.
-            carried = _phases(self.alpha, self.maps, sa, sb, wa, self.grid)
+            carried = _phases(self.alpha, maps, sa, sb, wa, self.grid)
             carried = _cross_fade(*carried, wa, np.empty(self.alpha.shape, np.float32))
             matte = np.float32(params.tau) * carried + np.float32(1 - params.tau) * self.alpha
             np.clip(matte, 0.0, 1.0, out=matte)
