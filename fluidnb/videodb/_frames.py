@@ -327,8 +327,13 @@ def rebuild_fragments(db, ids, *, margin, grey, differences=None, progress=None)
     if not todo:
         return out
     todo = np.asarray(todo, np.int64)
-    clips = db.source[todo, 0]
-    jobs = [todo[clips == c] for c in np.unique(clips)]
+    # One job per clip and start (the frames of one fragment time, read once), the
+    # largest first: one clip often holds most of the fragments, and a job per clip
+    # left the other core idle.
+    src = db.source[todo]
+    groups = np.unique(src[:, [0, 2]], axis=0)
+    jobs = [todo[(src[:, 0] == c) & (src[:, 2] == t)] for c, t in groups]
+    jobs.sort(key=len, reverse=True)
     with ThreadPoolExecutor(min(_WORKERS, len(jobs))) as pool:
         futures = [pool.submit(_rebuild_clip, db, job, kind) for job in jobs]
         try:

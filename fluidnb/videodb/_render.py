@@ -218,13 +218,37 @@ def render(
     total = frames.n_frames
     out = np.empty((total, h, w, 3), np.float32)
     live = None  # the clip being made, as on_frames sees it (a read-only view of out)
-    for t0, t1 in _runs(total):
-        making(t0 / total, f"rendering frames {t0 + 1}-{t1} of {total}")
-        frames.make(t0, t1, out[t0:t1])
+
+    def hand_out(run):
+        nonlocal live
+        future, t1 = run
+        future.result()
         if on_frames is not None:
             if live is None:
                 live = Clip._trusted(out.view(), fps, {})
             on_frames(live, t1)
+
+    # After the first run, each run is blended here while the frames of the one before
+    # are made on the other threads (both cores busy); the first is handed out as
+    # soon as it is made.
+    pending = None
+    with ThreadPoolExecutor(1) as maker:
+        try:
+            for t0, t1 in _runs(total):
+                making(t0 / total, f"rendering frames {t0 + 1}-{t1} of {total}")
+                d = frames.blend(t0, t1)
+                if pending is not None:
+                    hand_out(pending)
+                pending = (maker.submit(frames.frames, t0, d, out[t0:t1]), t1)
+                if t0 == 0:
+                    hand_out(pending)
+                    pending = None
+            if pending is not None:
+                hand_out(pending)
+                pending = None
+        finally:
+            if pending is not None:
+                pending[0].cancel()  # a cancelled render: what is under way ends
     making(1.0, "done")
     return _animation(assignment, params, out, frames.stages, clock, (offsets, mirrors), fps)
 
@@ -392,10 +416,11 @@ class _BlendedFrames:
 class _Frames:
     """What both renderings do with a run of frames after the blend.
 
-    :meth:`make` blends the run's differences (one batch: :class:`_BlendedFrames`),
-    then makes each frame from its own inputs (:meth:`_frame`: the rendering's own
-    steps, then :meth:`_finish`: the matching in the colour axes and the composite)
-    on the cores, straight into the clip.
+    :meth:`blend` blends a run's differences (one batch: :class:`_BlendedFrames`);
+    :meth:`frames` then makes each frame from its own inputs (:meth:`_frame`: the
+    rendering's own steps, then :meth:`_finish`: the matching in the colour axes and
+    the composite) on the cores, straight into the clip. :func:`render` blends the
+    next run while the frames of one are made.
     """
 
     def _axes(self, target, cell):
@@ -412,15 +437,11 @@ class _Frames:
 
         self.centre, self.axes, self.matching = _shared(target, ("axes", cell), make)
 
-    def make(self, t0, t1, out):
-        """Frames ``t0 .. t1 - 1`` of the clip into ``out`` (k, H, W, 3), in [0, 1]."""
-        self._frames(t0, self._blend(t0, t1), out)
-
-    def _blend(self, t0, t1):
+    def blend(self, t0, t1):
         """The run's blended differences (T, Hc, Wc) (the loop repeated to the clip's length)."""
         return self.blended.get(np.arange(t0, t1) % self.blended.length)
 
-    def _frames(self, t0, d, out):
+    def frames(self, t0, d, out):
         """Each frame of the run from its differences ``d``, on the cores, into ``out``."""
         t1 = t0 + len(d)
         start = time.perf_counter()

@@ -284,6 +284,32 @@ def test_render_hands_out_its_frames_as_they_are_made(anim, monkeypatch):
     assert "differences" not in bare.stages
 
 
+def test_a_render_stopped_between_runs_stops_cleanly(anim, monkeypatch):
+    # The next run is blended while the frames of the one before are made: stopping
+    # (the app's Cancel) raises at once, and what was handed out is final.
+    from fluidnb import Cancelled
+    from fluidnb.videodb import _render
+
+    monkeypatch.setattr(_render, "CHUNK", 2)
+    monkeypatch.setattr(_render, "FIRST_RUN", 2)
+    params = AnimateParams.from_dict(anim.clip.metadata["params"])
+    shown = []
+
+    def progress(fraction, message):
+        if len(shown) >= 2:
+            raise Cancelled
+
+    def on_frames(clip, done):
+        shown.append(clip.frames[:done].copy())
+
+    with pytest.raises(Cancelled):
+        render(anim.assignment, params, progress=progress, on_frames=on_frames)
+    assert [len(s) for s in shown] == list(range(2, 2 * len(shown) + 1, 2))
+    assert len(shown[-1]) < len(anim.clip)  # stopped before the end
+    n = len(shown[-1])
+    np.testing.assert_allclose(shown[-1], anim.clip.frames[:n], rtol=0, atol=1e-5)
+
+
 def test_a_dynamic_matte_keeps_its_area(db, photo):
     img, matte = photo
     a = assign(img, matte, db, FEW)
