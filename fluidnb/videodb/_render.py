@@ -254,11 +254,14 @@ def render(
 
 
 def prefetch(assignment, params=None, *, progress=None):
-    """Rebuild the fragments :func:`render` will need, into the database's frame cache.
+    """Rebuild the fragments :func:`render` will need, and make what it shares, ahead.
 
     The first step of :func:`render` alone (each chosen fragment's difference frames
-    from its source clip), done ahead: an app calls it while a slider rests, so the
-    render that follows starts with the frames. Fragments already cached cost nothing.
+    from its source clip, into the database's frame cache), then the work its frames
+    share (the flow rendering's motion field and displacement maps, the blend's
+    weights, the colour axes, the background behind a moving matte), kept for it: an
+    app calls it while a slider rests, so the render that follows starts with its
+    first frames. What is already made costs nothing.
 
     Parameters
     ----------
@@ -277,7 +280,19 @@ def prefetch(assignment, params=None, *, progress=None):
     if not isinstance(assignment, Assignment):
         raise ValueError(f"assignment must be an Assignment, got {type(assignment).__name__}")
     params = assignment.params if params is None else _check_params(params, assignment.db)
-    return len(_rebuild(assignment, params, progress))
+    done = len(_rebuild(assignment, params, progress))
+    # What else render makes before its first frames and keeps: the flow rendering's
+    # motion field and maps for this assignment, the target's blend weights, colour
+    # axes, advected layer and (a moving matte) the background behind the fluid.
+    target = assignment.target
+    if params.rendering == "flow":
+        _flow_work(assignment, params, assignment.db.params.N)
+        _advected_layer(target)
+    _blend_plan(target)
+    _colour_matching(target, params.cell)
+    if params.tau > 0:
+        _behind(target, None)
+    return done
 
 
 def _rebuild(assignment, params, progress):
@@ -345,6 +360,37 @@ class _Later:
         return self._future.result()
 
 
+def _blend_plan(target):
+    """The blend's weights for the target's fragments (:class:`_BlendPlan`), kept."""
+    shape = target.canvas.shape[:2]
+    return _shared(
+        target, "blend", lambda: _BlendPlan(target.positions, shape, MARGIN, BLEND_LEVELS, FEATHER)
+    )
+
+
+def _colour_matching(target, cell):
+    """The target's colour axes and the matching to it in them (:class:`_Matching`), kept.
+
+    Heeger & Bergen 1995 decorrelate colour by PCA: matching R, G and B independently
+    can mix hues the photo does not have (a white-hot flame turned lilac); matching
+    decorrelated axes keeps its colours.
+    """
+
+    def make():
+        centre, axes = colour_axes(target.canvas, target.canvas_matte)
+        reference = (target.canvas - centre) @ axes
+        return centre, axes, _Matching(reference, target.canvas_matte.astype(np.float64), cell)
+
+    return _shared(target, ("axes", cell), make)
+
+
+def _advected_layer(target):
+    """What the flow moves (the photo, mirrored outside the matte) and its pixel grid, kept."""
+    canvas, matte = target.canvas, target.canvas_matte
+    layer = _shared(target, "layer", lambda: extend_outside(canvas, matte))
+    return layer, _shared(target, "grid", lambda: _grid(canvas.shape[:2]))
+
+
 #: Frames :func:`render` makes at a time, after the work all frames share (the clip
 #: is the same whatever it is; :func:`render`'s ``on_frames`` hears of each run). The
 #: first run is :data:`FIRST_RUN` frames: what an app shows first comes sooner.
@@ -399,10 +445,7 @@ class _BlendedFrames:
             )
             t = _tick(self.clock, "rebuild", t)
             if self.plan is None:
-                self.plan = _shared(
-                    self.target, "blend",
-                    lambda: _BlendPlan(self.positions, self.canvas, MARGIN, BLEND_LEVELS, FEATHER),
-                )  # fmt: skip
+                self.plan = _blend_plan(self.target)
             # The private entry: these differences were made just above (finite,
             # checked shape).
             self.frames[todo] = _blend(
@@ -424,18 +467,8 @@ class _Frames:
     """
 
     def _axes(self, target, cell):
-        """The target's colour axes and the matching to it in them, made once."""
-
-        def make():
-            centre, axes = colour_axes(target.canvas, target.canvas_matte)
-            # Heeger & Bergen 1995 decorrelate colour by PCA: matching R, G and B
-            # independently can mix hues the photo does not have (a white-hot flame
-            # turned lilac); matching decorrelated axes keeps its colours.
-            reference = (target.canvas - centre) @ axes
-            weight = target.canvas_matte.astype(np.float64)
-            return centre, axes, _Matching(reference, weight, cell)
-
-        self.centre, self.axes, self.matching = _shared(target, ("axes", cell), make)
+        """The target's colour axes and the matching to it in them (kept for the target)."""
+        self.centre, self.axes, self.matching = _colour_matching(target, cell)
 
     def blend(self, t0, t1):
         """The run's blended differences (T, Hc, Wc) (the loop repeated to the clip's length)."""
@@ -614,9 +647,7 @@ class _FlowFrames(_Frames):
         age_a, age_b, weight_a = self.ages
         self.maps = plan["maps"]  # being made: each frame waits for its own
         # What flows in across the matte's edge is the fluid's own texture, mirrored.
-        canvas, matte = target.canvas, target.canvas_matte
-        self.layer = _shared(target, "layer", lambda: extend_outside(canvas, matte))
-        self.grid = _shared(target, "grid", lambda: _grid(canvas.shape[:2]))
+        self.layer, self.grid = _advected_layer(target)
         t = _tick(clock, "advect", t)
         self._axes(target, params.cell)
         self.alpha = target.canvas_matte

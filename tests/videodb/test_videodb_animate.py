@@ -403,11 +403,12 @@ def test_each_weight_pulls_the_solution_towards_what_it_weighs(tmp_path):
 
 def test_prefetch_leaves_render_nothing_to_rebuild(anim, monkeypatch):
     from fluidnb import Cancelled
-    from fluidnb.videodb import _frames, prefetch
+    from fluidnb.videodb import _frames, _render, prefetch
 
     a = anim.assignment
     params = AnimateParams.from_dict(anim.clip.metadata["params"])
     a.db.cache.clear()
+    _render._SHARED.clear()  # what renders keep, as for a photo never rendered
 
     def stop(fraction, message):
         raise Cancelled
@@ -420,6 +421,10 @@ def test_prefetch_leaves_render_nothing_to_rebuild(anim, monkeypatch):
         raise AssertionError("a fragment was rebuilt again")
 
     monkeypatch.setattr(_frames, "_rebuild_clip", no_reads)
+    # Nor anything its frames share: the field and maps of this assignment, the
+    # blend's weights, the colour axes (kept with the target, for the next render).
+    for name in ("_flow_plan", "_BlendPlan", "_Matching", "extend_outside"):
+        monkeypatch.setattr(_render, name, no_reads)
     np.testing.assert_array_equal(render(a, params).clip.frames, anim.clip.frames)
     with pytest.raises(ValueError, match="assignment must be an Assignment"):
         prefetch(anim)
