@@ -317,8 +317,10 @@ class _Maps:
         self._error = None
         self._ready = threading.Condition()
         grid = _grid((h, w))
+        # Not daemons: the interpreter waits for them at exit (a few ms) rather than
+        # ending the process inside OpenCV (which aborts it).
         for sign in (1, -1):
-            threading.Thread(target=self._run, args=(v, grid, sign), daemon=True).start()
+            threading.Thread(target=self._run, args=(v, grid, sign)).start()
 
     def _run(self, v, grid, sign):
         def made(s):

@@ -407,3 +407,21 @@ def test_what_renders_share_is_kept_and_the_clip_stays_the_same(assignment, monk
         assert np.array_equal(fresh.view(np.uint32), clip.view(np.uint32))
     assert not np.array_equal(kept[0], kept[2])  # the travel's own field and maps
     assert not np.array_equal(kept[0], kept[3])
+
+
+def test_a_process_may_end_while_the_maps_are_being_made():
+    # The maps' threads are waited for at exit: a daemon thread inside OpenCV when
+    # the interpreter ends aborts the process (a script that renders and exits, a
+    # kernel shut down after a prefetch).
+    import subprocess
+    import sys
+
+    code = (
+        "import time\n"
+        "import numpy as np\n"
+        "from fluidnb.videodb._flow_render import _Maps\n"
+        "_Maps(np.full((384, 480, 2), 0.5, np.float32), 400)\n"
+        "time.sleep(0.05)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=120)
+    assert done.returncode == 0, done.stderr.decode()[-500:]
