@@ -302,13 +302,15 @@ def displacement_maps(velocity, steps):
 
 
 class _Maps:
-    """:func:`displacement_maps` being made: the two recurrences on two threads.
+    """:func:`displacement_maps` being made, on a thread of its own.
 
     Each map can be used as soon as it is made (:meth:`wait`): a renderer starts on
-    its first frames, whose phases are young or old, while the others are made.
+    its first frames while the others are made. The maps of the ages ``first`` are
+    made first (forwards as far as they go, then backwards), then the rest: the first
+    frames of a loop need a young phase and an old one.
     """
 
-    def __init__(self, v, steps):
+    def __init__(self, v, steps, first=()):
         h, w = v.shape[:2]
         self.steps = steps
         self.maps = np.empty((2 * steps + 1, h, w, 2), np.float32)
@@ -316,20 +318,22 @@ class _Maps:
         self._made = {1: 0, -1: 0}  # steps made forwards and backwards
         self._error = None
         self._ready = threading.Condition()
-        grid = _grid((h, w))
-        # Not daemons: the interpreter waits for them at exit (a few ms) rather than
+        early = _reach(first)
+        order = [(1, early[1]), (-1, early[-1]), (1, steps), (-1, steps)]
+        # Not a daemon: the interpreter waits for it at exit (a few ms) rather than
         # ending the process inside OpenCV (which aborts it).
-        for sign in (1, -1):
-            threading.Thread(target=self._run, args=(v, grid, sign)).start()
+        threading.Thread(target=self._run, args=(v, order)).start()
 
-    def _run(self, v, grid, sign):
-        def made(s):
+    def _run(self, v, order):
+        def made(sign, s):
             with self._ready:
                 self._made[sign] = s
                 self._ready.notify_all()
 
         try:
-            _chain(self.maps, v, grid, self.steps, sign, made)
+            grid = _grid(v.shape[:2])
+            for sign, upto in order:
+                _chain(self.maps, v, grid, self.steps, sign, self._made[sign], upto, made)
         except BaseException as error:  # handed to whoever waits
             with self._ready:
                 self._error = error
@@ -337,12 +341,7 @@ class _Maps:
 
     def wait(self, *ages):
         """Wait until the maps of these ages (fractional: both whole ones around) are made."""
-        need = {1: 0, -1: 0}
-        for age in ages:
-            for s in (math.floor(age), math.ceil(age)):
-                if s:
-                    sign = 1 if s > 0 else -1
-                    need[sign] = max(need[sign], abs(s))
+        need = _reach(ages)
         with self._ready:
             while self._error is None and any(self._made[k] < need[k] for k in need):
                 self._ready.wait()
@@ -351,28 +350,40 @@ class _Maps:
         return self
 
 
-def _chain(out, v, grid, steps, sign, made=None):
-    """One recurrence of :func:`displacement_maps`: ``out[steps + sign * s]``, s = 1..steps.
+def _reach(ages):
+    """The steps forwards (key 1) and backwards (-1) the maps of these ages need."""
+    need = {1: 0, -1: 0}
+    for age in ages:
+        for s in (math.floor(age), math.ceil(age)):
+            if s:
+                sign = 1 if s > 0 else -1
+                need[sign] = max(need[sign], abs(s))
+    return need
+
+
+def _chain(out, v, grid, steps, sign, start, stop, made):
+    """One recurrence of :func:`displacement_maps`: ``out[steps + sign * s]``, s = start+1..stop.
 
     ``D_{s+1}(x) = D_s(x - v) - v`` (sign 1); backwards ``D_{s-1}(x) = D_s(x + v) + v``
     (sign -1). Every step samples at the same points ``x - sign v``, so they are
     worked out once; each map is written in place (the operations of
-    ``_remap(prev, -sign * v, grid) - sign * v``).
+    ``_remap(prev, -sign * v, grid) - sign * v``); ``made(sign, s)`` after each.
     """
     import cv2
 
+    if stop <= start:
+        return
     mx = grid[1] + (-sign * v)[..., 1]
     my = grid[0] + (-sign * v)[..., 0]
     step = sign * v
-    for s in range(1, steps + 1):
+    for s in range(start + 1, stop + 1):
         d = out[steps + sign * s]
         cv2.remap(
             out[steps + sign * (s - 1)], mx, my, cv2.INTER_LINEAR, dst=d,
             borderMode=cv2.BORDER_REPLICATE,
         )  # fmt: skip
         np.subtract(d, step, out=d)
-        if made is not None:
-            made(s)
+        made(sign, s)
 
 
 def _at_age(maps, steps, age):

@@ -621,7 +621,9 @@ def _flow_work(assignment, params, n):
     plan = _flow_plan(assignment, params, n)
     ages = loop_phases(plan["n_frames"], plan["cycle"])  # age_a, age_b, weight_a
     steps = int(np.ceil(max(np.abs(ages[0]).max(), np.abs(ages[1]).max())))
-    plan.update(ages=ages, maps=_Maps(plan["velocity"], steps))
+    # The first run's maps first: its frames wait for no others.
+    first = np.concatenate([age[:FIRST_RUN] for age in ages[:2]])
+    plan.update(ages=ages, maps=_Maps(plan["velocity"], steps, first))
     plan["velocity"].flags.writeable = False
     with _SHARED_LOCK:
         _SHARED.setdefault(assignment.target, {})["flow"] = (weakref.ref(assignment), key, plan)
