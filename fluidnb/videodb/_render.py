@@ -148,6 +148,14 @@ def render(
         player can show and play those while the rest are made
         (:meth:`fluidnb.widgets.FramePlayer.stream`); the returned
         animation's clip has the same frames.
+
+        The work all frames share is kept for the next render: with the target (the
+        blend's weights, the colour axes, the advected layer, the background behind
+        a moving matte) and, for the last assignment rendered or prefetched
+        (:func:`prefetch`), the flow rendering's motion field and displacement maps
+        (~150 MB at 480 px). The field and the maps are made on threads while the
+        fragments are rebuilt and blended, and each run is blended while the frames
+        of the one before are made.
     stages : bool
         Keep every frame's intermediate pictures in :attr:`Animation.stages` (the
         differences, the frames before matching, the flow rendering's phases...), for
