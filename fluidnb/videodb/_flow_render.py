@@ -320,9 +320,10 @@ class _Maps:
         self._ready = threading.Condition()
         early = _reach(first)
         order = [(1, early[1]), (-1, early[-1]), (1, steps), (-1, steps)]
-        # Not a daemon: the interpreter waits for it at exit (a few ms) rather than
-        # ending the process inside OpenCV (which aborts it).
-        threading.Thread(target=self._run, args=(v, order)).start()
+        # Not a daemon (even when made by one, an app's worker): the interpreter waits
+        # for it at exit (a few ms) rather than ending the process inside OpenCV, which
+        # aborts it.
+        threading.Thread(target=self._run, args=(v, order), daemon=False).start()
 
     def _run(self, v, order):
         def made(sign, s):

@@ -410,18 +410,20 @@ def test_what_renders_share_is_kept_and_the_clip_stays_the_same(assignment, monk
 
 
 def test_a_process_may_end_while_the_maps_are_being_made():
-    # The maps' threads are waited for at exit: a daemon thread inside OpenCV when
-    # the interpreter ends aborts the process (a script that renders and exits, a
-    # kernel shut down after a prefetch).
+    # The maps' threads are waited for at exit, also when a daemon thread (an app's
+    # worker) made them: a daemon thread inside OpenCV when the interpreter ends
+    # aborts the process (a script that renders and exits, a kernel shut down after
+    # a prefetch).
     import subprocess
     import sys
 
     code = (
-        "import time\n"
+        "import threading, time\n"
         "import numpy as np\n"
         "from fluidnb.videodb._flow_render import _Maps\n"
-        "_Maps(np.full((384, 480, 2), 0.5, np.float32), 400)\n"
-        "time.sleep(0.05)\n"
+        "v = np.full((384, 480, 2), 0.5, np.float32)\n"
+        "threading.Thread(target=_Maps, args=(v, 400), daemon=True).start()\n"
+        "time.sleep(0.1)\n"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=120)
     assert done.returncode == 0, done.stderr.decode()[-500:]
