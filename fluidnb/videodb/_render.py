@@ -277,8 +277,9 @@ def prefetch(assignment, params=None, *, progress=None):
     params : AnimateParams, optional
         The rendering settings (their ``loop``); default the assignment's.
     progress : callable, optional
-        ``progress(fraction, message)`` after each source clip; raise
-        :class:`fluidnb.Cancelled` to stop (what is rebuilt so far stays cached).
+        ``progress(fraction, message)`` after each source clip and before the shared
+        work; raise :class:`fluidnb.Cancelled` to stop (what is made so far stays
+        kept).
 
     Returns
     -------
@@ -288,10 +289,14 @@ def prefetch(assignment, params=None, *, progress=None):
     if not isinstance(assignment, Assignment):
         raise ValueError(f"assignment must be an Assignment, got {type(assignment).__name__}")
     params = assignment.params if params is None else _check_params(params, assignment.db)
-    done = len(_rebuild(assignment, params, progress))
+    report = Progress(progress)
+    rebuild, shared = report.split(0.9)
+    done = len(_rebuild(assignment, params, rebuild))
     # What else render makes before its first frames and keeps: the flow rendering's
     # motion field and maps for this assignment, the target's blend weights, colour
-    # axes, advected layer and (a moving matte) the background behind the fluid.
+    # axes, advected layer and (a moving matte) the background behind the fluid. Asked
+    # first whether to go on: an app dragging a slider has moved on by now.
+    shared(0.0, "making what the render's frames share")
     target = assignment.target
     if params.rendering == "flow":
         _flow_work(assignment, params, assignment.db.params.N)
@@ -300,6 +305,7 @@ def prefetch(assignment, params=None, *, progress=None):
     _colour_matching(target, params.cell)
     if params.tau > 0:
         _behind(target, None)
+    shared(1.0, "ready to render")
     return done
 
 

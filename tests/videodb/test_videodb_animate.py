@@ -415,6 +415,14 @@ def test_prefetch_leaves_render_nothing_to_rebuild(anim, monkeypatch):
 
     with pytest.raises(Cancelled):
         prefetch(a, params, progress=stop)
+
+    def moved_on(fraction, message):  # an app's slider moved while the frames came
+        if "share" in message:
+            raise Cancelled
+
+    with pytest.raises(Cancelled):
+        prefetch(a, params, progress=moved_on)
+    assert a.target not in _render._SHARED  # the shared work was not started
     assert prefetch(a, params) == len(np.unique(a.fragments))
 
     def no_reads(*args):
