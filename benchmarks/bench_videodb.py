@@ -918,7 +918,8 @@ def _app_render(ctx, rounds):
     default (flow). Timed from pressing Render: to the clip's first frames in the
     player, playing (the app streams the clip as render makes it, ``CHUNK`` frames at
     a time: ``FramePlayer.stream``), and to the whole clip in the player; the worker
-    thread's status included, not the browser's drawing.
+    thread's status included, not the browser's drawing. And how many frames a second
+    reach the player after the first ones (a 24 fps player must never wait for them).
     """
 
     from fluidnb.videodb import render
@@ -938,12 +939,16 @@ def _app_render(ctx, rounds):
 
         def stream(clip, ready):
             real(clip, ready)
-            first.setdefault("t", now())  # this render's first frames are in the player
+            t = now()
+            first.setdefault("t", t)  # this render's first frames are in the player
+            first.setdefault("ready", ready)
+            first["last"], first["done"] = t, ready
 
         app.player.stream = stream
         app.settle = 1e9  # no render on rest: Render is pressed here
         sigma = a.params.sigma
         cases = {"empty": ([], []), "again": ([], []), "resolved": ([], [])}
+        rates = {case: [] for case in cases}  # frames made a second after the first ones
         for _ in range(rounds):
             for case, (firsts, wholes) in cases.items():
                 if case == "empty":
@@ -960,11 +965,16 @@ def _app_render(ctx, rounds):
                 app.render_clip(timeout=600)
                 wholes.append(now() - t0)
                 firsts.append(first["t"] - t0)
+                rates[case].append((first["done"] - first["ready"]) / (first["last"] - first["t"]))
                 if case == "resolved":
                     new = set(app.assignment.fragments.tolist()) - set(a.fragments.tolist())
                     app.panel.set("sigma", sigma)
                     app.wait_resolve()
         frames = len(app.result)
+        # Issue 25's 0.5 s, then the streaming's own goals: the first frames within
+        # 0.2 s (0.35 s when every fragment is read from its clip), and the rest made
+        # at 45 a second or more (a 24 fps player never waits, a browser beside it).
+        goals = {"empty": 0.35, "again": 0.2, "resolved": 0.2}
         rows = []
         labels = (
             ("empty", "empty frame cache"),
@@ -977,8 +987,17 @@ def _app_render(ctx, rounds):
                 [
                     f"Render -> first frames playing ({label})",
                     *(fmt_s(x) for x in fastest_median(firsts)),
-                    "< 0.5 s",
-                    _met(*fastest_median(firsts), 0.5),
+                    f"< {goals[case]:g} s",
+                    _met(*fastest_median(firsts), goals[case]),
+                ],
+                [
+                    f"frames made a second after the first ({label})",
+                    *(f"{x:.0f}" for x in sorted(rates[case], reverse=True)[:1]),
+                    f"{np.median(rates[case]):.0f}",
+                    ">= 45",
+                    "yes"
+                    if np.median(rates[case]) >= 45
+                    else ("fastest only" if max(rates[case]) >= 45 else "no"),
                 ],
                 [
                     f"Render -> all {frames} frames ({label})",
@@ -993,13 +1012,14 @@ def _app_render(ctx, rounds):
             f"whole-frame matte, {len(a.target)} fragments, {frames} frames; load avg "
             f"{load0:.1f} -> {load():.1f}"
         )
-        table(["case", "fastest", "median", "goal (issue 25)", "met"], rows)
+        table(["case", "fastest", "median", "goal", "met"], rows)
         return {"shape": [h, w], "fragments": len(a.target), "run_s": run_s, "frames": frames,
                 "first_frames_s": cases["empty"][0], "render_s": cases["empty"][1],
                 "first_frames_again_s": cases["again"][0],
                 "first_frames_resolved_s": cases["resolved"][0],
                 "render_resolved_s": cases["resolved"][1],
-                "render_again_s": cases["again"][1]}  # fmt: skip
+                "render_again_s": cases["again"][1],
+                "frames_per_s": rates}  # fmt: skip
     finally:
         app.close()
 

@@ -23,6 +23,7 @@ band stores what ``expand`` misses), so :func:`collapse` gives back the input to
 
 from __future__ import annotations
 
+import functools
 import math
 from itertools import pairwise
 
@@ -411,10 +412,14 @@ def _collapse64(levels, sigma):
 # C-contiguous float32 (h, w, C) arrays.
 
 
+@functools.lru_cache(maxsize=16)
 def _kernel(sigma):
+    """The 1-D Gaussian of ``sigma``, made once (read-only): the pyramids blur many times."""
     r = int(4.0 * sigma + 0.5)  # scipy.ndimage.gaussian_filter's default truncation
     k = np.exp(-0.5 * (np.arange(-r, r + 1) / sigma) ** 2)
-    return k / k.sum()
+    k = k / k.sum()
+    k.flags.writeable = False
+    return k
 
 
 def _blur32(x, sigma=1.0):

@@ -261,13 +261,14 @@ def _bilinear_roles(n, centres):
 
 
 class _Cells:
-    """What the fast and the reference matching share.
+    """The checked inputs of a matching, the reference's side and every frame's bins.
 
-    The checked inputs, the bins, the cell grid and its bilinear roles. Every image is
-    binned over its own range, per channel: the reference over the reference's, each
-    frame over that frame's (:attr:`lo`, :attr:`step`, one row per frame). So a
-    frame's result does not depend on the other frames matched with it, and a clip
-    matched a few frames at a time is the clip matched at once, bit for bit.
+    For the reference matching (:func:`fluidnb.videodb.reference_match_histograms_cells`):
+    the cell grid, its bilinear roles, the cells' mass and the reference's bins of
+    :class:`_Matching`, and each frame's bins (:attr:`lo`, :attr:`step`, one row per
+    frame). Every image is binned over its own range, per channel, so a frame's
+    result does not depend on the other frames matched with it, and a clip matched a
+    few frames at a time is the clip matched at once, bit for bit.
     """
 
     def __init__(self, frames, reference, weight, cell):
@@ -278,28 +279,16 @@ class _Cells:
         if self.grey:
             f, ref = f[..., None], ref[..., None]
         self.frames, self.reference, self.weight = f, ref, w
-        n_ch = f.shape[3]
-        h, w_px = f.shape[1:3]
-        # Row 0: the reference; row t + 1: frame t.
-        ranges = [_channel_range(ref.reshape(-1, n_ch))]
-        ranges += [_channel_range(frame.reshape(-1, n_ch)) for frame in f]
-        lo = np.array([r[0] for r in ranges], np.float64)
-        hi = np.array([r[1] for r in ranges], np.float64)
-        step = np.where(hi > lo, (hi - lo) / HISTOGRAM_BINS, 1.0 / HISTOGRAM_BINS)
-        self.lo_ref, self.step_ref, self.inv_step_ref = lo[0], step[0], 1.0 / step[0]
+        shared = _Matching(ref, w, cell)
+        self.nx, self.n_cells, self.cid, self.mass = (
+            shared.nx, shared.n_cells, shared.cid, shared.mass
+        )  # fmt: skip
+        self.rows, self.cols = shared.rows, shared.cols
+        self.lo_ref, self.step_ref = shared.lo_ref, shared.step_ref
+        bins = [_bins(frame) for frame in f]
         #: (T, C): each frame's lowest bin edge and bin width per channel.
-        self.lo, self.step = lo[1:], step[1:]
-        # Values are binned by multiplying with the inverse (a division per value costs
-        # several times as much in the kernels).
-        self.inv_step = 1.0 / self.step
-        cy, centres_y = _cell_geometry(h, cell)
-        cx, centres_x = _cell_geometry(w_px, cell)
-        self.nx = len(centres_x)
-        self.n_cells = len(centres_y) * self.nx
-        self.cid = (cy[:, None] * self.nx + cx[None, :]).astype(np.intp)
-        self.mass = np.bincount(self.cid.ravel(), weights=w.ravel(), minlength=self.n_cells)
-        self.rows = _bilinear_roles(h, centres_y)
-        self.cols = _bilinear_roles(w_px, centres_x)
+        self.lo = np.array([b[0] for b in bins]).reshape(len(f), -1)
+        self.step = np.array([b[1] for b in bins]).reshape(len(f), -1)
 
     def result(self, out):
         return out[..., 0] if self.grey else out
@@ -429,6 +418,55 @@ def _from_axes(x, centre, axes):
             x[i, k] = ((a0 * axes[k, 0] + a1 * axes[k, 1]) + a2 * axes[k, 2]) + centre[k]
 
 
+@njit(cache=True, nogil=True)
+def _advected_in_axes(a, b, wa, fade, detail, d, centre, axes, out):
+    """One flow-rendered frame in the colour axes, in one pass (float32).
+
+    The cross-fade of the phases (``fade`` 1: ``a``; 0: ``b``; else ``b + wa (a - b)``,
+    :func:`fluidnb.videodb._flow_render._cross_fade`), plus ``detail * d``, in the
+    axes as :func:`colours_in_axes`: the numpy steps' operations in their order.
+    """
+    h, w = d.shape
+    for r in range(h):
+        for c in range(w):
+            dd = detail * d[r, c]
+            if fade == 1:
+                m0, m1, m2 = a[r, c, 0], a[r, c, 1], a[r, c, 2]
+            elif fade == 0:
+                m0, m1, m2 = b[r, c, 0], b[r, c, 1], b[r, c, 2]
+            else:
+                m0 = b[r, c, 0] + wa * (a[r, c, 0] - b[r, c, 0])
+                m1 = b[r, c, 1] + wa * (a[r, c, 1] - b[r, c, 1])
+                m2 = b[r, c, 2] + wa * (a[r, c, 2] - b[r, c, 2])
+            g0 = (m0 + dd) - centre[0]
+            g1 = (m1 + dd) - centre[1]
+            g2 = (m2 + dd) - centre[2]
+            for k in range(3):
+                out[r, c, k] = (g0 * axes[0, k] + g1 * axes[1, k]) + g2 * axes[2, k]
+
+
+@njit(cache=True, nogil=True)
+def _composite_from_axes(x, centre, axes, back, matte, out):
+    """Colours back from the axes, over the background through the matte, in [0, 1].
+
+    :func:`frames_from_axes`, then :func:`fluidnb.videodb.composite`'s
+    ``back + matte (x - back)`` and the clip to [0, 1], on the top-left ``out``-sized
+    part of the (larger) canvas, in one pass with the numpy steps' float32 operations.
+    """
+    h, w = out.shape[:2]
+    for r in range(h):
+        for c in range(w):
+            a0 = x[r, c, 0]
+            a1 = x[r, c, 1]
+            a2 = x[r, c, 2]
+            m = matte[r, c]
+            for k in range(3):
+                v = ((a0 * axes[k, 0] + a1 * axes[k, 1]) + a2 * axes[k, 2]) + centre[k]
+                bg = back[r, c, k]
+                v = (v - bg) * m + bg
+                out[r, c, k] = min(max(v, np.float32(0.0)), np.float32(1.0))
+
+
 def match_histograms_cells(frames, reference, weight, *, cell):
     r"""Match each frame's appearance to the target's, cell by cell (Okabe et al., sec. 6).
 
@@ -485,33 +523,76 @@ def match_histograms_cells(frames, reference, weight, *, cell):
     >>> bool(np.abs(out[0] - ref).max() < 0.02)
     True
     """
-    cells = _Cells(frames, reference, weight, cell)
-    f = cells.frames
-    n_ch, bins = f.shape[3], HISTOGRAM_BINS
-    counts = np.zeros((f.shape[0] + 1, n_ch, cells.n_cells, bins))
-    lo = np.vstack([cells.lo_ref, cells.lo])  # row 0 the reference, as counts
-    step = np.vstack([cells.step_ref, cells.step])
-    where = (cells.cid, cells.weight)
-    _histogram_kernel(cells.reference, *where, cells.lo_ref, cells.inv_step_ref, counts[0])
-    # Frames are independent: their histograms, and then their mapping, on the
-    # cores (the kernels release the GIL; each frame writes its own rows).
-    _each_frame(
-        lambda t: _histogram_kernel(f[t], *where, cells.lo[t], cells.inv_step[t], counts[t + 1]),
-        f.shape[0],
-    )
-    q = np.empty(counts.shape[:3] + (_QUANTILES + 1,))
-    _quantiles_kernel(counts, lo, step, q)
-    luts = np.empty(counts.shape[:3] + (bins + 1,))
-    _maps_kernel(q[1:], q[0], cells.lo, cells.step, np.array(_SLOPE_RANGE), luts[1:])
+    f, ref, w, cell = _check_histogram_args(frames, reference, weight, cell)
+    grey = f.ndim == 3
+    f = np.ascontiguousarray(f, dtype=np.float32)  # read only: no copy needed
+    if grey:
+        f, ref = f[..., None], ref[..., None]
+    matching = _Matching(ref, w, cell)
     out = np.empty_like(f)
-    _each_frame(
-        lambda t: _apply_kernel(
-            f[t], luts[t + 1], cells.lo[t], cells.inv_step[t], *cells.rows, *cells.cols,
-            cells.mass, cells.nx, out[t],
-        ),
-        f.shape[0],
-    )  # fmt: skip
-    return cells.result(out)
+    # Frames are independent: matched on the cores (the kernels release the GIL).
+    _each_frame(lambda t: matching.match(f[t], out[t]), f.shape[0])
+    return out[..., 0] if grey else out
+
+
+class _Matching:
+    """The matching of frames to one reference: the reference's side made once.
+
+    The reference's bins (over its own range, per channel), its histograms and
+    quantiles per cell, the cell grid, its bilinear roles and the cells' matte mass:
+    what every frame's matching shares. :meth:`match` then matches one frame (its
+    own bins, histograms, quantiles, maps, and the blended mapping), so a clip can be
+    matched a frame at a time, on any thread, with the numbers of
+    :class:`_Cells` (the same operations, row by row).
+
+    Parameters
+    ----------
+    reference : ndarray, shape (H, W, C), float
+    weight : ndarray, shape (H, W), float64, >= 0
+    cell : int
+    """
+
+    def __init__(self, reference, weight, cell):
+        ref = np.ascontiguousarray(reference, dtype=np.float32)
+        self.n_ch = n_ch = ref.shape[2]
+        h, w_px = ref.shape[:2]
+        self.lo_ref, self.step_ref = _bins(ref)
+        cy, centres_y = _cell_geometry(h, cell)
+        cx, centres_x = _cell_geometry(w_px, cell)
+        self.nx = len(centres_x)
+        self.n_cells = len(centres_y) * self.nx
+        self.cid = (cy[:, None] * self.nx + cx[None, :]).astype(np.intp)
+        self.weight = np.ascontiguousarray(weight, dtype=np.float64)
+        self.mass = np.bincount(
+            self.cid.ravel(), weights=self.weight.ravel(), minlength=self.n_cells
+        )
+        self.rows = _bilinear_roles(h, centres_y)
+        self.cols = _bilinear_roles(w_px, centres_x)
+        counts = np.zeros((1, n_ch, self.n_cells, HISTOGRAM_BINS))
+        _histogram_kernel(ref, self.cid, self.weight, self.lo_ref, 1.0 / self.step_ref, counts[0])
+        self.q_ref = np.empty(counts.shape[:3] + (_QUANTILES + 1,))
+        _quantiles_kernel(counts, self.lo_ref[None], self.step_ref[None], self.q_ref)
+        self.slopes = np.array(_SLOPE_RANGE)
+
+    def match(self, frame, out):
+        """Match one frame (H, W, C) float32 into ``out`` (H, W, C) float32."""
+        lo, step = _bins(frame)
+        inv_step = 1.0 / step
+        counts = np.zeros((1, self.n_ch, self.n_cells, HISTOGRAM_BINS))
+        _histogram_kernel(frame, self.cid, self.weight, lo, inv_step, counts[0])
+        q = np.empty(counts.shape[:3] + (_QUANTILES + 1,))
+        _quantiles_kernel(counts, lo[None], step[None], q)
+        luts = np.empty(counts.shape[:3] + (HISTOGRAM_BINS + 1,))
+        _maps_kernel(q, self.q_ref[0], lo[None], step[None], self.slopes, luts)
+        _apply_kernel(frame, luts[0], lo, inv_step, *self.rows, *self.cols, self.mass, self.nx, out)
+        return out
+
+
+def _bins(image):
+    """An image's bins per channel: the lowest edge and the width (its own range / bins)."""
+    lo, hi = _channel_range(image.reshape(-1, image.shape[-1]))
+    lo, hi = lo.astype(np.float64), hi.astype(np.float64)
+    return lo, np.where(hi > lo, (hi - lo) / HISTOGRAM_BINS, 1.0 / HISTOGRAM_BINS)
 
 
 #: Threads over the frames in :func:`match_histograms_cells`.

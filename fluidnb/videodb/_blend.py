@@ -252,28 +252,51 @@ def _window(r, c, m, size, shape):
     return (slice(r0, r1), slice(c0, c1)), (rows, cols)
 
 
-def _fill(d, pos, m, shape):
+def _fill(d, pos, m, shape, den=None):
     """Feathered average of all fragments' data windows, (Hc, Wc, N) float32.
 
     ``d`` is pixel-major, (P, 48 + 2m, 48 + 2m, N). It stands in wherever a phase
     layer has no fragment of its own; it is the data itself where the fragments agree,
-    so identical inputs blend back exactly.
+    so identical inputs blend back exactly. ``den``, the windows' summed tents
+    (:func:`_fill_weights`), if already made.
     """
-    s = FRAGMENT + 2 * m
-    u = np.arange(s, dtype=np.float64) + 0.5
-    tau = np.minimum(u, s - u)
-    tau = np.outer(tau, tau).astype(np.float32)
-    n = d.shape[3]
-    acc = np.zeros(shape + (n,), dtype=np.float32)
-    den = np.zeros(shape, dtype=np.float32)
-    _accumulate_windows(d, np.ascontiguousarray(pos, np.int64), m, tau, acc, den)
-    np.divide(acc, den[..., None], out=acc, where=den[..., None] > 0)
+    tau = _fill_tent(m)
+    if den is None:
+        den = _fill_weights(pos, m, shape)
+    acc = np.zeros(shape + (d.shape[3],), dtype=np.float32)
+    pos = np.ascontiguousarray(pos, np.int64)
+    # Bands of rows on the cores: each pixel still sums the fragments in their order.
+    rows = np.linspace(0, shape[0], _THREADS + 1).astype(int)
+
+    def band(k):
+        _accumulate_windows(d, pos, m, tau, acc, rows[k], rows[k + 1])
+        _divide_rows(acc[rows[k] : rows[k + 1]], den[rows[k] : rows[k + 1]])
+
+    list(_in_order(band, range(_THREADS)))
     return acc
 
 
+def _fill_tent(m):
+    """The fill's weight over a fragment's (48 + 2m)-window: its distance to the edges."""
+    s = FRAGMENT + 2 * m
+    u = np.arange(s, dtype=np.float64) + 0.5
+    tau = np.minimum(u, s - u)
+    return np.outer(tau, tau).astype(np.float32)
+
+
+def _fill_weights(pos, m, shape):
+    """The fill's denominator: every window's tent summed in the fragments' order (float32)."""
+    tau = _fill_tent(m)
+    den = np.zeros(shape, dtype=np.float32)
+    for r, c in pos:
+        (rs, cs), (wr, wc) = _window(r, c, m, tau.shape[0], shape)
+        den[rs, cs] += tau[wr, wc]
+    return den
+
+
 @njit(cache=True, nogil=True)
-def _accumulate_windows(d, pos, m, tau, acc, den):
-    """``acc += tau * D_k`` and ``den += tau`` over every fragment's window (in order).
+def _accumulate_windows(d, pos, m, tau, acc, row0, row1):
+    """``acc += tau * D_k`` over every fragment's window (in order), on rows ``row0:row1``.
 
     The window of :func:`_window` (the core and ``m`` pixels of context, cut to the
     canvas): float32 products and sums in the order of the fragments, as the numpy
@@ -281,18 +304,29 @@ def _accumulate_windows(d, pos, m, tau, acc, den):
     """
     n = d.shape[3]
     s = d.shape[1]
-    h, w = den.shape
+    w = acc.shape[1]
     for k in range(pos.shape[0]):
         r0 = pos[k, 0] - m
         c0 = pos[k, 1] - m
-        for i in range(max(0, -r0), min(s, h - r0)):
+        for i in range(max(0, row0 - r0), min(s, row1 - r0)):
             for j in range(max(0, -c0), min(s, w - c0)):
                 t = tau[i, j]
                 cell = acc[r0 + i, c0 + j]
                 src = d[k, i, j]
                 for f in range(n):
                     cell[f] += src[f] * t
-                den[r0 + i, c0 + j] += t
+
+
+@njit(cache=True, nogil=True)
+def _divide_rows(acc, den):
+    """``acc /= den`` where ``den > 0`` (per pixel, every channel), as numpy's masked divide."""
+    h, w, n = acc.shape
+    for i in range(h):
+        for j in range(w):
+            q = den[i, j]
+            if q > 0:
+                for f in range(n):
+                    acc[i, j, f] = acc[i, j, f] / q
 
 
 def _layers(pos):
@@ -395,54 +429,118 @@ def blend_differences(diffs, positions, canvas_shape, *, margin, levels=None, fe
     return _blend(pixel_major, pos, shape, m, _check_levels(levels), _check_feather(feather))
 
 
-def _blend(d, pos, shape, m, levels, feather):
+def _blend(d, pos, shape, m, levels, feather, plan=None):
     """:func:`blend_differences` on checked, pixel-major differences (P, s, s, N) float32.
 
     The renderer's own differences come this way (:func:`difference_frames` writes
     them so): each fragment's window is then pasted into its layer and the fill as
-    contiguous blocks.
+    contiguous blocks. ``plan``: the :class:`_BlendPlan` of these positions, canvas,
+    margin, levels and feather, if already made (a renderer blends its frames a few
+    at a time).
     """
-    raw = _raw_weights(feather).astype(np.float32)
     n = d.shape[3]
     if len(pos) == 0:
         return np.zeros((n,) + shape, dtype=np.float32)
+    if plan is None:
+        plan = _BlendPlan(pos, shape, m, levels, feather)
+    fill = _fill(d, pos, m, shape, plan.fill_den)
 
-    fill = _fill(d, pos, m, shape)
-    tile = FRAGMENT + 2 * min(m, MARGIN)
-
-    def pyramids(members):
-        """One phase layer's weighted bands G_l(W) L_l(X) and its weight's G_l(W)."""
+    def bands(members):
+        """One phase layer's Laplacian bands L_l(X)."""
         layer = fill.copy()
-        weight = np.zeros(shape + (1,), dtype=np.float32)
         for k in members:
             r, c = pos[k]
-            (rs, cs), (wr, wc) = _window(r, c, m, tile, shape)
+            (rs, cs), (wr, wc) = _window(r, c, m, plan.tile, shape)
             layer[rs, cs] = d[k, wr, wc]
-            weight[r : r + FRAGMENT, c : c + FRAGMENT, 0] = raw
         # The pyramids' float32 kernels themselves: the inputs are this function's.
-        bands, gw = _laplacian32(layer, levels), _gaussian32(weight, levels)
-        for b, g in zip(bands, gw):
-            b *= g
-        return bands, gw
+        return _laplacian32(layer, levels)
 
-    acc = None
-    wsum = None
     # The layers' pyramids on threads (OpenCV releases the GIL; a few layers in
-    # flight), summed here in layer order: the same sums as one thread's.
-    for bands, gw in _in_order(pyramids, _layers(pos)):
+    # flight), weighted by G_l(W) and summed here in layer order: the same sums as
+    # one thread's.
+    acc = None
+    for layer, bs in enumerate(_in_order(bands, plan.layers)):
         if acc is None:
-            acc, wsum = bands, [g.copy() for g in gw]
-        else:
-            for a, g, b, s in zip(acc, gw, bands, wsum):
-                a += b
-                s += g
-    for a, s in zip(acc, wsum):
-        np.divide(a, s, out=a, where=s > _TINY)
-        a[np.broadcast_to(s <= _TINY, a.shape)] = 0.0
+            acc = bs
+        for a, b, g in zip(acc, bs, plan.weights[layer]):
+            _add_weighted(a, b, g, a is b)
+    for a, s in zip(acc, plan.weight_sums):
+        _normalise(a, s, np.float32(_TINY))
     out = _collapse32(acc)
-    covered = _weight_sum(pos, shape, np.ones((FRAGMENT, FRAGMENT))) > 0
-    out *= covered[..., None]
-    return np.ascontiguousarray(out.transpose(2, 0, 1))
+    frames = np.empty((n,) + shape, dtype=np.float32)
+    _covered_frames(out, plan.covered, frames)
+    return frames
+
+
+class _BlendPlan:
+    """What the blend of one set of positions shares across batches of frames.
+
+    The phase layers, each layer's weight pyramid :math:`G_l(W)` and their sums per
+    level (summed in layer order, as the blend sums the bands), the fill's
+    denominator and the union of the cores: none depends on the frames.
+    """
+
+    def __init__(self, pos, shape, m, levels, feather):
+        raw = _raw_weights(feather).astype(np.float32)
+        self.layers = _layers(pos)
+        self.tile = FRAGMENT + 2 * min(m, MARGIN)
+        self.fill_den = _fill_weights(pos, m, shape)
+        self.weights = []
+        for members in self.layers:
+            weight = np.zeros(shape + (1,), dtype=np.float32)
+            for r, c in pos[members]:
+                weight[r : r + FRAGMENT, c : c + FRAGMENT, 0] = raw
+            self.weights.append(_gaussian32(weight, levels))
+        sums = [g.copy() for g in self.weights[0]]
+        for gw in self.weights[1:]:
+            for s, g in zip(sums, gw):
+                s += g
+        self.weight_sums = sums
+        self.covered = _weight_sum(pos, shape, np.ones((FRAGMENT, FRAGMENT))) > 0
+
+
+@njit(cache=True, nogil=True)
+def _add_weighted(acc, band, weight, first):
+    """``acc += band * weight`` (``acc = band * weight`` the first time), float32.
+
+    ``weight`` (h, w, 1) over every channel of ``band`` (h, w, N): numpy's ``b *= g``
+    then ``a += b``, in one pass.
+    """
+    h, w, n = band.shape
+    for i in range(h):
+        for j in range(w):
+            g = weight[i, j, 0]
+            for f in range(n):
+                if first:
+                    acc[i, j, f] = band[i, j, f] * g
+                else:
+                    acc[i, j, f] += band[i, j, f] * g
+
+
+@njit(cache=True, nogil=True)
+def _normalise(acc, total, tiny):
+    """``acc / total`` where ``total > tiny``, else 0 (each level of the blend), in place."""
+    h, w, n = acc.shape
+    for i in range(h):
+        for j in range(w):
+            s = total[i, j, 0]
+            if s > tiny:
+                for f in range(n):
+                    acc[i, j, f] = acc[i, j, f] / s
+            else:
+                for f in range(n):
+                    acc[i, j, f] = 0.0
+
+
+@njit(cache=True, nogil=True)
+def _covered_frames(blended, covered, out):
+    """The collapsed blend (Hc, Wc, N) times the cores' union, frame-major (N, Hc, Wc)."""
+    h, w, n = blended.shape
+    for i in range(h):
+        for j in range(w):
+            c = np.float32(1.0) if covered[i, j] else np.float32(0.0)
+            for f in range(n):
+                out[f, i, j] = blended[i, j, f] * c
 
 
 def difference_frames(frames, loop=0, *, out=None):
@@ -563,12 +661,17 @@ def play_loops(loops, offsets, *, rates=None, n_frames=None, mirrors=None, frame
     times = np.mod(offs[:, None] + r[:, None] * t[None, :], length)
     i0 = np.floor(times).astype(np.int64)
     frac = (times - i0).astype(np.float32)
+    below, above = i0 % length, (i0 + 1) % length
     out = np.empty((p, side, side, n_frames), np.float32)
-    for k in range(p):
-        _play_loop(
-            np.ascontiguousarray(loops[k], np.float32), i0[k] % length, (i0[k] + 1) % length,
-            frac[k], flips[k], out[k],
-        )  # fmt: skip
+    loops = [np.ascontiguousarray(x, np.float32) for x in loops]
+
+    def play(k0, k1):
+        for k in range(k0, k1):
+            _play_loop(loops[k], below[k], above[k], frac[k], flips[k], out[k])
+
+    # Each fragment on its own (the kernel releases the GIL): half of them on each core.
+    bounds = np.linspace(0, p, _THREADS + 1).astype(int)
+    list(_in_order(lambda k: play(bounds[k], bounds[k + 1]), range(_THREADS)))
     return out
 
 

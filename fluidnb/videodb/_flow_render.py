@@ -28,11 +28,13 @@ to move the photo along that motion:
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 from scipy import ndimage as ndi
 
 from .._validation import check_array, check_int, check_range, check_vector_field
+from ._appearance import _each_frame
 from ._blend import fragment_weights
 from ._geometry import FRAGMENT
 
@@ -103,9 +105,20 @@ def flow_field(assignment):
     inside = (covered > 0.5).astype(np.float32)
     # Then a Gaussian of one stride within the fragments' cores (normalised
     # convolution): neighbours that move differently would otherwise shear the photo
-    # along a line between them (a visible seam).
-    num = _gaussian(acc.astype(np.float32) * inside[..., None])
-    den = _gaussian(inside)[..., None]
+    # along a line between them (a visible seam). Each channel is blurred on its own
+    # (the same numbers however they are grouped), the motion on one core and the
+    # rest on the other; the painted speed's channels only where a speed was painted.
+    weighted = acc.astype(np.float32) * inside[..., None]
+    parts = [weighted[..., :2], inside] + ([weighted[..., 2:]] if painted.any() else [])
+    blurred = [None] * len(parts)
+
+    def blur(k):
+        for i in range(k, len(parts), 2):
+            blurred[i] = _gaussian(np.ascontiguousarray(parts[i]))
+
+    _each_frame(blur, 2)
+    num = np.concatenate([blurred[0], blurred[2]], axis=2) if painted.any() else blurred[0]
+    den = blurred[1][..., None]
     field = np.divide(num, den, out=np.zeros_like(num), where=den > 1e-6) * inside[..., None]
     v = field[..., :2]
     if not painted.any():
@@ -285,15 +298,93 @@ def displacement_maps(velocity, steps):
     """
     v = check_vector_field("velocity", velocity).astype(np.float32)
     steps = check_int("steps", steps, 0)
-    h, w = v.shape[:2]
-    grid = _grid((h, w))
-    out = np.zeros((2 * steps + 1, h, w, 2), np.float32)
-    for sign in (1, -1):
-        for s in range(1, steps + 1):
-            prev = out[steps + sign * (s - 1)]
-            # D_{s+1}(x) = D_s(x - v) - v; backwards: D_{s-1}(x) = D_s(x + v) + v.
-            out[steps + sign * s] = _remap(prev, -sign * v, grid) - sign * v
-    return out
+    return _Maps(v, steps).wait(-steps, steps).maps
+
+
+class _Maps:
+    """:func:`displacement_maps` being made, on a thread of its own.
+
+    Each map can be used as soon as it is made (:meth:`wait`): a renderer starts on
+    its first frames while the others are made. The maps of the ages ``first`` are
+    made first (forwards as far as they go, then backwards), then the rest: the first
+    frames of a loop need a young phase and an old one.
+    """
+
+    def __init__(self, v, steps, first=()):
+        h, w = v.shape[:2]
+        self.steps = steps
+        self.maps = np.empty((2 * steps + 1, h, w, 2), np.float32)
+        self.maps[steps] = 0.0
+        self._made = {1: 0, -1: 0}  # steps made forwards and backwards
+        self._error = None
+        self._ready = threading.Condition()
+        early = _reach(first)
+        order = [(1, early[1]), (-1, early[-1]), (1, steps), (-1, steps)]
+        # Not a daemon (even when made by one, an app's worker): the interpreter waits
+        # for it at exit (a few ms) rather than ending the process inside OpenCV, which
+        # aborts it.
+        threading.Thread(target=self._run, args=(v, order), daemon=False).start()
+
+    def _run(self, v, order):
+        def made(sign, s):
+            with self._ready:
+                self._made[sign] = s
+                self._ready.notify_all()
+
+        try:
+            grid = _grid(v.shape[:2])
+            for sign, upto in order:
+                _chain(self.maps, v, grid, self.steps, sign, self._made[sign], upto, made)
+        except BaseException as error:  # handed to whoever waits
+            with self._ready:
+                self._error = error
+                self._ready.notify_all()
+
+    def wait(self, *ages):
+        """Wait until the maps of these ages (fractional: both whole ones around) are made."""
+        need = _reach(ages)
+        with self._ready:
+            while self._error is None and any(self._made[k] < need[k] for k in need):
+                self._ready.wait()
+            if self._error is not None:
+                raise self._error
+        return self
+
+
+def _reach(ages):
+    """The steps forwards (key 1) and backwards (-1) the maps of these ages need."""
+    need = {1: 0, -1: 0}
+    for age in ages:
+        for s in (math.floor(age), math.ceil(age)):
+            if s:
+                sign = 1 if s > 0 else -1
+                need[sign] = max(need[sign], abs(s))
+    return need
+
+
+def _chain(out, v, grid, steps, sign, start, stop, made):
+    """One recurrence of :func:`displacement_maps`: ``out[steps + sign * s]``, s = start+1..stop.
+
+    ``D_{s+1}(x) = D_s(x - v) - v`` (sign 1); backwards ``D_{s-1}(x) = D_s(x + v) + v``
+    (sign -1). Every step samples at the same points ``x - sign v``, so they are
+    worked out once; each map is written in place (the operations of
+    ``_remap(prev, -sign * v, grid) - sign * v``); ``made(sign, s)`` after each.
+    """
+    import cv2
+
+    if stop <= start:
+        return
+    mx = grid[1] + (-sign * v)[..., 1]
+    my = grid[0] + (-sign * v)[..., 0]
+    step = sign * v
+    for s in range(start + 1, stop + 1):
+        d = out[steps + sign * s]
+        cv2.remap(
+            out[steps + sign * (s - 1)], mx, my, cv2.INTER_LINEAR, dst=d,
+            borderMode=cv2.BORDER_REPLICATE,
+        )  # fmt: skip
+        np.subtract(d, step, out=d)
+        made(sign, s)
 
 
 def _at_age(maps, steps, age):
@@ -393,24 +484,37 @@ def _loop_frames(img, maps, age_a, age_b, weight_a, phases=None, *, out=None):
     loop a few frames at a time. ``phases`` (2, T, ...), if given, receives both
     phases; ``out`` (T, ...), if given, the frames.
     """
-    have = (maps.shape[0] - 1) // 2
     grid = _grid(img.shape[:2])
     if out is None:
         out = np.empty((len(age_a),) + img.shape, np.float32)
     for t, (sa, sb, wa) in enumerate(zip(age_a, age_b, weight_a)):
-        # A phase of weight 0 is not sampled unless asked for.
         both = phases is not None
-        a = _remap(img, _at_age(maps, have, sa), grid) if wa > 0 or both else None
-        b = _remap(img, _at_age(maps, have, sb), grid) if wa < 1 or both else None
+        a, b = _phases(img, maps, sa, sb, wa, grid, both=both)
         if both:
             phases[0, t], phases[1, t] = a, b
-        if wa == 1:
-            out[t] = a
-        elif wa == 0:
-            out[t] = b
-        else:
-            # b + w_a (a - b): where both phases agree (v = 0) this is exact.
-            out[t] = b + np.float32(wa) * (a - b)
+        _cross_fade(a, b, wa, out[t])
+    return out
+
+
+def _phases(img, maps, sa, sb, wa, grid, *, both=False):
+    """One frame's two phases ``I(x + D_sa(x))``, ``I(x + D_sb(x))`` of :func:`eulerian_loop`.
+
+    A phase of weight 0 is not sampled (None) unless ``both``.
+    """
+    have = (maps.shape[0] - 1) // 2
+    a = _remap(img, _at_age(maps, have, sa), grid) if wa > 0 or both else None
+    b = _remap(img, _at_age(maps, have, sb), grid) if wa < 1 or both else None
+    return a, b
+
+
+def _cross_fade(a, b, wa, out):
+    """``b + w_a (a - b)`` into ``out``: where both phases agree (v = 0) this is exact."""
+    if wa == 1:
+        out[...] = a
+    elif wa == 0:
+        out[...] = b
+    else:
+        out[...] = b + np.float32(wa) * (a - b)
     return out
 
 

@@ -327,8 +327,13 @@ def rebuild_fragments(db, ids, *, margin, grey, differences=None, progress=None)
     if not todo:
         return out
     todo = np.asarray(todo, np.int64)
-    clips = db.source[todo, 0]
-    jobs = [todo[clips == c] for c in np.unique(clips)]
+    # One job per clip and start (the frames of one fragment time, read once), the
+    # largest first: one clip often holds most of the fragments, and a job per clip
+    # left the other core idle.
+    src = db.source[todo]
+    groups = np.unique(src[:, [0, 2]], axis=0)
+    jobs = [todo[(src[:, 0] == c) & (src[:, 2] == t)] for c, t in groups]
+    jobs.sort(key=len, reverse=True)
     with ThreadPoolExecutor(min(_WORKERS, len(jobs))) as pool:
         futures = [pool.submit(_rebuild_clip, db, job, kind) for job in jobs]
         try:
@@ -372,8 +377,9 @@ def _rebuild_clip(db, ids, kind):
         top, bottom, left, right = box
         part = np.stack([frames[start + t][top:bottom, left:right] for t in range(n)])
         planes = _pixel_major(part, grey)  # (rows, cols, P) float32 on the box
-        for s, plan in zip(sel, plans):
-            frag = _sample_planned(planes, box, plan, n, side, grey)
+        blurred = _prefiltered(planes, box, plans)
+        for s, plan, pre in zip(sel, plans, blurred):
+            frag = _sample_planned(planes, box, plan, n, side, grey, pre)
             if len(kind) > 2:
                 frag = difference_frames(frag, kind[3])
             key = (int(ids[s]), *kind)
@@ -536,18 +542,56 @@ def _to_planes(part, luma, grey, out):
                         out[r, c, ch * n + t] = np.float32(px[ch]) / scale
 
 
-def _sample_planned(planes, box, plan, n, side, grey):
-    """One fragment sampled from the pixel-major ``planes`` (the ``_augment`` kernels)."""
+def _prefiltered(planes, box, plans):
+    """The prefiltered source of each plan (None: not prefiltered), shared where it pays.
+
+    Each fragment's scaled-down version is sampled from the frames blurred by its
+    prefilter on its own rectangle (``_sample``). Fragments of one start with the same
+    kernel are blurred together on the rectangle around theirs when it is no larger
+    than theirs summed: every value read is then the same, bit for bit (the blur
+    clamps at the rectangle's edge, and each fragment's rectangle reaches the kernel's
+    width beyond what it reads, or ends where the frame does, as the union then does).
+    Returns ``(src, (top, left))`` per plan.
+    """
+    top, _, left, _ = box
+    out = [None] * len(plans)
+    groups = {}
+    for i, plan in enumerate(plans):
+        if plan["reach"]:
+            groups.setdefault(plan["kernel"].tobytes(), []).append(i)
+    for members in groups.values():
+        kernel = plans[members[0]]["kernel"]
+        rects = np.array(
+            [[plans[i][k] for k in ("top", "bottom", "left", "right")] for i in members]
+        )
+        areas = (rects[:, 1] - rects[:, 0]) * (rects[:, 3] - rects[:, 2])
+        t, b = rects[:, 0].min(), rects[:, 1].max()
+        lft, rgt = rects[:, 2].min(), rects[:, 3].max()
+        if len(members) > 1 and (b - t) * (rgt - lft) <= areas.sum():
+            rects = [(t, b, lft, rgt)] * len(members)
+        made = {}
+        for i, rect in zip(members, map(tuple, rects)):
+            if rect not in made:
+                t, b, lft, rgt = rect
+                made[rect] = (
+                    _blur(planes[t - top : b - top, lft - left : rgt - left], kernel),
+                    (t, lft),
+                )
+            out[i] = made[rect]
+    return out
+
+
+def _sample_planned(planes, box, plan, n, side, grey, prefiltered):
+    """One fragment sampled from the pixel-major ``planes`` (the ``_augment`` kernels).
+
+    ``prefiltered``: its source blurred by its prefilter and that source's top-left on
+    the frame (:func:`_prefiltered`), or None (a version that is not prefiltered).
+    """
     top, _, left, _ = box
     n_planes = planes.shape[2]
-    if plan["reach"]:
-        # Prefiltered on its own rectangle, as _sample does: values equal the whole
-        # frame's where they are read.
-        rect = planes[
-            plan["top"] - top : plan["bottom"] - top, plan["left"] - left : plan["right"] - left
-        ]
-        src = _blur(rect, plan["kernel"])
-        origin, width = (plan["top"], plan["left"]), src.shape[1]
+    if prefiltered is not None:
+        src, origin = prefiltered
+        width = src.shape[1]
     else:
         src, origin, width = planes, (top, left), planes.shape[1]
     flat = src.reshape(-1, n_planes)

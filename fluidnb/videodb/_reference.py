@@ -18,6 +18,7 @@ plain version                          fast path (tested against it)
 :func:`reference_top_k`                :meth:`~fluidnb.videodb.HistogramIndex.top_k`
 :func:`reference_pair_tables`          :func:`~fluidnb.videodb.pair_tables`
 :func:`reference_blend_differences`    :func:`~fluidnb.videodb.blend_differences`
+:func:`reference_layer_blend`          :func:`~fluidnb.videodb.blend_differences` (bits)
 :func:`reference_match_histograms_cells` :func:`~fluidnb.videodb.match_histograms_cells`
 :func:`reference_motion_blur`          :func:`~fluidnb.videodb.motion_blur`
 :func:`reference_eulerian_loop`        :func:`~fluidnb.videodb.eulerian_loop`
@@ -43,6 +44,7 @@ from scipy import ndimage as ndi
 from .._progress import Progress
 from .._validation import check_int, check_vector_field
 from ..fields import backward_warp, collapse, gaussian_pyramid, laplacian_pyramid
+from ..fields._pyramid import _collapse32, _gaussian32, _laplacian32
 from ._appearance import (
     _QUANTILES,
     _SLOPE_RANGE,
@@ -60,8 +62,11 @@ from ._blend import (
     _check_feather,
     _check_levels,
     _check_positions,
+    _layers,
     _raw_weights,
 )
+from ._blend import MARGIN as _BLEND_MARGIN
+from ._blend import _window as _blend_window
 from ._flow_render import loop_phases
 from ._geometry import (
     FRAGMENT,
@@ -462,6 +467,61 @@ def reference_blend_differences(
         covered[r : r + FRAGMENT, c : c + FRAGMENT] = True
     out = collapse(blended) * covered[..., None]
     return np.ascontiguousarray(np.moveaxis(out, -1, 0)).astype(np.float32)
+
+
+def reference_layer_blend(diffs, positions, canvas_shape, *, margin, levels=None, feather=FEATHER):
+    r"""The phase-layer blend of :func:`~fluidnb.videodb.blend_differences` in numpy (float32).
+
+    The fast path's own design (9 phase layers, the fill, OpenCV's float32 pyramids)
+    with every step of its own arithmetic written as numpy array operations, one
+    layer after the other: the fill summed fragment by fragment, each layer's bands
+    weighted by :math:`G_l(W)` and summed in layer order, divided by the summed
+    weights (0 where none reaches), collapsed, 0 off the cores. The fast path (its
+    compiled fill, weighting and normalisation, its weights made once, its layers on
+    threads) gives the same frames bit for bit (tested).
+
+    Arguments and result as :func:`~fluidnb.videodb.blend_differences`.
+    """
+    pos, shape = _check_positions(positions, canvas_shape)
+    m = int(margin)
+    d = np.moveaxis(_check_diffs(diffs, len(pos)), 1, 3).astype(np.float32)  # (P, s, s, N)
+    levels = _check_levels(levels)
+    raw = _raw_weights(_check_feather(feather)).astype(np.float32)
+    n = d.shape[3]
+    if len(pos) == 0:
+        return np.zeros((n,) + shape, dtype=np.float32)
+    size = FRAGMENT + 2 * m
+    u = np.arange(size, dtype=np.float64) + 0.5
+    tent = np.outer(np.minimum(u, size - u), np.minimum(u, size - u)).astype(np.float32)
+    fill = np.zeros(shape + (n,), np.float32)
+    den = np.zeros(shape, np.float32)
+    for k, (r, c) in enumerate(pos):
+        (rs, cs), (wr, wc) = _blend_window(r, c, m, size, shape)
+        fill[rs, cs] += d[k, wr, wc] * tent[wr, wc][..., None]
+        den[rs, cs] += tent[wr, wc]
+    np.divide(fill, den[..., None], out=fill, where=den[..., None] > 0)
+    tile = FRAGMENT + 2 * min(m, _BLEND_MARGIN)
+    num = wsum = None
+    for members in _layers(pos):
+        layer = fill.copy()
+        weight = np.zeros(shape + (1,), np.float32)
+        for k in members:
+            r, c = pos[k]
+            (rs, cs), (wr, wc) = _blend_window(r, c, m, tile, shape)
+            layer[rs, cs] = d[k, wr, wc]
+            weight[r : r + FRAGMENT, c : c + FRAGMENT, 0] = raw
+        gw = _gaussian32(weight, levels)
+        terms = [b * g for b, g in zip(_laplacian32(layer, levels), gw)]
+        num = terms if num is None else [a + t for a, t in zip(num, terms)]
+        wsum = gw if wsum is None else [a + g for a, g in zip(wsum, gw)]
+    for a, s in zip(num, wsum):
+        np.divide(a, s, out=a, where=s > _TINY)
+        a[np.broadcast_to(s <= _TINY, a.shape)] = 0.0
+    covered = np.zeros(shape, bool)
+    for r, c in pos:
+        covered[r : r + FRAGMENT, c : c + FRAGMENT] = True
+    out = _collapse32(num) * covered[..., None]
+    return np.ascontiguousarray(out.transpose(2, 0, 1))
 
 
 def reference_motion_blur(image, velocity, *, shutter, denoise):

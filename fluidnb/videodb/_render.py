@@ -10,7 +10,10 @@ each stage's picture for the lesson.
 
 from __future__ import annotations
 
+import threading
 import time
+import weakref
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,20 +23,24 @@ from .._image import as_image
 from .._progress import Progress
 from .._validation import check_fps, check_shape_match
 from ._appearance import (
+    _advected_in_axes,
+    _composite_from_axes,
+    _each_frame,
+    _Matching,
     colour_axes,
     colours_in_axes,
-    frames_from_axes,
     frames_in_axes,
-    match_histograms_cells,
     motion_blur,
 )
 from ._assign import Assignment, _check_params
-from ._blend import BLEND_LEVELS, FEATHER, MARGIN, _blend, blend_values, play_loops
-from ._composite import _restore_area, composite, dynamic_matte, inpaint_background
+from ._blend import BLEND_LEVELS, FEATHER, MARGIN, _blend, _BlendPlan, blend_values, play_loops
+from ._composite import _restore_area, dynamic_matte, inpaint_background
 from ._desync import mirror_axes, temporal_offsets
 from ._flow_render import (
-    _loop_frames,
-    displacement_maps,
+    _cross_fade,
+    _grid,
+    _Maps,
+    _phases,
     extend_outside,
     flow_field,
     flow_timing,
@@ -141,6 +148,14 @@ def render(
         player can show and play those while the rest are made
         (:meth:`fluidnb.widgets.FramePlayer.stream`); the returned
         animation's clip has the same frames.
+
+        The work all frames share is kept for the next render: with the target (the
+        blend's weights, the colour axes, the advected layer, the background behind
+        a moving matte) and, for the last assignment rendered or prefetched
+        (:func:`prefetch`), the flow rendering's motion field and displacement maps
+        (~150 MB at 480 px). The field and the maps are made on threads while the
+        fragments are rebuilt and blended, and each run is blended while the frames
+        of the one before are made.
     stages : bool
         Keep every frame's intermediate pictures in :attr:`Animation.stages` (the
         differences, the frames before matching, the flow rendering's phases...), for
@@ -162,7 +177,6 @@ def render(
             f"loop must be <= N/2 = {n // 2} frames for this database, got {params.loop}"
         )
     h, w = target.shape
-    hc, wc = target.canvas.shape[:2]
     if background is not None:
         background = as_image(background, mode="rgb", name="background")
         check_shape_match("background", background, (h, w))
@@ -171,16 +185,20 @@ def render(
     clock = dict.fromkeys(("rebuild", "blend"), 0.0)
 
     t = time.perf_counter()
+    # The flow rendering's motion field and timing, and its displacement maps: they
+    # do not need the fragments' frames, so they are made on threads of their own
+    # while the frames are rebuilt and blended.
+    flow = _Later(_flow_work, assignment, params, n) if params.rendering == "flow" else None
     rebuild(0.0, f"rebuilding {len(target)} fragments from their source clips")
     ids = assignment.fragments
     # Each fragment's D_i = F_i - A, with ``loop`` made a loop of its own (its end
     # cross-faded into its start; difference_frames): made on the rebuild's threads,
     # each fragment once, and kept in the database's cache for the next render.
     looped = _rebuild(assignment, params, rebuild)
+    flow = None if flow is None else flow.value
     offsets = np.zeros(len(ids), np.int64)
     mirrors = np.full(len(ids), -1, np.int8)
     rates = n_frames = None
-    flow = _flow_plan(assignment, params, n) if params.rendering == "flow" else None
     if params.loop:
         # Beyond the paper: neighbours that share a database fragment start its loop at
         # different times and mirrored (no tile pattern).
@@ -196,9 +214,7 @@ def render(
     loops = [looped[f] for f in ids.tolist()]
     del looped
     length = n_frames or (n - params.loop if params.loop else n)  # one loop's frames
-    blended = _BlendedFrames(
-        loops, offsets, rates, mirrors, length, target.positions, (hc, wc), clock
-    )
+    blended = _BlendedFrames(loops, offsets, rates, mirrors, length, target, clock)
     if flow is None:
         frames = _PaperFrames(assignment, params, blended, mirrors, background, clock, stages)
     else:
@@ -210,23 +226,50 @@ def render(
     total = frames.n_frames
     out = np.empty((total, h, w, 3), np.float32)
     live = None  # the clip being made, as on_frames sees it (a read-only view of out)
-    for t0, t1 in _runs(total):
-        making(t0 / total, f"rendering frames {t0 + 1}-{t1} of {total}")
-        out[t0:t1] = frames.make(t0, t1)
+
+    def hand_out(run):
+        nonlocal live
+        future, t1 = run
+        future.result()
         if on_frames is not None:
             if live is None:
                 live = Clip._trusted(out.view(), fps, {})
             on_frames(live, t1)
+
+    # After the first run, each run is blended here while the frames of the one before
+    # are made on the other threads (both cores busy); the first is handed out as
+    # soon as it is made.
+    pending = None
+    with ThreadPoolExecutor(1) as maker:
+        try:
+            for t0, t1 in _runs(total):
+                making(t0 / total, f"rendering frames {t0 + 1}-{t1} of {total}")
+                d = frames.blend(t0, t1)
+                if pending is not None:
+                    hand_out(pending)
+                pending = (maker.submit(frames.frames, t0, d, out[t0:t1]), t1)
+                if t0 == 0:
+                    hand_out(pending)
+                    pending = None
+            if pending is not None:
+                hand_out(pending)
+                pending = None
+        finally:
+            if pending is not None:
+                pending[0].cancel()  # a cancelled render: what is under way ends
     making(1.0, "done")
     return _animation(assignment, params, out, frames.stages, clock, (offsets, mirrors), fps)
 
 
 def prefetch(assignment, params=None, *, progress=None):
-    """Rebuild the fragments :func:`render` will need, into the database's frame cache.
+    """Rebuild the fragments :func:`render` will need, and make what it shares, ahead.
 
     The first step of :func:`render` alone (each chosen fragment's difference frames
-    from its source clip), done ahead: an app calls it while a slider rests, so the
-    render that follows starts with the frames. Fragments already cached cost nothing.
+    from its source clip, into the database's frame cache), then the work its frames
+    share (the flow rendering's motion field and displacement maps, the blend's
+    weights, the colour axes, the background behind a moving matte), kept for it: an
+    app calls it while a slider rests, so the render that follows starts with its
+    first frames. What is already made costs nothing.
 
     Parameters
     ----------
@@ -234,8 +277,9 @@ def prefetch(assignment, params=None, *, progress=None):
     params : AnimateParams, optional
         The rendering settings (their ``loop``); default the assignment's.
     progress : callable, optional
-        ``progress(fraction, message)`` after each source clip; raise
-        :class:`fluidnb.Cancelled` to stop (what is rebuilt so far stays cached).
+        ``progress(fraction, message)`` after each source clip and before the shared
+        work; raise :class:`fluidnb.Cancelled` to stop (what is made so far stays
+        kept).
 
     Returns
     -------
@@ -245,7 +289,24 @@ def prefetch(assignment, params=None, *, progress=None):
     if not isinstance(assignment, Assignment):
         raise ValueError(f"assignment must be an Assignment, got {type(assignment).__name__}")
     params = assignment.params if params is None else _check_params(params, assignment.db)
-    return len(_rebuild(assignment, params, progress))
+    report = Progress(progress)
+    rebuild, shared = report.split(0.9)
+    done = len(_rebuild(assignment, params, rebuild))
+    # What else render makes before its first frames and keeps: the flow rendering's
+    # motion field and maps for this assignment, the target's blend weights, colour
+    # axes, advected layer and (a moving matte) the background behind the fluid. Asked
+    # first whether to go on: an app dragging a slider has moved on by now.
+    shared(0.0, "making what the render's frames share")
+    target = assignment.target
+    if params.rendering == "flow":
+        _flow_work(assignment, params, assignment.db.params.N)
+        _advected_layer(target)
+    _blend_plan(target)
+    _colour_matching(target, params.cell)
+    if params.tau > 0:
+        _behind(target, None)
+    shared(1.0, "ready to render")
+    return done
 
 
 def _rebuild(assignment, params, progress):
@@ -263,14 +324,85 @@ def _rebuild(assignment, params, progress):
 def _behind(target, background):
     """What shows where a moving matte uncovers the scene, on the canvas.
 
-    The given background, or the target filled behind its matte with its own texture.
+    The given background, or the target filled behind its matte with its own texture
+    (made once per target: :func:`_shared`).
     """
     if background is None:
-        return inpaint_background(target.canvas, target.canvas_matte)
+        return _shared(
+            target, "behind", lambda: inpaint_background(target.canvas, target.canvas_matte)
+        )
     back = target.canvas.copy()
     h, w = target.shape
     back[:h, :w] = background
     return back
+
+
+# What the renders of one target share, made once and kept while the target lives
+# (an app renders the same photo again and again: after a re-solve, with other
+# rendering settings): see _shared.
+_SHARED = weakref.WeakKeyDictionary()
+_SHARED_LOCK = threading.Lock()
+
+
+def _shared(owner, key, make):
+    """``make()`` for ``owner`` (a target) and ``key``, made once and kept while it lives.
+
+    What is kept is read-only: renders hand out views of it (their stages).
+    """
+    with _SHARED_LOCK:
+        kept = _SHARED.setdefault(owner, {})
+        if key in kept:
+            return kept[key]
+    value = make()
+    for v in value if isinstance(value, tuple) else (value,):
+        if isinstance(v, np.ndarray):
+            v.flags.writeable = False
+    with _SHARED_LOCK:
+        return _SHARED.setdefault(owner, {}).setdefault(key, value)
+
+
+class _Later:
+    """``fn(*args)`` made on a thread of its own while the caller goes on; :attr:`value` waits."""
+
+    def __init__(self, fn, *args):
+        pool = ThreadPoolExecutor(1)
+        self._future = pool.submit(fn, *args)
+        pool.shutdown(wait=False)
+
+    @property
+    def value(self):
+        return self._future.result()
+
+
+def _blend_plan(target):
+    """The blend's weights for the target's fragments (:class:`_BlendPlan`), kept."""
+    shape = target.canvas.shape[:2]
+    return _shared(
+        target, "blend", lambda: _BlendPlan(target.positions, shape, MARGIN, BLEND_LEVELS, FEATHER)
+    )
+
+
+def _colour_matching(target, cell):
+    """The target's colour axes and the matching to it in them (:class:`_Matching`), kept.
+
+    Heeger & Bergen 1995 decorrelate colour by PCA: matching R, G and B independently
+    can mix hues the photo does not have (a white-hot flame turned lilac); matching
+    decorrelated axes keeps its colours.
+    """
+
+    def make():
+        centre, axes = colour_axes(target.canvas, target.canvas_matte)
+        reference = (target.canvas - centre) @ axes
+        return centre, axes, _Matching(reference, target.canvas_matte.astype(np.float64), cell)
+
+    return _shared(target, ("axes", cell), make)
+
+
+def _advected_layer(target):
+    """What the flow moves (the photo, mirrored outside the matte) and its pixel grid, kept."""
+    canvas, matte = target.canvas, target.canvas_matte
+    layer = _shared(target, "layer", lambda: extend_outside(canvas, matte))
+    return layer, _shared(target, "grid", lambda: _grid(canvas.shape[:2]))
 
 
 #: Frames :func:`render` makes at a time, after the work all frames share (the clip
@@ -305,12 +437,15 @@ class _BlendedFrames:
     (fragments at different rates) or one loop's (the loop is then repeated).
     """
 
-    def __init__(self, loops, offsets, rates, mirrors, length, positions, canvas, clock):
+    def __init__(self, loops, offsets, rates, mirrors, length, target, clock):
         self.loops, self.offsets, self.rates, self.mirrors = loops, offsets, rates, mirrors
-        self.positions, self.canvas, self.clock = positions, canvas, clock
+        self.target, self.clock = target, clock
+        self.positions, self.canvas = target.positions, target.canvas.shape[:2]
+        canvas = self.canvas
         self.length = length
         self.done = np.zeros(self.length, bool)
         self.frames = np.empty((self.length,) + canvas, np.float32)
+        self.plan = None  # the blend's weights (_BlendPlan), kept for the target
 
     def get(self, idx):
         idx = np.asarray(idx)
@@ -323,17 +458,65 @@ class _BlendedFrames:
                 self.loops, self.offsets, rates=self.rates, mirrors=self.mirrors, frames=todo
             )
             t = _tick(self.clock, "rebuild", t)
+            if self.plan is None:
+                self.plan = _blend_plan(self.target)
             # The private entry: these differences were made just above (finite,
             # checked shape).
             self.frames[todo] = _blend(
-                played, self.positions, self.canvas, MARGIN, BLEND_LEVELS, FEATHER
+                played, self.positions, self.canvas, MARGIN, BLEND_LEVELS, FEATHER, self.plan
             )
             self.done[todo] = True
             _tick(self.clock, "blend", t)
         return self.frames[idx]
 
 
-class _PaperFrames:
+class _Frames:
+    """What both renderings do with a run of frames after the blend.
+
+    :meth:`blend` blends a run's differences (one batch: :class:`_BlendedFrames`);
+    :meth:`frames` then makes each frame from its own inputs (:meth:`_frame`: the
+    rendering's own steps, then :meth:`_finish`: the matching in the colour axes and
+    the composite) on the cores, straight into the clip. :func:`render` blends the
+    next run while the frames of one are made.
+    """
+
+    def _axes(self, target, cell):
+        """The target's colour axes and the matching to it in them (kept for the target)."""
+        self.centre, self.axes, self.matching = _colour_matching(target, cell)
+
+    def blend(self, t0, t1):
+        """The run's blended differences (T, Hc, Wc) (the loop repeated to the clip's length)."""
+        return self.blended.get(np.arange(t0, t1) % self.blended.length)
+
+    def frames(self, t0, d, out):
+        """Each frame of the run from its differences ``d``, on the cores, into ``out``."""
+        t1 = t0 + len(d)
+        start = time.perf_counter()
+        times = [{} for _ in range(t1 - t0)]
+        _each_frame(lambda i: self._frame(t0 + i, d[i], out[i], times[i]), t1 - t0)
+        # The frames were made side by side: the run's seconds shared out between the
+        # stages by the time each took on its thread.
+        spent = {}
+        for each in times:
+            for k, v in each.items():
+                spent[k] = spent.get(k, 0.0) + v
+        total = sum(spent.values())
+        wall = time.perf_counter() - start
+        for k, v in spent.items():
+            self.clock[k] = self.clock.get(k, 0.0) + (wall * v / total if total > 0 else 0.0)
+
+    def _finish(self, rotated, matte, out):
+        """A frame in the colour axes (Hc, Wc, 3) matched, back in RGB and composited.
+
+        Each frame's histograms matched to the target's cell by cell (Okabe et al.,
+        sec. 6) in the target's principal colour axes, then laid over the background
+        through ``matte`` and clipped, into ``out`` (H, W, 3).
+        """
+        matched = self.matching.match(rotated, np.empty_like(rotated))
+        _composite_from_axes(matched, self.centre, self.axes, self.back, matte, out)
+
+
+class _PaperFrames(_Frames):
     """The paper's rendering after the blend (steps 3-5 of :func:`render`), by frames."""
 
     def __init__(self, assignment, params, blended, mirrors, background, clock, keep):
@@ -349,7 +532,7 @@ class _PaperFrames:
             target.canvas, velocity, shutter=params.shutter, denoise=params.denoise
         )
         t = _tick(clock, "mean", t)
-        self.centre, self.axes = colour_axes(target.canvas, target.canvas_matte)
+        self._axes(target, params.cell)
         if params.tau > 0:
             per_fragment = db.motion[ids].astype(np.float32)  # (P, N - 1, 2)
             for axis in (0, 1):  # a mirrored fragment moves mirrored
@@ -372,28 +555,23 @@ class _PaperFrames:
                 self.matte if matte.ndim == 3 else np.broadcast_to(self.matte, (n, h, w))
             )
 
-    def make(self, t0, t1):
-        """Frames ``t0 .. t1 - 1`` of the clip, (k, H, W, 3) in [0, 1]."""
-        target, st = self.target, self.stages
-        h, w = target.shape
-        d = self.blended.get(np.arange(t0, t1))
-        t = time.perf_counter()
-        # The frames approx + D_i made straight in the colour axes, with the picture of
-        # them before matching, in one pass.
+    def _frame(self, t, d, out, times):
+        """Frame ``t`` into ``out`` (H, W, 3), from its blended differences ``d`` (Hc, Wc)."""
+        st = self.stages
+        h, w = self.target.shape
+        clock = time.perf_counter()
+        # The frame approx + D_i made straight in the colour axes, with the picture of
+        # it before matching, in one pass.
         if self.keep:
-            st["differences"][t0:t1] = d[:, :h, :w]
-            rotated, st["unmatched"][t0:t1] = frames_in_axes(
-                self.approx, d, self.centre, self.axes, unmatched=(h, w)
+            st["differences"][t] = d[:h, :w]
+            rotated, st["unmatched"][t : t + 1] = frames_in_axes(
+                self.approx, d[None], self.centre, self.axes, unmatched=(h, w)
             )
         else:
-            rotated = frames_in_axes(self.approx, d, self.centre, self.axes)
-        matched = _match_in_axes(rotated, target, self.centre, self.axes, self.params.cell)
-        t = _tick(self.clock, "match", t)
-        matte = self.matte[t0:t1] if self.matte.ndim == 3 else self.matte
-        out = composite(matched[:, :h, :w], self.back, matte)
-        np.clip(out, 0.0, 1.0, out=out)
-        _tick(self.clock, "composite", t)
-        return out
+            rotated = frames_in_axes(self.approx, d[None], self.centre, self.axes)
+        clock = _tick(times, "match", clock)
+        self._finish(rotated[0], self.matte[t] if self.matte.ndim == 3 else self.matte, out)
+        _tick(times, "composite", clock)
 
 
 def _animation(assignment, params, out, stages, clock, desync, fps):
@@ -443,7 +621,30 @@ def _flow_plan(assignment, params, n):
     return {"velocity": velocity, "n_frames": n_frames, "cycle": cycle, "rates": rates}
 
 
-class _FlowFrames:
+def _flow_work(assignment, params, n):
+    """:func:`_flow_plan` with its displacement maps (made on a thread: ``plan["maps"]``).
+
+    Kept for the next render of the same assignment with the same loop and travel
+    (the last such only: the maps take ~150 MB at the app's size).
+    """
+    key = (params.loop, params.travel)
+    with _SHARED_LOCK:
+        last = _SHARED.setdefault(assignment.target, {}).get("flow")
+    if last is not None and last[0]() is assignment and last[1] == key:
+        return last[2]
+    plan = _flow_plan(assignment, params, n)
+    ages = loop_phases(plan["n_frames"], plan["cycle"])  # age_a, age_b, weight_a
+    steps = int(np.ceil(max(np.abs(ages[0]).max(), np.abs(ages[1]).max())))
+    # The first run's maps first: its frames wait for no others.
+    first = np.concatenate([age[:FIRST_RUN] for age in ages[:2]])
+    plan.update(ages=ages, maps=_Maps(plan["velocity"], steps, first))
+    plan["velocity"].flags.writeable = False
+    with _SHARED_LOCK:
+        _SHARED.setdefault(assignment.target, {})["flow"] = (weakref.ref(assignment), key, plan)
+    return plan
+
+
+class _FlowFrames(_Frames):
     r"""The flow rendering's steps after the blend (beyond the paper; :func:`render`), by frames.
 
     The motion field's displacement maps, the layer that is advected (the photo
@@ -456,17 +657,15 @@ class _FlowFrames:
         h, w = target.shape
         self.target, self.params, self.blended, self.clock = target, params, blended, clock
         t = time.perf_counter()
-        velocity, self.n_frames, cycle = plan["velocity"], plan["n_frames"], plan["cycle"]
+        velocity, self.n_frames = plan["velocity"], plan["n_frames"]
         n = self.n_frames
-        self.ages = loop_phases(n, cycle)  # age_a, age_b, weight_a
+        self.ages = plan["ages"]  # age_a, age_b, weight_a
         age_a, age_b, weight_a = self.ages
-        steps = int(np.ceil(max(np.abs(age_a).max(), np.abs(age_b).max())))
-        self.maps = displacement_maps(velocity, steps)
-        t = _tick(clock, "field", t)
+        self.maps = plan["maps"]  # being made: each frame waits for its own
         # What flows in across the matte's edge is the fluid's own texture, mirrored.
-        self.layer = extend_outside(target.canvas, target.canvas_matte)
+        self.layer, self.grid = _advected_layer(target)
         t = _tick(clock, "advect", t)
-        self.centre, self.axes = colour_axes(target.canvas, target.canvas_matte)
+        self._axes(target, params.cell)
         self.alpha = target.canvas_matte
         if params.tau > 0:
             self.area = float(self.alpha.sum(dtype=np.float64))
@@ -500,60 +699,45 @@ class _FlowFrames:
                 ),
             )
 
-    def make(self, t0, t1):
-        """Frames ``t0 .. t1 - 1`` of the clip, (k, H, W, 3) in [0, 1]."""
-        target, params, st = self.target, self.params, self.stages
-        h, w = target.shape
-        idx = np.arange(t0, t1)
-        # The differences' loop, repeated to the clip's length (or already that long).
-        d = self.blended.get(idx % self.blended.length)
-        t = time.perf_counter()
-        ages = [x[t0:t1] for x in self.ages]
+    def _frame(self, t, d, out, times):
+        """Frame ``t`` into ``out`` (H, W, 3), from its blended differences ``d`` (Hc, Wc)."""
+        params, st = self.params, self.stages
+        h, w = self.target.shape
+        clock = time.perf_counter()
+        sa, sb, wa = (x[t] for x in self.ages)
+        # The photo carried by the loop (a phase of weight 0 is not even sampled, unless
+        # the lesson shows it), with the detail D_i on top, in the colour axes.
+        maps = self.maps.wait(sa, sb).maps
+        clock = _tick(times, "field", clock)
+        a, b = _phases(self.layer, maps, sa, sb, wa, self.grid, both=self.keep)
+        detail = np.float32(params.detail)
         if self.keep:
-            moved = _loop_frames(
-                self.layer, self.maps, *ages, self.phases[:, t0:t1], out=self.moved[t0:t1]
-            )
-        else:  # a phase of weight 0 is not even sampled
-            moved = _loop_frames(self.layer, self.maps, *ages)
-        frames = moved + np.float32(params.detail) * d[..., None]
-        if self.keep:
-            st["differences"][t0:t1] = d[:, :h, :w]
-            np.clip(frames[:, :h, :w], 0, 1, out=st["unmatched"][t0:t1])
-        t = _tick(self.clock, "advect", t)
-        matched = _match_in_axes(
-            colours_in_axes(frames, self.centre, self.axes), target, self.centre, self.axes,
-            params.cell,
-        )  # fmt: skip
-        t = _tick(self.clock, "match", t)
+            self.phases[0, t], self.phases[1, t] = a, b
+            frame = _cross_fade(a, b, wa, self.moved[t]) + detail * d[..., None]
+            st["differences"][t] = d[:h, :w]
+            np.clip(frame[:h, :w], 0, 1, out=st["unmatched"][t])
+            rotated = colours_in_axes(frame, self.centre, self.axes)
+        else:  # the same operations in one pass
+            rotated = np.empty(self.layer.shape, np.float32)
+            fade = 1 if wa == 1 else (0 if wa == 0 else 2)
+            _advected_in_axes(
+                b if a is None else a, a if b is None else b, np.float32(wa), fade, detail, d,
+                self.centre, self.axes, rotated,
+            )  # fmt: skip
+        clock = _tick(times, "advect", clock)
         if params.tau > 0:
             # The outline moves with the fluid by the same loop (frame 0 is alpha, the
             # loop closes), pulled towards alpha by 1 - tau as the paper's B_i are.
-            carried = _loop_frames(self.alpha, self.maps, *ages)
+            carried = _phases(self.alpha, maps, sa, sb, wa, self.grid)
+            carried = _cross_fade(*carried, wa, np.empty(self.alpha.shape, np.float32))
             matte = np.float32(params.tau) * carried + np.float32(1 - params.tau) * self.alpha
             np.clip(matte, 0.0, 1.0, out=matte)
-            for k, b in zip(idx, matte):
-                if k > 0:
-                    _restore_area(b, self.area)
+            if t > 0:
+                _restore_area(matte, self.area)
             if self.keep:
-                st["matte"][t0:t1] = matte[:, :h, :w]
+                st["matte"][t] = matte[:h, :w]
         else:
             matte = self.alpha
-        out = composite(matched, self.back, matte)[:, :h, :w]
-        np.clip(out, 0.0, 1.0, out=out)
-        _tick(self.clock, "composite", t)
-        return out
-
-
-def _match_in_axes(rotated, target, centre, axes, cell):
-    """Each frame's histograms matched to the target's, cell by cell (Okabe et al., sec. 6).
-
-    In the target's principal colour axes (Heeger & Bergen 1995 decorrelate colour by
-    PCA; ``rotated`` are the frames in them, ``centre``, ``axes`` from
-    :func:`colour_axes`): matching R, G and B independently can mix hues the photo
-    does not have (a white-hot flame turned lilac); matching decorrelated axes keeps
-    its colours. Back in RGB.
-    """
-    matched = match_histograms_cells(
-        rotated, (target.canvas - centre) @ axes, target.canvas_matte, cell=cell
-    )
-    return frames_from_axes(matched, centre, axes)
+        clock = _tick(times, "composite", clock)
+        self._finish(rotated, matte, out)
+        _tick(times, "match", clock)

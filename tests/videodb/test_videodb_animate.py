@@ -284,6 +284,32 @@ def test_render_hands_out_its_frames_as_they_are_made(anim, monkeypatch):
     assert "differences" not in bare.stages
 
 
+def test_a_render_stopped_between_runs_stops_cleanly(anim, monkeypatch):
+    # The next run is blended while the frames of the one before are made: stopping
+    # (the app's Cancel) raises at once, and what was handed out is final.
+    from fluidnb import Cancelled
+    from fluidnb.videodb import _render
+
+    monkeypatch.setattr(_render, "CHUNK", 1)
+    monkeypatch.setattr(_render, "FIRST_RUN", 1)
+    params = AnimateParams.from_dict(anim.clip.metadata["params"])
+    shown = []
+
+    def progress(fraction, message):
+        if len(shown) >= 2:
+            raise Cancelled
+
+    def on_frames(clip, done):
+        shown.append(clip.frames[:done].copy())
+
+    with pytest.raises(Cancelled):
+        render(anim.assignment, params, progress=progress, on_frames=on_frames)
+    assert [len(s) for s in shown] == list(range(1, len(shown) + 1))
+    assert len(shown[-1]) < len(anim.clip)  # stopped before the end
+    n = len(shown[-1])
+    np.testing.assert_allclose(shown[-1], anim.clip.frames[:n], rtol=0, atol=1e-5)
+
+
 def test_a_dynamic_matte_keeps_its_area(db, photo):
     img, matte = photo
     a = assign(img, matte, db, FEW)
@@ -377,23 +403,36 @@ def test_each_weight_pulls_the_solution_towards_what_it_weighs(tmp_path):
 
 def test_prefetch_leaves_render_nothing_to_rebuild(anim, monkeypatch):
     from fluidnb import Cancelled
-    from fluidnb.videodb import _frames, prefetch
+    from fluidnb.videodb import _frames, _render, prefetch
 
     a = anim.assignment
     params = AnimateParams.from_dict(anim.clip.metadata["params"])
     a.db.cache.clear()
+    _render._SHARED.clear()  # what renders keep, as for a photo never rendered
 
     def stop(fraction, message):
         raise Cancelled
 
     with pytest.raises(Cancelled):
         prefetch(a, params, progress=stop)
+
+    def moved_on(fraction, message):  # an app's slider moved while the frames came
+        if "share" in message:
+            raise Cancelled
+
+    with pytest.raises(Cancelled):
+        prefetch(a, params, progress=moved_on)
+    assert a.target not in _render._SHARED  # the shared work was not started
     assert prefetch(a, params) == len(np.unique(a.fragments))
 
     def no_reads(*args):
         raise AssertionError("a fragment was rebuilt again")
 
     monkeypatch.setattr(_frames, "_rebuild_clip", no_reads)
+    # Nor anything its frames share: the field and maps of this assignment, the
+    # blend's weights, the colour axes (kept with the target, for the next render).
+    for name in ("_flow_plan", "_BlendPlan", "_Matching", "extend_outside"):
+        monkeypatch.setattr(_render, name, no_reads)
     np.testing.assert_array_equal(render(a, params).clip.frames, anim.clip.frames)
     with pytest.raises(ValueError, match="assignment must be an Assignment"):
         prefetch(anim)

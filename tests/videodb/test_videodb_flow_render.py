@@ -352,3 +352,78 @@ def test_a_fragment_played_faster_skips_frames_and_still_loops():
     half = stagger(diffs, [0, 0], overlap=4, rates=[1, 0.5], n_frames=16)
     np.testing.assert_allclose(half[1][1], 0.5 * (base[1][0] + base[1][1]), atol=1e-6)
     np.testing.assert_array_equal(half[1][::2], base[1])
+
+
+def test_the_maps_are_the_recurrence_step_by_step_and_usable_as_made():
+    # Both recurrences on their own threads, each sampling point worked out once and
+    # each map written in place: the maps warp after warp, bit for bit, and a map can
+    # be used as soon as it is made.
+    from fluidnb.videodb._flow_render import _grid, _Maps, _remap
+
+    yy, xx = np.mgrid[:40, :52]
+    v = np.stack([0.7 * np.sin(xx / 7.0), 1.3 + 0.4 * np.cos(yy / 6.0)], axis=-1)
+    v = v.astype(np.float32)
+    steps = 6
+    grid = _grid((40, 52))
+    expected = np.zeros((2 * steps + 1, 40, 52, 2), np.float32)
+    for sign in (1, -1):
+        for s in range(1, steps + 1):
+            prev = expected[steps + sign * (s - 1)]
+            expected[steps + sign * s] = _remap(prev, -sign * v, grid) - sign * v
+    maps = displacement_maps(v, steps)
+    assert np.array_equal(maps.view(np.uint32), expected.view(np.uint32))
+    made = _Maps(v, steps).wait(-2.5, 1)  # the fractional age: both maps around it
+    for s in (-3, -2, -1, 0, 1):
+        assert np.array_equal(made.maps[steps + s], expected[steps + s])
+    assert displacement_maps(v, 0).shape == (1, 40, 52, 2)
+
+
+def test_what_renders_share_is_kept_and_the_clip_stays_the_same(assignment, monkeypatch):
+    # What renders of one photo share (the blend's weights, the colour axes and the
+    # matching's reference side, the advected layer) is kept with the target; the
+    # motion field and the maps with the last assignment, for its loop and travel.
+    # Renders from what is kept are renders made afresh, bit for bit.
+    from fluidnb.videodb import _render
+
+    base = assignment.params
+    other = assignment.resolve(lam=0.0)  # another choice of fragments
+    cases = [
+        (assignment, base),
+        (assignment, base.replace(detail=0.2, cell=24)),
+        (assignment, base.replace(travel=4.0)),
+        (other, base),
+        (assignment, base.replace(tau=0.5)),
+        (assignment, base.replace(rendering="paper")),
+    ]
+    kept = [render(a, p, stages=False).clip.frames for a, p in cases]
+    assert assignment.target in _render._SHARED
+    shared = _render._SHARED[assignment.target]
+    assert {"blend", "layer", ("axes", 48), ("axes", 24), "behind"} <= set(shared)
+    flow = shared["flow"][2]
+    assert not flow["velocity"].flags.writeable
+    for (a, p), clip in zip(cases, kept):
+        _render._SHARED.clear()
+        fresh = render(a, p, stages=False).clip.frames
+        assert np.array_equal(fresh.view(np.uint32), clip.view(np.uint32))
+    assert not np.array_equal(kept[0], kept[2])  # the travel's own field and maps
+    assert not np.array_equal(kept[0], kept[3])
+
+
+def test_a_process_may_end_while_the_maps_are_being_made():
+    # The maps' threads are waited for at exit, also when a daemon thread (an app's
+    # worker) made them: a daemon thread inside OpenCV when the interpreter ends
+    # aborts the process (a script that renders and exits, a kernel shut down after
+    # a prefetch).
+    import subprocess
+    import sys
+
+    code = (
+        "import threading, time\n"
+        "import numpy as np\n"
+        "from fluidnb.videodb._flow_render import _Maps\n"
+        "v = np.full((384, 480, 2), 0.5, np.float32)\n"
+        "threading.Thread(target=_Maps, args=(v, 400), daemon=True).start()\n"
+        "time.sleep(0.1)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=120)
+    assert done.returncode == 0, done.stderr.decode()[-500:]

@@ -67,6 +67,27 @@ def test_rebuilt_fragments_are_sample_version_of_the_frames_bit_for_bit(db):
             assert np.array_equal(colour[i], np.clip(want, 0, 1))
 
 
+def test_fragments_prefiltered_together_are_the_ones_prefiltered_alone(db, monkeypatch):
+    # Fragments of one start and one prefilter are blurred together on the rectangle
+    # around theirs: the same frames bit for bit, with fewer blurs.
+    from fluidnb.videodb import _frames
+
+    ids = spread(db, per_version=12)
+    blurs = []
+    real = _frames._blur
+    monkeypatch.setattr(_frames, "_blur", lambda *a: blurs.append(1) or real(*a))
+    grey = db.fragment_frames(ids, margin=12, grey=True)
+    scaled = np.isin(db.source[ids, 1], [1, 3, 4, 5])  # prefiltered (50, 75 %)
+    assert 0 < len(blurs) < scaled.sum()
+    n = db.params.N
+    for i, fid in enumerate(ids):
+        clip, version, start, row, col = (int(v) for v in db.source[fid])
+        window = db.clip_frames(clip, start, start + n)
+        where = {"origin": (row - 12, col - 12), "size": (72, 72)}
+        want = np.clip(sample_version(luminance(window), version, **where), 0, 1)
+        assert np.array_equal(grey[i], want)
+
+
 def test_rebuilt_fragments_match_the_reference_to_float32_round_off(db):
     ids = spread(db, per_version=1)[::2]
     for grey in (True, False):
