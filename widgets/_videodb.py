@@ -413,6 +413,8 @@ class VideoDBApp(App):
         #: Seconds σ, λ, ρ (or a rendering setting) must rest before the clip is
         #: rendered: the kernel hears no "mouse released", only values.
         self.settle = 0.2
+        #: Seconds the values must rest before a re-solve's fragments are prefetched.
+        self.prefetch_after = 0.08
         self.quiver_segments = 0  #: Arrows of the direction field on the canvas now.
         self.previews = 0  #: Preview frames shown.
         self._preview_cache = (None, {})  # (database, fragment id -> D_t)
@@ -1218,8 +1220,17 @@ class VideoDBApp(App):
             if self._closed or self.assignment is not a or self._values_changed():
                 raise Cancelled
 
-        if self._values_changed():
-            return
+        # Only once the values rest (prefetch_after seconds without a new one): a drag
+        # sends a value every ~30 ms, and a prefetch for each would hold this worker
+        # (30-90 ms measured in Chromium) while the next value waits for its map. A
+        # render that started meanwhile rebuilds what it needs itself.
+        deadline = time.monotonic() + self.prefetch_after
+        while True:
+            if self._closed or self.running or self._values_changed():
+                return
+            if time.monotonic() >= deadline:
+                break
+            time.sleep(0.005)
         # Stopped by a newer value, or settings the render will refuse (and say so).
         with contextlib.suppress(Cancelled, ValueError):
             prefetch(a, self.panel.params, progress=moved)

@@ -815,3 +815,27 @@ def test_a_resolve_rebuilds_the_new_fragments_while_the_values_rest(app, monkeyp
     clip = app.render_clip(timeout=120)
     assert app.status.startswith("rendered in"), app.status
     assert clip.metadata["params"]["sigma"] == app.assignment.params.sigma
+
+
+def test_a_drag_prefetches_only_once_the_values_rest(app, monkeypatch):
+    # A prefetch for every value of a drag would hold the re-solve's worker while the
+    # next value waits for its map: it waits until the values rest (prefetch_after).
+    import fluidnb.widgets._videodb as module
+
+    draw_scene(app)
+    app.run(timeout=120)
+    app.settle = 1e9
+    app.wait_resolve()
+    fetched = []
+    real = module.prefetch
+    monkeypatch.setattr(
+        module, "prefetch", lambda a, *x, **k: fetched.append(a) or real(a, *x, **k)
+    )
+    sigma = app.assignment.params.sigma
+    app.prefetch_after = 0.3
+    # A value every 50 ms: each is re-solved, none rests long enough to be prefetched.
+    drag_sigma(app, [sigma * f for f in (2, 4, 8, 16)], pause=0.05)
+    app.wait_resolve()
+    assert app.resolves >= 2
+    assert fetched == [app.assignment]  # only the last value's, once it rested
+    assert app.assignment.params.sigma == sigma * 16
