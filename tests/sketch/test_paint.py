@@ -3,12 +3,12 @@ import pytest
 
 from fluidnb.sketch import (
     arrow_heads,
-    segment_heads,
     flood_fill,
     paint_disk,
     paint_segment,
     quiver_segments,
     scalar_to_rgba,
+    segment_heads,
 )
 
 
