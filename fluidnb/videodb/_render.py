@@ -151,9 +151,9 @@ def render(
 
         The work all frames share is kept for the next render: with the target (the
         blend's weights, the colour axes, the advected layer, the background behind
-        a moving matte; :func:`prefetch` makes them too) and, for the last assignment
-        rendered, the flow rendering's motion field and displacement maps (~150 MB at
-        480 px). The field and the maps are made on threads while the
+        a moving matte) and, for the last assignment rendered or prefetched
+        (:func:`prefetch`), the flow rendering's motion field and displacement maps
+        (~150 MB at 480 px). The field and the maps are made on threads while the
         fragments are rebuilt and blended, and each run is blended while the frames
         of the one before are made.
     stages : bool
@@ -265,11 +265,11 @@ def prefetch(assignment, params=None, *, progress=None):
     """Rebuild the fragments :func:`render` will need, and make what it shares, ahead.
 
     The first step of :func:`render` alone (each chosen fragment's difference frames
-    from its source clip, into the database's frame cache), then what its frames share
-    for every assignment of the photo (the blend's weights, the colour axes, the
-    advected layer, the background behind a moving matte), kept for it: an app calls
-    it while a slider rests, so the render that follows starts sooner. What is already
-    made costs nothing.
+    from its source clip, into the database's frame cache), then the work its frames
+    share (the flow rendering's motion field and displacement maps, the blend's
+    weights, the colour axes, the background behind a moving matte), kept for it: an
+    app calls it while a slider rests, so the render that follows starts with its
+    first frames. What is already made costs nothing.
 
     Parameters
     ----------
@@ -292,15 +292,14 @@ def prefetch(assignment, params=None, *, progress=None):
     report = Progress(progress)
     rebuild, shared = report.split(0.9)
     done = len(_rebuild(assignment, params, rebuild))
-    # What else render makes before its first frames and keeps with the target: the
-    # blend's weights, the colour axes, the advected layer and (a moving matte) the
-    # background behind the fluid; made once per photo. Not the flow rendering's field
-    # and maps, made for each assignment (~50 ms of both cores): an app calls this
-    # after every re-solve while a slider is dragged, and they slowed its maps.
-    # Asked first whether to go on: an app dragging a slider has moved on by now.
+    # What else render makes before its first frames and keeps: the flow rendering's
+    # motion field and maps for this assignment, the target's blend weights, colour
+    # axes, advected layer and (a moving matte) the background behind the fluid. Asked
+    # first whether to go on: an app dragging a slider has moved on by now.
     shared(0.0, "making what the render's frames share")
     target = assignment.target
     if params.rendering == "flow":
+        _flow_work(assignment, params, assignment.db.params.N)
         _advected_layer(target)
     _blend_plan(target)
     _colour_matching(target, params.cell)

@@ -429,9 +429,9 @@ def test_prefetch_leaves_render_nothing_to_rebuild(anim, monkeypatch):
         raise AssertionError("a fragment was rebuilt again")
 
     monkeypatch.setattr(_frames, "_rebuild_clip", no_reads)
-    # Nor what the frames of every render of the photo share: the blend's weights,
-    # the colour axes, the advected layer (kept with the target).
-    for name in ("_BlendPlan", "_Matching", "extend_outside"):
+    # Nor anything its frames share: the field and maps of this assignment, the
+    # blend's weights, the colour axes (kept with the target, for the next render).
+    for name in ("_flow_plan", "_BlendPlan", "_Matching", "extend_outside"):
         monkeypatch.setattr(_render, name, no_reads)
     np.testing.assert_array_equal(render(a, params).clip.frames, anim.clip.frames)
     with pytest.raises(ValueError, match="assignment must be an Assignment"):
