@@ -17,7 +17,13 @@ from traitlets import Float, Int, Unicode, observe, validate
 
 from fluidnb import as_image, to_uint8
 from fluidnb.fields import resize
-from fluidnb.sketch import arrow_heads, flood_fill, paint_segment, scalar_to_rgba
+from fluidnb.sketch import (
+    arrow_heads,
+    flood_fill,
+    paint_segment,
+    scalar_to_rgba,
+    segment_heads,
+)
 
 from ._common import Choice, plural
 from ._layers import History, PaintLayer, PointLayer, StrokeLayer
@@ -485,11 +491,11 @@ class DrawingCanvas(W.VBox):
         o.stroke_style = color
         o.line_width = 0.6 * self._pen
         xy = segs[..., ::-1] * [self._sx, self._sy] + [self._sx / 2, self._sy / 2]
-        for (x0, y0), (x1, y1) in xy:
-            o.stroke_line(x0, y0, x1, y1)
-        for seg in xy:
-            for tip, end in arrow_heads(seg[:, ::-1], size=1.6 * self._pen):
-                o.stroke_line(tip[1], tip[0], end[1], end[0])
+        # The shafts and heads in one batched command (a quiver has hundreds).
+        heads = segment_heads(xy, size=1.6 * self._pen)
+        lines = np.concatenate([xy, heads]) if len(heads) else xy
+        if len(lines):
+            o.stroke_line_segments(lines.reshape(-1, 2), np.full(len(lines), 2))
 
     def show_segments(self, segments, color="rgba(255, 255, 255, 0.85)"):
         """Draw line segments (k, 2, 2) in image (row, col) on the overlay, with arrow heads.

@@ -3,15 +3,20 @@
 from __future__ import annotations
 
 import html
+import io
 import os
 import re
 from pathlib import Path
 
 import ipywidgets as W
+from PIL import Image
+
+from fluidnb import to_uint8
 
 __all__ = [
     "Choice",
     "hint",
+    "jpeg",
     "math_html",
     "math_text",
     "output_dir",
@@ -126,6 +131,20 @@ def shown_path(path):
         return str(path.resolve().relative_to(Path.cwd().resolve()))
     except ValueError:
         return str(path)
+
+
+def jpeg(picture):
+    """An RGB float picture in [0, 1] as JPEG bytes, for a player's ``W.Image(format="jpeg")``.
+
+    What the apps show while they play or preview: about 1.3 ms and 125 KB for a 480 x 376
+    frame, where a PNG takes 15 ms and 370 KB (at 24 frames a second, a third of a core
+    and 9 MB/s through the notebook's socket). Quality 95 without colour subsampling:
+    no visible loss on the apps' pictures (the exports are made from the frames, not
+    from these).
+    """
+    buf = io.BytesIO()
+    Image.fromarray(to_uint8(picture)).save(buf, format="jpeg", quality=95, subsampling=0)
+    return buf.getvalue()
 
 
 def plural(n, noun, nouns=None):

@@ -3,18 +3,16 @@
 from __future__ import annotations
 
 import html
-import io
 import time
 from pathlib import Path
 
 import ipywidgets as W
-from PIL import Image
 from traitlets import Any, Int, Unicode, observe
 
-from fluidnb import Clip, to_uint8
+from fluidnb import Clip
 
 from ._canvas import STYLE
-from ._common import output_dir, shown_path
+from ._common import jpeg, output_dir, shown_path
 
 __all__ = ["FramePlayer"]
 
@@ -64,10 +62,10 @@ class FramePlayer(W.VBox):
         self.display_width = int(display_width)
         self.export_dir = None if export_dir is None else Path(export_dir)
         self.label = label
-        self._png = {}
+        self._encoded = {}
         self._ready = 0  # frames of the clip that are made (all but while streaming)
         self._streaming = None  # the clip being streamed (stream), until it is set
-        self.image = W.Image(format="png", layout=W.Layout(width=f"{self.display_width}px"))
+        self.image = W.Image(format="jpeg", layout=W.Layout(width=f"{self.display_width}px"))
         self.image.add_class("fluidnb-frame")
         self._play = W.Play(interval=125, step=1, repeat=True, show_repeat=True)
         self._play.add_class("fluidnb-play")
@@ -122,7 +120,7 @@ class FramePlayer(W.VBox):
             self._ready = len(clip)
             self._show_state(clip)
             return
-        self._png = {}
+        self._encoded = {}
         streamed = clip is not None and clip is self._streaming
         if not streamed:
             self._streaming = None
@@ -207,12 +205,10 @@ class FramePlayer(W.VBox):
         self._play.interval = max(int(round(1000.0 / change["new"])), 10)
 
     def _encode(self, i):
-        png = self._png.get(i)
-        if png is None:
-            buf = io.BytesIO()
-            Image.fromarray(to_uint8(self.clip.frames[i])).save(buf, format="png", compress_level=1)
-            png = self._png[i] = buf.getvalue()
-        return png
+        data = self._encoded.get(i)
+        if data is None:
+            data = self._encoded[i] = jpeg(self.clip.frames[i])
+        return data
 
     def _show(self, i):
         i = int(min(max(i, 0), self._ready - 1))

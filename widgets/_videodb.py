@@ -27,7 +27,13 @@ from traitlets import Any, Int
 
 from fluidnb import Cancelled, Progress, as_image, to_uint8
 from fluidnb.fields import resize
-from fluidnb.sketch import arrow_heads, direction_field, load_strokes, quiver_segments, save_strokes
+from fluidnb.sketch import (
+    direction_field,
+    load_strokes,
+    quiver_segments,
+    save_strokes,
+    segment_heads,
+)
 from fluidnb.videodb import (
     FRAGMENT,
     STARTER_KINDS,
@@ -49,7 +55,7 @@ from fluidnb.videodb import (
 
 from ._app import App, LatestWins, _in_kernel, _quick_mode
 from ._canvas import DrawingCanvas
-from ._common import Choice, hint, output_dir, plural, row, shown_path
+from ._common import Choice, hint, jpeg, output_dir, plural, row, shown_path
 from ._panel import ParamPanel
 from ._player import FramePlayer
 
@@ -199,8 +205,7 @@ class _AssignmentMap(W.VBox):
         layer.stroke_rects(corner[:, 0], corner[:, 1], STRIDE * s, STRIDE * s)
         arrows = (self.motion_segments()[..., ::-1] + 0.5) * s  # (row, col) -> (x, y)
         if len(arrows):
-            heads = [arrow_heads(seg, size=3.5) for seg in arrows]
-            lines = np.concatenate([arrows, *heads])
+            lines = np.concatenate([arrows, segment_heads(arrows, size=3.5)])
             layer.stroke_style = "rgba(255, 255, 255, 0.95)"
             layer.line_width = 1.5
             layer.stroke_line_segments(lines.reshape(-1, 2), np.full(len(lines), 2))
@@ -408,6 +413,8 @@ class VideoDBApp(App):
         #: Seconds σ, λ, ρ (or a rendering setting) must rest before the clip is
         #: rendered: the kernel hears no "mouse released", only values.
         self.settle = 0.2
+        #: Seconds the values must rest before a re-solve's fragments are prefetched.
+        self.prefetch_after = 0.08
         self.quiver_segments = 0  #: Arrows of the direction field on the canvas now.
         self.previews = 0  #: Preview frames shown.
         self._preview_cache = (None, {})  # (database, fragment id -> D_t)
@@ -1213,8 +1220,17 @@ class VideoDBApp(App):
             if self._closed or self.assignment is not a or self._values_changed():
                 raise Cancelled
 
-        if self._values_changed():
-            return
+        # Only once the values rest (prefetch_after seconds without a new one): a drag
+        # sends a value every ~30 ms, and a prefetch for each would hold this worker
+        # (30-90 ms measured in Chromium) while the next value waits for its map. A
+        # render that started meanwhile rebuilds what it needs itself.
+        deadline = time.monotonic() + self.prefetch_after
+        while True:
+            if self._closed or self.running or self._values_changed():
+                return
+            if time.monotonic() >= deadline:
+                break
+            time.sleep(0.005)
         # Stopped by a newer value, or settings the render will refuse (and say so).
         with contextlib.suppress(Cancelled, ValueError):
             prefetch(a, self.panel.params, progress=moved)
@@ -1246,7 +1262,7 @@ class VideoDBApp(App):
         picture = preview_frame(
             a, params, factor=_PREVIEW_FACTOR, levels=_PREVIEW_LEVELS, cache=cache
         )
-        png = _png(picture)
+        data = jpeg(picture)  # the player's format
         if self.assignment is not a:
             return  # a newer one is on its way
         # One line under the picture (a longer one would push the map down); the rest
@@ -1272,7 +1288,7 @@ class VideoDBApp(App):
                 f"<span class='fluidnb-vdb-preview' title='{html.escape(title)}' "
                 f"style='opacity:0.85;white-space:nowrap'>{html.escape(note)}</span>"
             )
-            self.player.image.value = png
+            self.player.image.value = data
             self.player.image.layout.display = None
             self.previews += 1
 
@@ -1419,8 +1435,10 @@ class VideoDBApp(App):
         a = self.assignment
         if a is None or a.target.shape != self.photo.shape[:2]:
             return
-        self.map.set_assignment(a)
+        # The energy and its sigma, lambda, rho first: the map never shows under the
+        # values of the one before (each widget sends its own message).
         self._show_energy()
+        self.map.set_assignment(a)
 
     def _show_energy(self):
         a = self.assignment
@@ -1517,13 +1535,6 @@ class VideoDBApp(App):
         if hasattr(self, "map"):
             self.map.close()
         super().close()
-
-
-def _png(picture):
-    """An RGB float picture in [0, 1] as PNG bytes (fast: the player shows it at once)."""
-    buf = io.BytesIO()
-    Image.fromarray(to_uint8(picture)).save(buf, format="png", compress_level=1)
-    return buf.getvalue()
 
 
 def _strip_png(images):

@@ -1,7 +1,7 @@
 """From what a user draws to plain arrays: strokes, brushes and direction fields."""
 
 from ._direction import check_strokes, direction_field, resample_stroke, stroke_tangents
-from ._draw import arrow_heads, quiver_segments, scalar_to_rgba
+from ._draw import arrow_heads, quiver_segments, scalar_to_rgba, segment_heads
 from ._files import load_strokes, save_strokes
 from ._paint import flood_fill, paint_disk, paint_segment
 
@@ -17,5 +17,6 @@ __all__ = [
     "resample_stroke",
     "save_strokes",
     "scalar_to_rgba",
+    "segment_heads",
     "stroke_tangents",
 ]

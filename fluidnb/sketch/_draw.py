@@ -6,7 +6,7 @@ import numpy as np
 
 from .._validation import check_array, check_int, check_range, check_vector_field
 
-__all__ = ["arrow_heads", "quiver_segments", "scalar_to_rgba"]
+__all__ = ["arrow_heads", "quiver_segments", "scalar_to_rgba", "segment_heads"]
 
 
 def arrow_heads(points, size=6.0, angle=25.0):
@@ -46,6 +46,49 @@ def arrow_heads(points, size=6.0, angle=25.0):
         rot = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
         out.append([tip, tip + size * (rot @ d)])
     return np.array(out)
+
+
+def segment_heads(segments, size=6.0, angle=25.0):
+    """The arrow heads of many straight segments at once (what :func:`arrow_heads` draws).
+
+    A quiver or the video-database app's motion map draws a few hundred arrows each
+    time a slider moves; one array expression for all of them instead of a call each
+    (about 25 us per arrow).
+
+    Parameters
+    ----------
+    segments : array_like, shape (k, 2, 2)
+        Segments ``[start, tip]`` in (row, col).
+    size, angle : float
+        As :func:`arrow_heads`.
+
+    Returns
+    -------
+    ndarray, shape (2 m, 2, 2)
+        The two barbs ``[tip, barb_end]`` of each of the m segments that have length,
+        in segment order (both barbs of the first, then of the second, ...).
+
+    Examples
+    --------
+    >>> segment_heads([[[0, 0], [0, 10]]], size=2, angle=90).round(6).tolist()
+    [[[0.0, 10.0], [-2.0, 10.0]], [[0.0, 10.0], [2.0, 10.0]]]
+    """
+    seg = np.asarray(segments, dtype=float)
+    if seg.ndim != 3 or seg.shape[1:] != (2, 2):
+        raise ValueError(f"segments must have shape (k, 2, 2), got {seg.shape}")
+    check_array("segments", seg.reshape(-1, 2), ndim=2, dtype_kinds="f", min_size=0)
+    tip = seg[:, 1]
+    d = tip - seg[:, 0]
+    length = np.linalg.norm(d, axis=1)
+    keep = length > 1e-9
+    tip, d = tip[keep], d[keep] / length[keep, None]
+    out = np.empty((len(tip), 2, 2, 2))
+    for j, sign in enumerate((1.0, -1.0)):
+        a = np.deg2rad(180.0 - sign * angle)
+        rot = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+        out[:, j, 0] = tip
+        out[:, j, 1] = tip + size * (d @ rot.T)
+    return out.reshape(-1, 2, 2)
 
 
 def quiver_segments(field, step=16, length=None):

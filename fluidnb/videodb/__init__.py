@@ -27,8 +27,8 @@ One idea per module, in the order of the method:
   their cache);
 - the assignment (sec. 5): ``_target`` (the target cut into fragments, the user's
   motion), ``_retrieval`` (top-K by Eq. 1, the motion filter), ``_smoothness`` (Eq. 2,
-  3, 6 in bulk), ``_mrf`` (Eq. 4, 5 and the solvers), ``_assign`` (the
-  :class:`Assignment`);
+  3, 6 in bulk), ``_mrf`` (Eq. 4, 5 and the solvers), ``_maxflow`` (the expansion
+  moves' minimum cuts, Boykov & Kolmogorov 2004), ``_assign`` (the :class:`Assignment`);
 - the rendering (sec. 6): ``_blend`` (multi-band blending of the differences),
   ``_appearance`` (motion blur, histogram matching), ``_composite`` (moving matte,
   background, loop, composite), ``_fill`` (exemplar-based fill of the background,

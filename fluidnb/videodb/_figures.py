@@ -177,8 +177,13 @@ def clip_map_picture(photo, clip_map=None, *, shape=None):
     cols = np.minimum((np.arange(cw) * w / cw).astype(int), w - 1)
     k = np.asarray(clip_map)[rows][:, cols]
     inside = k >= 0
-    colour = CLIP_PALETTE[np.where(inside, k, 0) % len(CLIP_PALETTE)] / 255.0
-    return np.where(inside[..., None], (1 - _TINT) * shown + _TINT * colour, _SHADE * shown)
+    # One table lookup per pixel, no masks (an app redraws this as a slider moves):
+    # the photo's weight and the colour added, the last row for pixels outside.
+    n = len(CLIP_PALETTE)
+    which = np.where(inside, k % n, n)
+    scale = np.array([1 - _TINT, _SHADE], dtype=shown.dtype)[np.where(inside, 0, 1)]
+    added = np.vstack([_TINT * (CLIP_PALETTE / 255.0), np.zeros((1, 3))])
+    return shown * scale[..., None] + added[which]
 
 
 def motion_arrows(assignment, *, gain=None, thin=False):

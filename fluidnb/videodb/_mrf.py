@@ -19,10 +19,13 @@ normalised histogram intersection :math:`I \in [0, 1]`. The paper writes
 :math:`V_p = I` (Eq. 5), which a minimisation would turn into a reward for
 *dissimilar* fragments; the caller passes :math:`1 - I`.
 
-The energy (:func:`energy`) and its solvers: alpha-expansion over label indices on
-PyMaxflow (:func:`alpha_expansion`), iterated conditional modes (:func:`icm`), the
-spec's recipe combining them (:func:`solve`), and exhaustive search for tiny problems
-(:func:`brute_force`).
+The energy (:func:`energy`) and its solvers: alpha-expansion over label indices
+(:func:`alpha_expansion`: each sweep of moves compiled, every move's minimum cut by our
+Boykov-Kolmogorov max-flow, :mod:`fluidnb.videodb._maxflow`), iterated conditional
+modes (:func:`icm`), the spec's recipe combining them (:func:`solve`), and exhaustive
+search for tiny problems (:func:`brute_force`). The plain versions,
+:func:`fluidnb.videodb.reference_alpha_expansion` (numpy and PyMaxflow) and
+:func:`fluidnb.videodb.reference_icm`, give the same labels and energies to the bit.
 
 Labels are per-node candidate *indices* (node :math:`p`'s label :math:`\alpha` is its
 :math:`\alpha`-th candidate, a different fragment from node :math:`q`'s), so
@@ -48,15 +51,19 @@ References
 
 from __future__ import annotations
 
+import os
+import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import TimeoutError as FuturesTimeout
 from dataclasses import dataclass, field
 
-import maxflow
 import numpy as np
 from numba import njit
 
-from .._progress import Progress
-from .._validation import check_array, check_int, check_range
+from .._progress import Cancelled, Progress
+from .._validation import check_array, check_finite, check_int, check_range
+from . import _maxflow
 
 __all__ = [
     "MRFSolution",
@@ -177,9 +184,26 @@ class _Problem:
         return np.argmin(self.unary, axis=1).astype(np.int64)
 
 
+#: The exponent bits of a float64: all set in NaN and infinities only.
+_EXPONENT = np.uint64(0x7FF0000000000000)
+
+
+@njit(cache=True, nogil=True)
+def _all_finite(bits):
+    """Whether none of the float64 values (``bits``, viewed as uint64) is NaN or infinite.
+
+    An integer maximum over the exponent bits, which the compiler vectorises: 0.5 ms
+    for the app's 25 MB table, where numpy's ``isfinite(w).all()`` took 1.2 ms.
+    """
+    top = np.uint64(0)
+    for b in bits:
+        top = max(top, b & _EXPONENT)
+    return top != _EXPONENT
+
+
 def _problem(unary, pairwise, edges, lam):
     v = check_array("unary", unary, ndim=2, dtype_kinds="biuf")
-    w = check_array("pairwise", pairwise, ndim=3, dtype_kinds="biuf", min_size=0)
+    w = check_array("pairwise", pairwise, ndim=3, dtype_kinds="biuf", min_size=0, finite=False)
     n_nodes, k = v.shape
     e = _check_edges(edges, n_nodes)
     if w.shape != (len(e), k, k):
@@ -189,6 +213,8 @@ def _problem(unary, pairwise, edges, lam):
         )
     lam = check_range("lam", lam, 0)
     w = np.ascontiguousarray(w, dtype=np.float64)
+    if not _all_finite(w.reshape(-1).view(np.uint64)):
+        check_finite("pairwise", w)  # raises, counting the values
     return _Problem(
         unary=np.asarray(v, dtype=np.float64),
         pairwise=w,
@@ -271,39 +297,29 @@ class SolverRun:
         return float(self.energies[-1])
 
 
-def _cut_and_move(prob, labels, current, alpha, cap, cost1):
-    """The minimum cut of one expansion move's graph, and the move if it lowers Eq. (4).
-
-    ``cap`` holds the (truncated) pairwise capacities of the edges ``(p, q)`` and
-    ``cost1`` each node's cost of taking ``alpha`` (Kolmogorov & Zabih's construction on
-    PyMaxflow's ``Graph[float]``). Returns (labels, energy, whether it moved).
-    """
-    n_nodes, p, q = prob.n_nodes, prob.p, prob.q
-    g = maxflow.Graph[float](n_nodes, len(p))
-    nodes = g.add_nodes(n_nodes)
-    g.add_edges(nodes[p], nodes[q], cap, np.zeros(len(p)))
-    # A node in the sink segment (x = 1) pays its source capacity.
-    g.add_grid_tedges(nodes, np.maximum(cost1, 0.0), np.maximum(-cost1, 0.0))
-    g.maxflow()
-    take = g.get_grid_segments(nodes) & (labels != alpha)
-    if take.any():
-        proposal = np.where(take, alpha, labels)
-        new = prob.energy(proposal)
-        if new < current:
-            return proposal, new, True
-    return labels, current, False
+def _finished(labels, energies, sweeps, t0, truncated=0, free_terms=0):
+    """The :class:`SolverRun` of a run started at ``t0`` (``time.perf_counter()``)."""
+    return SolverRun(
+        labels=labels,
+        energies=np.array(energies),
+        sweeps=sweeps,
+        nonsubmodular=truncated / free_terms if free_terms else 0.0,
+        seconds=time.perf_counter() - t0,
+    )
 
 
 @njit(cache=True, nogil=True)
-def _move_terms(flat, base, k, unary, labels, p, q, lam, alpha, cap, cost1, sp, sq):
+def _move_terms(unary, labels, p, q, lam, alpha, tables, cap, cost1, sp, sq):
     """One expansion move's graph terms in one pass over the edges.
 
-    As :func:`~fluidnb.videodb.reference_alpha_expansion` builds them with numpy.
-
-    Writes the (truncated) pairwise capacities ``cap`` and the nodes' cost of taking
-    alpha ``cost1``, with the same operations in the same order as the plain version
-    (so the same bits); returns (truncated terms, free terms).
+    As :func:`~fluidnb.videodb.reference_alpha_expansion` builds them with numpy:
+    writes the (truncated) pairwise capacities ``cap`` and the nodes' cost of taking
+    alpha ``cost1``, with the same operations in the same order (so the same bits);
+    returns (truncated terms, free terms). The four values of :math:`W_{pq}` each edge
+    needs come from :func:`_label_tables` (rows read in order, not four scattered
+    reads of the (E, K, K) table).
     """
+    now, row, col, diag = tables
     n_nodes = unary.shape[0]
     truncated = 0
     free_terms = 0
@@ -313,11 +329,10 @@ def _move_terms(flat, base, k, unary, labels, p, q, lam, alpha, cap, cost1, sp, 
     for e in range(p.shape[0]):
         lp = labels[p[e]]
         lq = labels[q[e]]
-        b = base[e]
-        e00 = lam * flat[b + lp * k + lq]
-        e01 = lam * flat[b + lp * k + alpha]
-        e10 = lam * flat[b + alpha * k + lq]
-        e11 = lam * flat[b + alpha * k + alpha]
+        e00 = lam * now[e]
+        e01 = lam * row[alpha, e]
+        e10 = lam * col[alpha, e]
+        e11 = lam * diag[alpha, e]
         c = e01 + e10 - e00 - e11
         free = lp != alpha and lq != alpha
         if free:
@@ -335,95 +350,272 @@ def _move_terms(flat, base, k, unary, labels, p, q, lam, alpha, cap, cost1, sp, 
     return truncated, free_terms
 
 
-def _compiled_move_terms(prob):
-    """``terms(labels, alpha) -> (cap, cost1, truncated, free)`` by :func:`_move_terms`.
-
-    The buffers are reused from move to move (each move's cut reads them at once).
-    """
-    n_nodes, k = prob.n_nodes, prob.n_labels
-    cap, cost1 = np.empty(len(prob.p)), np.empty(n_nodes)
-    sp, sq = np.empty(n_nodes), np.empty(n_nodes)
-    flat, base = prob.flat, np.ascontiguousarray(prob.base, np.int64)
-    unary = np.ascontiguousarray(prob.unary)
-
-    def terms(labels, alpha):
-        n_trunc, n_free = _move_terms(
-            flat, base, k, unary, labels, prob.p, prob.q, prob.lam, alpha, cap, cost1, sp, sq
-        )
-        return cap, cost1, n_trunc, n_free
-
-    return terms
-
-
-def _expand(prob, labels, max_sweeps, report, terms=None):
-    """Alpha-expansion over label indices with Rother-style truncation.
-
-    Sweeps over every alpha until one brings no improvement: each move's graph terms
-    from ``terms(labels, alpha)`` (default :func:`_move_terms`, compiled;
-    :func:`~fluidnb.videodb.reference_alpha_expansion` passes the same terms built with
-    numpy), then its minimum cut (:func:`_cut_and_move`).
-    """
-    t0 = time.perf_counter()
-    k = prob.n_labels
-    terms = _compiled_move_terms(prob) if terms is None else terms
-    labels = labels.copy()
-    current = prob.energy(labels)
-    energies = [current]
-    truncated = free_terms = 0
-    sweeps = 0
-    # A move that failed is not tried again until the labels change: on the same
-    # labels it builds the same graph and fails the same way (so skipping it changes
-    # nothing, its term counts included). A converging run's last sweeps are mostly
-    # such moves.
-    changes = 0  # moves made so far: the labels' version
-    failed = {}  # alpha -> (version it failed on, its truncated and free terms)
-    for sweep in range(max_sweeps):
-        improved = False
-        for alpha in range(k):
-            known = failed.get(alpha)
-            if known is not None and known[0] == changes:
-                n_trunc, n_free = known[1:]
-                moved = False
-            else:
-                cap, cost1, n_trunc, n_free = terms(labels, alpha)
-                labels, current, moved = _cut_and_move(prob, labels, current, alpha, cap, cost1)
-                if moved:
-                    changes += 1
-                else:
-                    failed[alpha] = (changes, n_trunc, n_free)
-            truncated += n_trunc
-            free_terms += n_free
-            improved |= moved
-            report((sweep + (alpha + 1) / k) / max_sweeps, f"alpha-expansion sweep {sweep + 1}")
-        sweeps += 1
-        energies.append(current)
-        if not improved:
-            break
-    return SolverRun(
-        labels=labels,
-        energies=np.array(energies),
-        sweeps=sweeps,
-        nonsubmodular=truncated / free_terms if free_terms else 0.0,
-        seconds=time.perf_counter() - t0,
-    )
+@njit(cache=True, nogil=True)
+def _diagonal(w):
+    """``diag[a, e]`` = :math:`W_e(a, a)`, label-major (see :func:`_label_tables`)."""
+    n_edges, k = w.shape[0], w.shape[1]
+    diag = np.empty((k, n_edges))
+    for e in range(n_edges):
+        for a in range(k):
+            diag[a, e] = w[e, a, a]
+    return diag
 
 
 @njit(cache=True, nogil=True)
-def _icm_sweep(unary, w, lam, labels, ptr_p, edge_p, other_p, ptr_q, edge_q, other_q, cost):
-    """One ICM sweep in node order: the sums of ``reference_icm`` in the same order."""
+def _label_tables(w, labels, p, q, diag):
+    """The values of W a move reads, per edge, for the current labels.
+
+    ``now[e]`` = :math:`W_e(l_p, l_q)`, ``row[a, e]`` = :math:`W_e(l_p, a)`,
+    ``col[a, e]`` = :math:`W_e(a, l_q)`, and ``diag`` (:func:`_diagonal`, which does
+    not depend on the labels): label-major, so a move (one ``a``) reads each in edge
+    order. :func:`_relabel` keeps them up to date as labels change.
+    """
+    n_edges, k = w.shape[0], w.shape[1]
+    now = np.empty(n_edges)
+    row, col = np.empty((k, n_edges)), np.empty((k, n_edges))
+    for e in range(n_edges):
+        lp, lq = labels[p[e]], labels[q[e]]
+        now[e] = w[e, lp, lq]
+        for a in range(k):
+            row[a, e] = w[e, lp, a]
+            col[a, e] = w[e, a, lq]
+    return now, row, col, diag
+
+
+def _tables(prob, labels, diag=None):
+    """:func:`_label_tables` of ``labels`` (with ``diag`` if already made)."""
+    diag = _diagonal(prob.pairwise) if diag is None else diag
+    return _label_tables(prob.pairwise, labels, prob.p, prob.q, diag)
+
+
+@njit(cache=True, nogil=True)
+def _relabel(w, labels, proposal, p, q, tables, pair):
+    """Take ``proposal`` (the move's labels) and bring :func:`_label_tables` up to date.
+
+    ``pair[e]`` holds :math:`W_e` of the proposal (:func:`_energy` left it there).
+    """
+    now, row, col, _ = tables
+    k = w.shape[1]
+    for e in range(p.shape[0]):
+        now[e] = pair[e]
+        lp, lq = proposal[p[e]], proposal[q[e]]
+        if lp != labels[p[e]]:
+            for a in range(k):
+                row[a, e] = w[e, lp, a]
+        if lq != labels[q[e]]:
+            for a in range(k):
+                col[a, e] = w[e, a, lq]
+    labels[:] = proposal
+
+
+@njit(cache=True, nogil=True)
+def _block_sum(a, lo, n):
+    """The sum of one block of up to 128 values as numpy adds it: eight running sums."""
+    if n < 8:
+        total = 0.0
+        for i in range(lo, lo + n):
+            total += a[i]
+        return total
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    whole = n - n % 8
+    for i in range(lo + 8, lo + whole, 8):
+        r0 += a[i]
+        r1 += a[i + 1]
+        r2 += a[i + 2]
+        r3 += a[i + 3]
+        r4 += a[i + 4]
+        r5 += a[i + 5]
+        r6 += a[i + 6]
+        r7 += a[i + 7]
+    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    for i in range(lo + whole, lo + n):
+        total += a[i]
+    return total
+
+
+@njit(cache=True, nogil=True)
+def _pairwise_sum(a):
+    """``a.sum()`` of a contiguous float64 array, to the bit (numpy's pairwise sum).
+
+    numpy sums blocks of up to 128 values (:func:`_block_sum`) and halves longer
+    ranges (the first half a multiple of 8), adding the two halves' sums; here with a
+    stack of ranges instead of recursion (numba's cache cannot load a function that
+    calls a recursive one: it crashes).
+    """
+    n = len(a)
+    if n <= 128:
+        return 0.0 + _block_sum(a, 0, n)  # numpy adds to its start value, 0
+    # Tasks: (lo, n) to sum, or (-1, 0) to add the two last sums.
+    task_lo = np.empty(192, np.int64)
+    task_n = np.empty(192, np.int64)
+    sums = np.empty(96)
+    task_lo[0], task_n[0] = 0, n
+    tasks, found = 1, 0
+    while tasks:
+        tasks -= 1
+        lo, m = task_lo[tasks], task_n[tasks]
+        if lo < 0:
+            found -= 1
+            sums[found - 1] += sums[found]  # (left + right): addition commutes exactly
+        elif m <= 128:
+            sums[found] = _block_sum(a, lo, m)
+            found += 1
+        else:
+            half = m // 2
+            half -= half % 8
+            task_lo[tasks], task_n[tasks] = -1, 0
+            task_lo[tasks + 1], task_n[tasks + 1] = lo + half, m - half
+            task_lo[tasks + 2], task_n[tasks + 2] = lo, half
+            tasks += 3
+    return 0.0 + sums[0]
+
+
+@njit(cache=True, nogil=True)
+def _energy(unary, proposal, alpha, p, q, lam, tables, data, pair):
+    """Eq. (4) of an expansion move's labels as :meth:`_Problem.energy` computes it.
+
+    The same values summed in the same order (numpy's, :func:`_pairwise_sum`), so the
+    same bits; each edge's :math:`W_e` is looked up in :func:`_label_tables` (a node
+    either kept its label or took alpha). ``data`` and ``pair`` are scratch space of P
+    and E values (``pair`` is left holding each edge's :math:`W_e`).
+    """
+    now, row, col, diag = tables
+    for n in range(unary.shape[0]):
+        data[n] = unary[n, proposal[n]]
+    for e in range(p.shape[0]):
+        at_p, at_q = proposal[p[e]] == alpha, proposal[q[e]] == alpha
+        if at_p and at_q:
+            pair[e] = diag[alpha, e]
+        elif at_p:
+            pair[e] = col[alpha, e]
+        elif at_q:
+            pair[e] = row[alpha, e]
+        else:
+            pair[e] = now[e]
+    return _pairwise_sum(data) + lam * _pairwise_sum(pair)
+
+
+@njit(cache=True, nogil=True)
+def _expansion_sweep(w, unary, p, q, lam, graph, labels, current, changes, failed, scratch, work):
+    """One sweep of alpha-expansion moves over every alpha, in place.
+
+    For each alpha: the move's graph terms (:func:`_move_terms`), its minimum cut
+    (:func:`~fluidnb.videodb._maxflow.maxflow`: the nodes on the sink side take alpha)
+    and, if some node moves, the true energy (:func:`_energy`), the move kept only if
+    it drops. ``failed[0, alpha]`` is the number of moves made (the labels' version)
+    when alpha last failed, -1 if never, ``failed[1:, alpha]`` that move's truncated
+    and free terms: a move that failed is not tried again on the same labels (it
+    would build the same graph and fail the same way). ``scratch`` holds the
+    :func:`_label_tables` of ``labels``, kept up to date. Returns (whether a move was
+    made, the energy, moves made so far, and this sweep's truncated terms, free terms
+    and cuts).
+    """
+    n_nodes, k = unary.shape
+    n_edges = len(p)
+    start, head, sister, slot = graph
+    tables, (r_cap, cap, tr_cap, sp, sq, data, pair) = scratch
+    proposal = np.empty(n_nodes, np.int64)
+    improved = False
+    truncated = free_terms = cuts = 0
+    for alpha in range(k):
+        if failed[0, alpha] == changes:
+            truncated += failed[1, alpha]
+            free_terms += failed[2, alpha]
+            continue
+        # A node on the sink side (x = 1) pays its source capacity: the node's
+        # terminal residual (source minus sink capacity) is its cost of taking alpha.
+        n_trunc, n_free = _move_terms(unary, labels, p, q, lam, alpha, tables, cap, tr_cap, sp, sq)
+        truncated += n_trunc
+        free_terms += n_free
+        for e in range(n_edges):  # the edge's arcs p -> q and q -> p
+            r_cap[slot[2 * e]] = cap[e]
+            r_cap[slot[2 * e + 1]] = 0.0
+        _maxflow.maxflow(start, head, sister, r_cap, tr_cap, work)
+        cuts += 1
+        moves = False
+        for n in range(n_nodes):
+            take = work[0, n] != -1 and work[4, n] != 0 and labels[n] != alpha
+            proposal[n] = alpha if take else labels[n]
+            moves |= take
+        moved = False
+        if moves:
+            new = _energy(unary, proposal, alpha, p, q, lam, tables, data, pair)
+            if new < current:
+                _relabel(w, labels, proposal, p, q, tables, pair)
+                current = new
+                changes += 1
+                moved = improved = True
+        if not moved:
+            failed[0, alpha] = changes
+            failed[1, alpha] = n_trunc
+            failed[2, alpha] = n_free
+    return improved, current, changes, truncated, free_terms, cuts
+
+
+def _expand(prob, labels, max_sweeps, report, counts=None, tables=None):
+    """Alpha-expansion over label indices with Rother-style truncation, compiled.
+
+    Sweeps over every alpha until one brings no improvement, each sweep one call of
+    :func:`_expansion_sweep` (moves, cuts and energies in compiled code); Python only
+    between sweeps, to report progress (and so to cancel). ``tables``: the
+    :func:`_label_tables` of ``labels`` if already made (they are updated in place).
+    ``counts``, a dict, gets the number of minimum cuts computed (``"cuts"``).
+    """
+    t0 = time.perf_counter()
+    n_nodes, k, n_edges = prob.n_nodes, prob.n_labels, len(prob.p)
+    unary = np.ascontiguousarray(prob.unary)
+    graph = _maxflow.arcs(n_nodes, prob.p, prob.q)
+    work = _maxflow.workspace(n_nodes)
+    labels = labels.copy()
+    buffers = (np.empty(2 * n_edges), np.empty(n_edges))
+    buffers += tuple(np.empty(n_nodes) for _ in range(4)) + (np.empty(n_edges),)
+    scratch = (_tables(prob, labels) if tables is None else tables, buffers)
+    failed = np.full((3, k), -1, np.int64)
+    current = prob.energy(labels)
+    energies = [current]
+    truncated = free_terms = changes = sweeps = cuts = 0
+    for sweep in range(max_sweeps):
+        improved, current, changes, n_trunc, n_free, n_cuts = _expansion_sweep(
+            prob.pairwise, unary, prob.p, prob.q, prob.lam, graph, labels, current, changes,
+            failed, scratch, work,
+        )  # fmt: skip
+        truncated += n_trunc
+        free_terms += n_free
+        cuts += n_cuts
+        sweeps += 1
+        energies.append(current)
+        report((sweep + 1) / max_sweeps, f"alpha-expansion sweep {sweep + 1}")
+        if not improved:
+            break
+    if counts is not None:
+        counts["cuts"] = cuts
+    return _finished(labels, energies, sweeps, t0, truncated, free_terms)
+
+
+@njit(cache=True, nogil=True)
+def _icm_sweep(unary, w, lam, labels, p, ptr_p, edge_p, ptr_q, edge_q, col, cost):
+    r"""One ICM sweep in node order: the sums of ``reference_icm`` in the same order.
+
+    Node ``n``'s costs add :math:`W_e(\cdot, l_q)` where ``n`` is edge ``e``'s ``p``,
+    read from ``col[e]`` (a copy of that column, updated when ``q`` changes, so that
+    the sums run over contiguous values), and :math:`W_e(l_p, \cdot)` where it is its
+    ``q``, a row of ``w``.
+    """
     n_nodes, k = unary.shape
     changed = False
     for n in range(n_nodes):
         for lab in range(k):
             cost[lab] = unary[n, lab]
         for i in range(ptr_p[n], ptr_p[n + 1]):
-            e, lm = edge_p[i], labels[other_p[i]]
+            e = edge_p[i]
             for lab in range(k):
-                cost[lab] += lam * w[e, lab, lm]
+                cost[lab] += lam * col[e, lab]
         for i in range(ptr_q[n], ptr_q[n + 1]):
-            e, lm = edge_q[i], labels[other_q[i]]
+            e = edge_q[i]
+            lp = labels[p[e]]
             for lab in range(k):
-                cost[lab] += lam * w[e, lm, lab]
+                cost[lab] += lam * w[e, lp, lab]
         best = 0
         for lab in range(1, k):
             if cost[lab] < cost[best]:  # the first minimum, as np.argmin
@@ -431,24 +623,40 @@ def _icm_sweep(unary, w, lam, labels, ptr_p, edge_p, other_p, ptr_q, edge_q, oth
         if cost[best] < cost[labels[n]]:
             labels[n] = best
             changed = True
+            for i in range(ptr_q[n], ptr_q[n + 1]):
+                e = edge_q[i]
+                for a in range(k):
+                    col[e, a] = w[e, a, best]
     return changed
 
 
-def _compiled_icm_sweep(prob):
+@njit(cache=True, nogil=True)
+def _columns(w, labels, q):
+    """``col[e, a]`` = :math:`W_e(a, l_q)`, each edge's column for its ``q``'s label."""
+    n_edges, k = w.shape[0], w.shape[1]
+    col = np.empty((n_edges, k))
+    for e in range(n_edges):
+        lq = labels[q[e]]
+        for a in range(k):
+            col[e, a] = w[e, a, lq]
+    return col
+
+
+def _compiled_icm_sweep(prob, labels):
     """``sweep(labels) -> changed``: one ICM sweep by :func:`_icm_sweep` (in place)."""
     n_nodes = prob.n_nodes
-    # For node n, its edges where it is p (then W[e, :, l_q]) and where it is q, each in
-    # edge order (a stable sort), as compressed rows.
-    tables = []
-    for me, other in ((prob.p, prob.q), (prob.q, prob.p)):
-        order = np.argsort(me, kind="stable")
+    # For node n, its edges where it is p and where it is q, each in edge order (a
+    # stable sort), as compressed rows.
+    incident = []
+    for me in (prob.p, prob.q):
         ptr = np.zeros(n_nodes + 1, np.int64)
         np.cumsum(np.bincount(me, minlength=n_nodes), out=ptr[1:])
-        tables += [ptr, order.astype(np.int64), other[order].astype(np.int64)]
-    w = np.ascontiguousarray(prob.pairwise)
+        incident += [ptr, np.argsort(me, kind="stable").astype(np.int64)]
+    w = prob.pairwise
     unary = np.ascontiguousarray(prob.unary)
+    col = _columns(w, labels, prob.q)
     cost = np.empty(prob.n_labels)
-    return lambda labels: _icm_sweep(unary, w, prob.lam, labels, *tables, cost)
+    return lambda labels: _icm_sweep(unary, w, prob.lam, labels, prob.p, *incident, col, cost)
 
 
 def _icm(prob, labels, max_sweeps, report, sweep=None):
@@ -459,8 +667,8 @@ def _icm(prob, labels, max_sweeps, report, sweep=None):
     written with numpy).
     """
     t0 = time.perf_counter()
-    sweep = _compiled_icm_sweep(prob) if sweep is None else sweep
     labels = labels.copy()
+    sweep = _compiled_icm_sweep(prob, labels) if sweep is None else sweep
     energies = [prob.energy(labels)]
     sweeps = 0
     for i in range(max_sweeps):
@@ -470,13 +678,7 @@ def _icm(prob, labels, max_sweeps, report, sweep=None):
         report((i + 1) / max_sweeps, f"ICM sweep {i + 1}")
         if not changed:
             break
-    return SolverRun(
-        labels=labels,
-        energies=np.array(energies),
-        sweeps=sweeps,
-        nonsubmodular=0.0,
-        seconds=time.perf_counter() - t0,
-    )
+    return _finished(labels, energies, sweeps, t0)
 
 
 def _start(prob, init):
@@ -491,7 +693,8 @@ def alpha_expansion(unary, pairwise, edges, lam, *, init=None, max_sweeps=20, pr
     Boykov, Veksler & Zabih's expansion: for each :math:`\alpha = 0 \ldots K-1` in turn,
     every node either keeps its label or takes its own :math:`\alpha`-th candidate,
     whichever a minimum cut of the move's binary energy says (Kolmogorov & Zabih's
-    construction, built vectorised on PyMaxflow's ``Graph[float]``). Because labels
+    construction; the cut by Boykov & Kolmogorov's max-flow, the same cut PyMaxflow
+    gives, :mod:`fluidnb.videodb._maxflow`; each sweep in compiled code). Because labels
     are per-node candidate indices, :math:`W` is not a metric and a move's pairwise
     term :math:`(E_{00}, E_{01}, E_{10}, E_{11})` may be non-submodular
     (:math:`E_{01} + E_{10} < E_{00} + E_{11}`); such terms are truncated by lowering
@@ -519,7 +722,7 @@ def alpha_expansion(unary, pairwise, edges, lam, *, init=None, max_sweeps=20, pr
     max_sweeps : int
         Largest number of sweeps over all :math:`\alpha`.
     progress : callable, optional
-        ``progress(fraction, message)``, called after every move; raising
+        ``progress(fraction, message)``, called after every sweep; raising
         :class:`fluidnb.Cancelled` stops.
 
     Returns
@@ -619,7 +822,9 @@ def solve(unary, pairwise, edges, lam, *, max_sweeps=20, progress=None):
     Runs ICM from the unary argmin, then :func:`alpha_expansion` once from the unary
     argmin and once from ICM's result, and keeps the labelling of lower energy (the
     argmin start on a tie). Since expansion never raises the energy, the result is
-    never worse than ICM.
+    never worse than ICM. The run from the argmin does not wait for ICM: on two or
+    more cores it runs on a thread of its own beside the other two (the same result,
+    ~30 % sooner at the app's size).
 
     Parameters
     ----------
@@ -644,14 +849,28 @@ def solve(unary, pairwise, edges, lam, *, max_sweeps=20, progress=None):
     """
     prob = _problem(unary, pairwise, edges, lam)
     max_sweeps = check_int("max_sweeps", max_sweeps, 1)
-    stage_icm, stage_a, stage_b = Progress(progress).split(0.1, 0.55)
+    report = Progress(progress)
+    stage_icm, stage_b, stage_a = report.split(0.1, 0.55)
     start = prob.argmin()
-    base = _icm(prob, start, max_sweeps, stage_icm)
-    from_argmin = _expand(prob, start, max_sweeps, stage_a)
-    from_icm = _expand(prob, base.labels, max_sweeps, stage_b)
+    diag = _diagonal(prob.pairwise)  # the same for both runs
+
+    def from_start(report):
+        return _expand(prob, start, max_sweeps, report, tables=_tables(prob, start, diag))
+
+    def from_icm_result():
+        base = _icm(prob, start, max_sweeps, stage_icm)
+        tables = _tables(prob, base.labels, diag)
+        return base, _expand(prob, base.labels, max_sweeps, stage_b, tables=tables)
+
+    if _side_by_side(prob):
+        base, from_icm, from_argmin = _beside(from_start, from_icm_result, stage_a)
+    else:
+        base, from_icm = from_icm_result()
+        from_argmin = from_start(stage_a)
     best, name = (from_argmin, "argmin")
     if from_icm.energy < from_argmin.energy:
         best, name = (from_icm, "icm")
+    report(1.0, "MRF solved")
     return MRFSolution(
         labels=best.labels,
         energy=best.energy,
@@ -666,6 +885,50 @@ def solve(unary, pairwise, edges, lam, *, max_sweeps=20, progress=None):
             "expansion_icm": from_icm.seconds,
         },
     )
+
+
+#: Problems with fewer node labels (P K) than this are solved on one thread (a thread
+#: costs ~0.1 ms; at the app's 171 x 100 the second one saves ~3 of 10 ms).
+_SIDE_BY_SIDE = 4096
+
+
+def _side_by_side(prob):
+    """Whether :func:`solve` runs its two expansions on two threads."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    return cores > 1 and prob.n_nodes * prob.n_labels >= _SIDE_BY_SIDE
+
+
+def _beside(aside, main, report):
+    """``aside(report)`` on a thread of its own while ``main()`` runs here.
+
+    The expansions release the GIL, so the two run at once on two cores. The caller's
+    ``report`` is only called from this thread: while waiting for ``aside``, with its
+    progress (so raising :class:`Cancelled` stops both; ``aside`` stops at its next
+    report). Returns ``(*main(), aside(...))``.
+    """
+    stop = threading.Event()
+    done = [0.0]
+
+    def relay(fraction, message):  # aside's reports, on its thread
+        if stop.is_set():
+            raise Cancelled("stopped with the other run")
+        done[0] = fraction
+
+    with ThreadPoolExecutor(1, thread_name_prefix="fluidnb-mrf") as pool:
+        future = pool.submit(aside, relay)
+        try:
+            result = main()
+            while True:
+                try:
+                    return (*result, future.result(timeout=0.05))
+                except FuturesTimeout:
+                    report(done[0], "alpha-expansion from the unary argmin")
+        except BaseException:
+            stop.set()
+            raise
 
 
 def brute_force(unary, pairwise, edges, lam, *, max_labelings=1 << 20):

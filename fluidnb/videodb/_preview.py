@@ -24,6 +24,8 @@ slider rebuilds only the fragments it brings in.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .._validation import check_int
@@ -31,7 +33,7 @@ from ..fields import downsample
 from ._appearance import colour_axes, match_histograms_cells, motion_blur
 from ._assign import Assignment, _check_params
 from ._augment import sample_version
-from ._blend import blend_differences, blend_values
+from ._blend import blend_differences, blend_values, fragment_weights
 from ._composite import composite
 from ._features import grey
 from ._geometry import FRAGMENT
@@ -65,8 +67,9 @@ def preview_frame(assignment, params=None, *, frame=None, factor=2, levels=None,
         is faster).
     cache : dict, optional
         Kept by the caller between calls on assignments of one database and frame:
-        fragment id -> its :math:`D_t` (48 x 48). Fragments already in it are not
-        rebuilt.
+        fragment id -> its :math:`D_t` (48 x 48), fragments already in it are not
+        rebuilt; and the target's photo and matte at the preview's size with their
+        colour axes and the blend's weights (for the latest target), made once.
 
     Returns
     -------
@@ -89,47 +92,103 @@ def preview_frame(assignment, params=None, *, frame=None, factor=2, levels=None,
     n = a.db.params.N
     t = n // 2 if frame is None else check_int("frame", frame, 0, n - 1)
     factor = check_int("factor", factor, 1, 8)
+    if levels is not None:
+        levels = check_int("levels", levels, 1, 8)
+    cache = {} if cache is None else cache
     target = a.target
     h, w = target.shape
     hc, wc = target.canvas.shape[:2]
     ids = a.fragments
+    still = _target_constants(target, factor, cache)
 
-    diffs = _difference_frames(a.db, ids, t, {} if cache is None else cache)
-    d = blend_differences(diffs[:, None], target.positions, (hc, wc), margin=0, levels=levels)[0]
+    diffs = _difference_frames(a.db, ids, t, cache)
+    if levels == 1:
+        # A one-level blend is the weighted sum of the fragments with the blend's
+        # weights (what blend_differences computes with 9 layer images): one add per
+        # fragment.
+        d = _weighted_sum(diffs, target.positions, still.weights, (hc, wc))
+    else:
+        layers = blend_differences(
+            diffs[:, None], target.positions, (hc, wc), margin=0, levels=levels
+        )
+        d = layers[0]
 
-    # The canvas is whole fragments (multiples of 24 px): block means of any factor
-    # up to 8 that divides 24 fit (in float32, OpenCV's area resize: a third of the
-    # preview's time in float64); others are resized.
-    def shrink(x, vector=False):
-        if factor == 1:
-            return x
-        exact = FRAGMENT % factor == 0
-        precision = "float32" if exact else "float64"
-        return downsample(x.astype(np.float32), factor, vector=vector, precision=precision)
-
-    image, matte = shrink(target.canvas), shrink(target.canvas_matte)
+    image, matte = still.image, still.matte
     if getattr(params, "rendering", "paper") == "flow":
         # The flow rendering moves the sharp photo and adds the differences, weighted.
-        shown = image + np.float32(params.detail) * shrink(d)[..., None]
+        shown = image + np.float32(params.detail) * _shrink(d, factor)[..., None]
     else:
         # The paper's: the differences over the approximate mean image. Pixels per
         # frame shrink with the picture; shutter (frames) and denoise (pixels of blur
         # per px/frame) keep their meaning at any size.
         velocity = blend_values(a.db.mean_motion[ids], target.positions, (hc, wc))
         approx = motion_blur(
-            image, shrink(velocity, vector=True), shutter=params.shutter, denoise=params.denoise
+            image,
+            _shrink(velocity, factor, vector=True),
+            shutter=params.shutter,
+            denoise=params.denoise,
         )
-        shown = approx + shrink(d)[..., None]
-    centre, axes = colour_axes(image, matte)
+        shown = approx + _shrink(d, factor)[..., None]
+    centre, axes = still.centre, still.axes
     matched = match_histograms_cells(
         ((shown - centre) @ axes)[None],
-        (image - centre) @ axes,
+        still.in_axes,
         matte,
         cell=max(2, round(params.cell / factor)),
     )[0]
     out = composite((matched @ axes.T + centre)[None], image, matte)[0]
     out = out[: -(-h // factor), : -(-w // factor)]
     return np.clip(out, 0.0, 1.0).astype(np.float32)
+
+
+def _weighted_sum(diffs, positions, weights, shape):
+    r""":math:`\sum_i w_i D_i` over the canvas: one-level blend of (P, 48, 48) frames."""
+    d = np.zeros(shape, np.float32)
+    for (r, c), wgt, d_t in zip(positions, weights, diffs):
+        d[r : r + FRAGMENT, c : c + FRAGMENT] += wgt * d_t
+    return d
+
+
+def _shrink(x, factor, vector=False):
+    """``x`` (canvas-sized) ``factor`` times smaller on each side, float32."""
+    if factor == 1:
+        return x.astype(np.float32, copy=False)
+    # The canvas is whole fragments (multiples of 24 px): block means of any factor up
+    # to 8 that divides 24 fit (in float32, OpenCV's area resize: a third of the
+    # preview's time in float64); others are resized.
+    precision = "float32" if FRAGMENT % factor == 0 else "float64"
+    return downsample(x.astype(np.float32), factor, vector=vector, precision=precision)
+
+
+@dataclass(frozen=True)
+class _Still:
+    """What a target's previews share (kept in the caller's cache).
+
+    Its photo and matte shrunk, their colour axes, the photo in them, and the blend's
+    weights.
+    """
+
+    target: object
+    image: np.ndarray
+    matte: np.ndarray
+    centre: np.ndarray
+    axes: np.ndarray
+    in_axes: np.ndarray
+    weights: np.ndarray
+
+
+def _target_constants(target, factor, cache):
+    """The target's :class:`_Still` at ``factor``, from ``cache`` if made for this target."""
+    key = ("target", factor)
+    still = cache.get(key)
+    if still is None or still.target is not target:
+        image, matte = _shrink(target.canvas, factor), _shrink(target.canvas_matte, factor)
+        centre, axes = colour_axes(image, matte)
+        weights = fragment_weights(target.positions, target.canvas.shape[:2]).astype(np.float32)
+        still = cache[key] = _Still(
+            target, image, matte, centre, axes, (image - centre) @ axes, weights
+        )
+    return still
 
 
 def _difference_frames(db, ids, t, cache):

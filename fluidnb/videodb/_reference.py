@@ -35,7 +35,9 @@ each function's docstring.
 from __future__ import annotations
 
 import math
+import time
 
+import maxflow
 import numpy as np
 from scipy import ndimage as ndi
 
@@ -75,7 +77,7 @@ from ._geometry import (
     TEXTURE_SIDE,
     VERSIONS,
 )
-from ._mrf import _expand, _icm, _problem, _start
+from ._mrf import _finished, _icm, _problem, _start
 from ._retrieval import _SLACK, MIN_MOTION, TopK, _check_filter
 from ._sift import _EPS, BINS, ORIENTATIONS, _check_images
 from ._smoothness import PairTables, _check_tables_input
@@ -775,19 +777,24 @@ def reference_fill(image, hole, *, seed=0):
 
 
 def reference_alpha_expansion(unary, pairwise, edges, lam, *, init=None, max_sweeps=20):
-    r"""Alpha-expansion (Eq. 4) with each move's graph terms built in plain numpy.
+    r"""Alpha-expansion (Eq. 4), each move built in plain numpy and cut by PyMaxflow.
 
     What :func:`~fluidnb.videodb.alpha_expansion` computes, bit for bit (the tests
-    check labels and energies). For each :math:`\alpha` in turn, every node either
-    keeps its label (:math:`x = 0`) or takes its :math:`\alpha`-th candidate
-    (:math:`x = 1`); the move's binary energy per edge is
+    check labels, energies, sweeps and the truncated share). For each :math:`\alpha`
+    in turn, every node either keeps its label (:math:`x = 0`) or takes its
+    :math:`\alpha`-th candidate (:math:`x = 1`); the move's binary energy per edge is
     :math:`(E_{00}, E_{01}, E_{10}, E_{11})`, truncated where it is non-submodular
     (Rother et al. 2005), and written as a graph (Kolmogorov & Zabih 2004) whose
-    minimum cut (PyMaxflow) is the move, kept only if the true energy falls. The sweeps
-    and the cut are shared with the fast path, which builds the same terms in one
-    compiled pass over the edges. Arguments and result as
+    minimum cut (PyMaxflow's Boykov-Kolmogorov max-flow) is the move, kept only if the
+    true energy falls. Sweeps repeat until one brings no improvement.
+
+    The fast path does the same in compiled code, its own Boykov-Kolmogorov max-flow
+    (:mod:`fluidnb.videodb._maxflow`) following the library's steps so that the
+    residuals, hence the cuts, are the same to the bit; it also skips a move that
+    failed on the same labels (it would fail again). Arguments and result as
     :func:`~fluidnb.videodb.alpha_expansion` (without ``progress``).
     """
+    t0 = time.perf_counter()
     max_sweeps = check_int("max_sweeps", max_sweeps, 1)
     prob = _problem(unary, pairwise, edges, lam)
     p, q, lam, n_nodes = prob.p, prob.q, prob.lam, prob.n_nodes
@@ -814,7 +821,37 @@ def reference_alpha_expansion(unary, pairwise, edges, lam, *, init=None, max_swe
         cost1 += np.bincount(q, e11 - e10, minlength=n_nodes)
         return cap, cost1, np.count_nonzero(bad & free), np.count_nonzero(free)
 
-    return _expand(prob, _start(prob, init), max_sweeps, Progress(None), terms=move_terms)
+    def min_cut(cap, cost1):
+        """Which nodes take alpha (x = 1, the sink side) by the move's minimum cut."""
+        g = maxflow.Graph[float](n_nodes, len(p))
+        nodes = g.add_nodes(n_nodes)
+        g.add_edges(nodes[p], nodes[q], cap, np.zeros(len(p)))
+        # A node in the sink segment (x = 1) pays its source capacity.
+        g.add_grid_tedges(nodes, np.maximum(cost1, 0.0), np.maximum(-cost1, 0.0))
+        g.maxflow()
+        return g.get_grid_segments(nodes)
+
+    labels = _start(prob, init).copy()
+    current = prob.energy(labels)
+    energies = [current]
+    truncated = free_terms = sweeps = 0
+    for _ in range(max_sweeps):
+        improved = False
+        for alpha in range(prob.n_labels):
+            cap, cost1, n_trunc, n_free = move_terms(labels, alpha)
+            truncated += n_trunc
+            free_terms += n_free
+            take = min_cut(cap, cost1) & (labels != alpha)
+            if take.any():
+                proposal = np.where(take, alpha, labels)
+                new = prob.energy(proposal)
+                if new < current:
+                    labels, current, improved = proposal, new, True
+        sweeps += 1
+        energies.append(current)
+        if not improved:
+            break
+    return _finished(labels, energies, sweeps, t0, truncated, free_terms)
 
 
 def reference_icm(unary, pairwise, edges, lam, *, init=None, max_sweeps=20):

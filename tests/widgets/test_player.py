@@ -1,7 +1,10 @@
+import io
+
 import numpy as np
 import pytest
+from PIL import Image
 
-from fluidnb import Clip
+from fluidnb import Clip, data, to_uint8
 from fluidnb.widgets import FramePlayer
 
 
@@ -17,11 +20,24 @@ def test_frames_show_and_are_encoded_once():
     assert p.frame == 3
     assert p._slider.value == 3
     assert p.image.value != first
-    cached = p._png[3]
+    cached = p._encoded[3]
     p.show(0)
     p.show(3)
-    assert p._png[3] is cached  # not re-encoded
+    assert p._encoded[3] is cached  # not re-encoded
     assert bytes(p.image.value) == cached
+
+
+def test_frames_are_sent_as_jpeg_close_to_the_frame():
+    photo = data.sample("stream", size=96)  # a photo: what the apps play
+    p = FramePlayer(Clip(np.stack([photo * 0.5, photo, photo[::-1]]), fps=6))
+    p.show(1)
+    assert p.image.format == "jpeg"
+    shown = np.asarray(Image.open(io.BytesIO(bytes(p.image.value))))
+    assert shown.shape == photo.shape
+    error = np.abs(shown.astype(float) - to_uint8(photo))
+    # (A PNG: 0 and 0; quality 95 here: 2.2 and 15.)
+    assert error.mean() < 3
+    assert error.max() <= 30
 
 
 def test_slider_drives_the_frame_and_fps_drives_play_interval():
@@ -44,7 +60,7 @@ def test_new_clip_resets_cache_and_bounds():
     p.clip = clip(3)
     assert p.frame == 2
     assert p._play.max == 2
-    assert set(p._png) == {2}
+    assert set(p._encoded) == {2}
 
 
 def test_export_gif_and_mp4_write_files_with_links(tmp_path):
@@ -131,7 +147,7 @@ def test_a_clip_streams_in_and_keeps_playing_when_finished(tmp_path):
     with pytest.raises(ValueError, match=r"frame must be in \[0, 1\]"):
         p.show(4)
     p.show(1)
-    encoded = p._png[1]
+    encoded = p._encoded[1]
     frames[2:] = 1.0
     p.stream(streamed, 6)
     assert p._play.max == 5
@@ -140,7 +156,7 @@ def test_a_clip_streams_in_and_keeps_playing_when_finished(tmp_path):
     final = Clip._trusted(frames, 6, {}).with_metadata(method="demo")
     p.clip = final
     assert p.playing
-    assert p._png[1] is encoded
+    assert p._encoded[1] is encoded
     assert p._play.max == 5
     assert "6 frames" in p.info.value
     assert "demo" in p.info.value
@@ -148,6 +164,6 @@ def test_a_clip_streams_in_and_keeps_playing_when_finished(tmp_path):
     # Another clip is a new start: the cache goes, playback stops.
     p.clip = clip(3)
     assert not p.playing
-    assert set(p._png) == {1}
+    assert set(p._encoded) == {1}
     with pytest.raises(ValueError, match="ready must be in"):
         p.stream(clip(3), 0)

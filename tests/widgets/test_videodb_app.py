@@ -552,9 +552,16 @@ def drag_sigma(app, values, pause=0.0):
             threading.Event().wait(pause)
 
 
-def test_dragging_sigma_shows_the_map_and_a_preview_then_the_clip_when_it_rests(app):
+def test_dragging_sigma_shows_the_map_and_a_preview_then_the_clip_when_it_rests(app, monkeypatch):
     # Issue 25: every value of a drag re-solves (latest wins), redraws the map and
     # shows a small preview frame; the clip is rendered once the slider rests.
+    import fluidnb.widgets._videodb as module
+
+    made = []  # the previews' pictures (the player gets them as JPEG)
+    real = module.preview_frame
+    monkeypatch.setattr(
+        module, "preview_frame", lambda *a, **k: made.append(real(*a, **k)) or made[-1]
+    )
     if "rendering" in app.panel.controls:  # the paper's, whose frames the test compares
         app.panel.set("rendering", "paper")
     app.panel.set("loop", 0)  # every fragment at its own frame t (no loop, no stagger)
@@ -578,8 +585,10 @@ def test_dragging_sigma_shows_the_map_and_a_preview_then_the_clip_when_it_rests(
     assert app.renders == renders
     assert app.result is first_clip
     assert "re-solved from the kept tables" in app.status
-    # The preview is one frame of what the render will make.
-    preview = np.asarray(shown, np.float32) / 255
+    # The preview is one frame of what the render will make (the last picture made
+    # is the one shown, as JPEG).
+    preview = made[-1]
+    assert np.abs(np.asarray(shown, np.float32) / 255 - preview).mean() < 0.015
     # The slider rests: the clip of sigma = 1e4 is rendered and plays in its place.
     app.settle = 0.05
     drag_sigma(app, [1e4 * 1.0001])  # one more value (its re-solve schedules the render)
@@ -806,3 +815,27 @@ def test_a_resolve_rebuilds_the_new_fragments_while_the_values_rest(app, monkeyp
     clip = app.render_clip(timeout=120)
     assert app.status.startswith("rendered in"), app.status
     assert clip.metadata["params"]["sigma"] == app.assignment.params.sigma
+
+
+def test_a_drag_prefetches_only_once_the_values_rest(app, monkeypatch):
+    # A prefetch for every value of a drag would hold the re-solve's worker while the
+    # next value waits for its map: it waits until the values rest (prefetch_after).
+    import fluidnb.widgets._videodb as module
+
+    draw_scene(app)
+    app.run(timeout=120)
+    app.settle = 1e9
+    app.wait_resolve()
+    fetched = []
+    real = module.prefetch
+    monkeypatch.setattr(
+        module, "prefetch", lambda a, *x, **k: fetched.append(a) or real(a, *x, **k)
+    )
+    sigma = app.assignment.params.sigma
+    app.prefetch_after = 0.3
+    # A value every 50 ms: each is re-solved, none rests long enough to be prefetched.
+    drag_sigma(app, [sigma * f for f in (2, 4, 8, 16)], pause=0.05)
+    app.wait_resolve()
+    assert app.resolves >= 2
+    assert fetched == [app.assignment]  # only the last value's, once it rested
+    assert app.assignment.params.sigma == sigma * 16
