@@ -583,26 +583,32 @@ def _difference_frames(f, sin, cos, out):
     for i in range(1, n):
         a += f[i]
     a /= np.float32(n)
-    d = np.empty(n, np.float32)
+    # A row at a time, frame by frame along the row (each pixel's sums still in frame
+    # order): the pixels of a row are independent, so their sums go side by side.
+    d = np.empty((n, w), np.float32)
+    m = np.empty(w)
     for r in range(h):
+        for i in range(n):
+            for c in range(w):
+                d[i, c] = f[i, r, c] - a[r, c]
         for c in range(w):
-            ar = a[r, c]
-            for i in range(n):
-                d[i] = f[i, r, c] - ar
             o = out[r, c]
             for i in range(loop, length):
-                o[i] = d[i]
-            if loop == 0:
-                continue
-            # The fade's mean of D (zero but for rounding), in float64 as loop_crossfade.
-            m = np.float64(0.0)
-            for i in range(n):
-                m += np.float64(d[i])
-            m /= n
+                o[i] = d[i, c]
+        if loop == 0:
+            continue
+        # The fade's mean of D (zero but for rounding), in float64 as loop_crossfade.
+        m[:] = 0.0
+        for i in range(n):
+            for c in range(w):
+                m[c] += np.float64(d[i, c])
+        for c in range(w):
+            mc = m[c] / n
+            o = out[r, c]
             for j in range(loop):
-                head = np.float64(d[j]) - m
-                tail = np.float64(d[length + j]) - m
-                o[j] = np.float32(m + sin[j] * head + cos[j] * tail)
+                head = np.float64(d[j, c]) - mc
+                tail = np.float64(d[length + j, c]) - mc
+                o[j] = np.float32(mc + sin[j] * head + cos[j] * tail)
 
 
 def play_loops(loops, offsets, *, rates=None, n_frames=None, mirrors=None, frames=None):

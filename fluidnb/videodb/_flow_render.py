@@ -31,12 +31,12 @@ import math
 import threading
 
 import numpy as np
+from numba import njit
 from scipy import ndimage as ndi
 
 from .._validation import check_array, check_int, check_range, check_vector_field
 from ._appearance import _each_frame
 from ._blend import fragment_weights
-from ._geometry import FRAGMENT
 
 __all__ = [
     "displacement_maps",
@@ -99,26 +99,21 @@ def flow_field(assignment):
     acc = np.zeros(canvas + (4,), np.float64)
     covered = np.zeros(canvas, np.float64)
     weights = fragment_weights(target.positions, canvas)
-    for (r, c), wgt, val in zip(target.positions, weights, values):
-        acc[r : r + FRAGMENT, c : c + FRAGMENT] += wgt[..., None] * val
-        covered[r : r + FRAGMENT, c : c + FRAGMENT] += wgt
+    _spread(np.asarray(target.positions, np.int64), weights, values, acc, covered)
     inside = (covered > 0.5).astype(np.float32)
     # Then a Gaussian of one stride within the fragments' cores (normalised
     # convolution): neighbours that move differently would otherwise shear the photo
-    # along a line between them (a visible seam). Each channel is blurred on its own
-    # (the same numbers however they are grouped), the motion on one core and the
-    # rest on the other; the painted speed's channels only where a speed was painted.
-    weighted = acc.astype(np.float32) * inside[..., None]
-    parts = [weighted[..., :2], inside] + ([weighted[..., 2:]] if painted.any() else [])
-    blurred = [None] * len(parts)
+    # along a line between them (a visible seam). The values and their weight are
+    # blurred side by side, each as one call (OpenCV's rounding may depend on how
+    # many channels go together).
+    parts = [acc.astype(np.float32) * inside[..., None], inside]
+    blurred = [None, None]
 
     def blur(k):
-        for i in range(k, len(parts), 2):
-            blurred[i] = _gaussian(np.ascontiguousarray(parts[i]))
+        blurred[k] = _gaussian(parts[k])
 
     _each_frame(blur, 2)
-    num = np.concatenate([blurred[0], blurred[2]], axis=2) if painted.any() else blurred[0]
-    den = blurred[1][..., None]
+    num, den = blurred[0], blurred[1][..., None]
     field = np.divide(num, den, out=np.zeros_like(num), where=den > 1e-6) * inside[..., None]
     v = field[..., :2]
     if not painted.any():
@@ -131,6 +126,23 @@ def flow_field(assignment):
     gain = np.divide(wanted, norm, out=np.ones_like(norm), where=norm > 1e-6)
     gain = 1.0 + share * (gain - 1.0)
     return (v * gain[..., None]).astype(np.float32)
+
+
+@njit(cache=True, nogil=True)
+def _spread(positions, weights, values, acc, covered):
+    """``acc += w_p v_p`` and ``covered += w_p`` over every fragment's core, in order.
+
+    The float64 products and sums of the numpy loop
+    ``acc[r : r + 48, c : c + 48] += w[..., None] * v``, one pixel at a time.
+    """
+    for p in range(positions.shape[0]):
+        r, c = positions[p, 0], positions[p, 1]
+        for i in range(weights.shape[1]):
+            for j in range(weights.shape[2]):
+                w = weights[p, i, j]
+                for k in range(values.shape[1]):
+                    acc[r + i, c + j, k] += w * values[p, k]
+                covered[r + i, c + j] += w
 
 
 def _gaussian(x):

@@ -427,3 +427,22 @@ def test_a_process_may_end_while_the_maps_are_being_made():
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=120)
     assert done.returncode == 0, done.stderr.decode()[-500:]
+
+
+def test_the_fields_spread_is_the_numpy_loop_bit_for_bit():
+    # flow_field spreads the fragments' values with a compiled loop: the numpy
+    # loop's sums.
+    from fluidnb.videodb._flow_render import _spread
+
+    gen = np.random.default_rng(4)
+    positions = np.array([(r, c) for r in range(0, 97, 24) for c in range(0, 121, 24)])
+    weights = gen.random((len(positions), 48, 48))
+    values = gen.standard_normal((len(positions), 4))
+    acc, covered = np.zeros((144, 168, 4)), np.zeros((144, 168))
+    _spread(positions, weights, values, acc, covered)
+    want, want_covered = np.zeros_like(acc), np.zeros_like(covered)
+    for (r, c), w, v in zip(positions, weights, values):
+        want[r : r + 48, c : c + 48] += w[..., None] * v
+        want_covered[r : r + 48, c : c + 48] += w
+    assert np.array_equal(acc, want)
+    assert np.array_equal(covered, want_covered)
