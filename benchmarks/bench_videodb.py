@@ -631,8 +631,8 @@ def rebuild_anatomy(db, ids, margin=12):
             part = np.stack([frames[start + t][box[0] : box[1], box[2] : box[3]] for t in range(n)])
             planes = _frames._pixel_major(part, True)
             t1 = now()
-            for plan in plans:
-                _frames._sample_planned(planes, box, plan, n, side, True)
+            for plan, pre in zip(plans, _frames._prefiltered(planes, box, plans)):
+                _frames._sample_planned(planes, box, plan, n, side, True, pre)
             out["grey"] += t1 - t0
             out["sample"] += now() - t1
     return out
