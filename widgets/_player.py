@@ -20,7 +20,7 @@ __all__ = ["FramePlayer"]
 class FramePlayer(W.VBox):
     """Play a clip inline, frame by frame, and export it as GIF or MP4.
 
-    Each frame is encoded to PNG the first time it is shown and kept, so playing
+    Each frame is encoded to JPEG the first time it is shown and kept, so playing
     and scrubbing never re-encode the clip. The Play widget runs in the browser and
     only asks the kernel for the frame to show.
 
