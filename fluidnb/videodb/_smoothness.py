@@ -454,11 +454,11 @@ class _TableBatches:
             a, b = (w[: n * k * dim].reshape(n, k, dim) for w in work)
             na, nb = (w[: n * k].reshape(n, k) for w in norms)
             _gather_centred(maps, conversion, ids_p, ids_q, a0, a1, box_p, box_q, a, b, na, nb)
+            if dim == 0:  # no such terms (a database of one frequency bin): d = 0
+                self.tables[table][es] = 0.0
+                continue
             products = prod[: n * k * k].reshape(n, k, k)
-            if dim:
-                np.matmul(a, b.transpose(0, 2, 1), out=products)
-            else:
-                products[:] = 0.0
+            np.matmul(a, b.transpose(0, 2, 1), out=products)
             # Below this fraction of |a|^2 + |b|^2 a distance may have lost more than
             # _TABLE_RTOL to cancellation: _finish sums it directly.
             threshold = (2 * dim + 3) * np.finfo(np.float64).eps / _TABLE_RTOL

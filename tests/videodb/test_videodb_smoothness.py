@@ -255,6 +255,7 @@ def test_pair_tables_without_edges_and_with_dc_only():
     assert empty.dc.shape == (0, 2, 2)
     tables = pair_tables([[0, 1], [2, 3]], [[0, 1]], [True], spectra, texture)
     assert np.array_equal(tables.rest, np.zeros((1, 2, 2)))  # one bin: DC only
+    assert tables.recomputed == 0  # nothing cancelled: the empty terms are not counted
     assert np.all(tables.dc > 0)
 
 
