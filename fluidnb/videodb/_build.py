@@ -604,7 +604,7 @@ def _ingest_and_run(ingest, params, codebook, client, workers, report):
             ingest.step(k)
         read(1.0, "clips read")
         records = ingest.finish()
-        return records, _run_clips(ingest.root, records, params, codebook, client, workers, run)
+        return records, _run_clips(ingest.root, records, params, codebook, client, run)
     return _pipeline(ingest, params, codebook, workers, report)
 
 
@@ -697,8 +697,12 @@ def _frames_complete(root, group, index, shape):
         return False
 
 
-def _run_clips(root, records, params, codebook, client, workers, report):
-    """Fragments of every clip not done yet, in parallel; returns {index: count}."""
+def _run_clips(root, records, params, codebook, client, report):
+    """Fragments of every clip not done yet, on a dask cluster; returns {index: count}.
+
+    Locally the clips are cut by :func:`_pipeline` (threads, while the next clip is
+    stored); this is the cluster's path (``client``: a ``distributed.Client``).
+    """
     import dask
 
     counts = {r["index"]: _read_done(root, r["index"]) for r in records}
@@ -726,7 +730,7 @@ def _run_clips(root, records, params, codebook, client, workers, report):
         report(finished / total, f"fragments: {finished}/{total} clips done ({names[index]})")
         _pause("fragments")
 
-    if tasks and client is not None:
+    if tasks:
         from distributed import as_completed
 
         futures = client.compute(list(tasks.values()))
@@ -737,22 +741,6 @@ def _run_clips(root, records, params, codebook, client, workers, report):
         except BaseException:
             client.cancel(futures)
             raise
-    elif tasks:
-        from dask.callbacks import Callback
-
-        class _Tick(Callback):
-            def _posttask(self, key, result, dsk, state, worker_id):
-                if key in by_key:
-                    tick(by_key[key])
-
-        pool = ThreadPoolExecutor(workers, thread_name_prefix="fluidnb-videodb")
-        try:
-            with _Tick():
-                dask.compute(*tasks.values(), scheduler="threads", pool=pool)
-        finally:
-            # On an error or a cancel, let the clips in flight finish writing before
-            # returning, so a resume never races a worker still writing.
-            pool.shutdown(wait=True, cancel_futures=True)
     counts = {i: _read_done(root, i) for i in counts}
     report(1.0, "fragments done")
     return counts

@@ -111,7 +111,10 @@ def test_the_gather_kernel_equals_numpys_take_cast_and_centring_bit_for_bit():
                 ids_p, ids_q = candidates[edges[:, 0]], candidates[edges[:, 1]]
                 dim = (lead[1] - lead[0]) * side * (side // 2)
                 out = [np.empty((len(edges), 6, dim)) for _ in range(2)]
-                smoothness._gather_centred(maps, table, ids_p, ids_q, *lead, box_p, box_q, *out)
+                norms = [np.empty((len(edges), 6)) for _ in range(2)]
+                smoothness._gather_centred(
+                    maps, table, ids_p, ids_q, *lead, box_p, box_q, *out, *norms
+                )
                 flat = arr.astype(dtype).reshape(len(arr), -1, side, side)
                 sides = []
                 for ids, (r0, r1, c0, c1) in ((ids_p, box_p), (ids_q, box_q)):
@@ -121,6 +124,33 @@ def test_the_gather_kernel_equals_numpys_take_cast_and_centring_bit_for_bit():
                 centre = (a.sum(axis=1, keepdims=True) + b.sum(axis=1, keepdims=True)) / 12
                 assert np.array_equal(out[0], a - centre)
                 assert np.array_equal(out[1], b - centre)
+                # The squared norms, summed in another order than einsum's.
+                for x, norm in zip(out, norms):
+                    want = np.einsum("ekd,ekd->ek", x, x)
+                    np.testing.assert_allclose(norm, want, rtol=1e-13, atol=0)
+
+
+def test_the_distance_kernel_is_norms_minus_products_with_near_duplicates_summed():
+    # _finish against the numpy statements it fuses: |a|^2 + |b|^2 - 2 a.b, except
+    # where that cancels (rows 0 of a and b nearly equal), which is the direct sum.
+    gen = np.random.default_rng(4)
+    a = gen.standard_normal((3, 5, 40))
+    b = gen.standard_normal((3, 6, 40))
+    b[:, 0] = a[:, 0] + 1e-9 * gen.standard_normal((3, 40))  # near-duplicates
+    prod = np.matmul(a, b.transpose(0, 2, 1))
+    na, nb = np.einsum("ekd,ekd->ek", a, a), np.einsum("ekd,ekd->ek", b, b)
+    threshold = (2 * 40 + 3) * np.finfo(np.float64).eps / smoothness._TABLE_RTOL
+    out = np.full((5, 5, 6), -1.0)
+    rows = np.array([4, 0, 2])
+    fixed = smoothness._finish(prod, na, nb, a, b, 16.0, threshold, out, rows)
+    exact = np.sum((a[:, :, None] - b[:, None]) ** 2, axis=-1)
+    np.testing.assert_allclose(out[rows], 16.0 * exact, rtol=1e-12, atol=0)
+    assert np.all(out[[1, 3]] == -1.0)  # other rows untouched
+    assert fixed == 3  # exactly the three near-duplicate pairs
+    assert np.all(out[rows, 0, 0] > 0)
+    # The same pairs from norms minus products alone: relative errors far above 1e-9.
+    naive = na[:, 0] + nb[:, 0] - 2 * prod[:, 0, 0]
+    assert np.max(np.abs(naive - exact[:, 0, 0]) / exact[:, 0, 0]) > 1e-6
 
 
 def test_bulk_tables_of_float32_and_float64_features_equal_the_definition():
@@ -225,6 +255,7 @@ def test_pair_tables_without_edges_and_with_dc_only():
     assert empty.dc.shape == (0, 2, 2)
     tables = pair_tables([[0, 1], [2, 3]], [[0, 1]], [True], spectra, texture)
     assert np.array_equal(tables.rest, np.zeros((1, 2, 2)))  # one bin: DC only
+    assert tables.recomputed == 0  # nothing cancelled: the empty terms are not counted
     assert np.all(tables.dc > 0)
 
 
