@@ -445,25 +445,29 @@ def _blend(d, pos, shape, m, levels, feather, plan=None):
         plan = _BlendPlan(pos, shape, m, levels, feather)
     fill = _fill(d, pos, m, shape, plan.fill_den)
 
-    def bands(members):
-        """One phase layer's Laplacian bands L_l(X)."""
+    def bands(index):
+        """One phase layer's Laplacian bands L_l(X), each weighted by G_l(W)."""
         layer = fill.copy()
-        for k in members:
+        for k in plan.layers[index]:
             r, c = pos[k]
             (rs, cs), (wr, wc) = _window(r, c, m, plan.tile, shape)
             layer[rs, cs] = d[k, wr, wc]
         # The pyramids' float32 kernels themselves: the inputs are this function's.
-        return _laplacian32(layer, levels)
+        weighted = _laplacian32(layer, levels)
+        for band, g in zip(weighted, plan.weights[index]):
+            np.multiply(band, g, out=band)  # G_l(W) (h, w, 1) over every frame
+        return weighted
 
-    # The layers' pyramids on threads (OpenCV releases the GIL; a few layers in
-    # flight), weighted by G_l(W) and summed here in layer order: the same sums as
-    # one thread's.
+    # The layers' pyramids on threads (compiled kernels and OpenCV release the GIL; a
+    # few layers in flight), weighted there, and summed here in layer order: the same
+    # sums as one thread's (each product rounded, then added).
     acc = None
-    for layer, bs in enumerate(_in_order(bands, plan.layers)):
+    for bs in _in_order(bands, range(len(plan.layers))):
         if acc is None:
             acc = bs
-        for a, b, g in zip(acc, bs, plan.weights[layer]):
-            _add_weighted(a, b, g, a is b)
+            continue
+        for a, b in zip(acc, bs):
+            np.add(a, b, out=a)
     for a, s in zip(acc, plan.weight_sums):
         _normalise(a, s, np.float32(_TINY))
     out = _collapse32(acc)
@@ -497,24 +501,6 @@ class _BlendPlan:
                 s += g
         self.weight_sums = sums
         self.covered = _weight_sum(pos, shape, np.ones((FRAGMENT, FRAGMENT))) > 0
-
-
-@njit(cache=True, nogil=True)
-def _add_weighted(acc, band, weight, first):
-    """``acc += band * weight`` (``acc = band * weight`` the first time), float32.
-
-    ``weight`` (h, w, 1) over every channel of ``band`` (h, w, N): numpy's ``b *= g``
-    then ``a += b``, in one pass.
-    """
-    h, w, n = band.shape
-    for i in range(h):
-        for j in range(w):
-            g = weight[i, j, 0]
-            for f in range(n):
-                if first:
-                    acc[i, j, f] = band[i, j, f] * g
-                else:
-                    acc[i, j, f] += band[i, j, f] * g
 
 
 @njit(cache=True, nogil=True)
