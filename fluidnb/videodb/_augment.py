@@ -660,9 +660,8 @@ def _correlate(src, kernel, axis, out):
             lo = min(d, cols)  # columns [lo, hi) have both neighbours in the row
             hi = max(cols - d, lo)
             _add_pair(o[lo * m : hi * m], k, row[(lo - d) * m : (hi - d) * m], row[(lo + d) * m :])
-            for j in range(cols):
-                if lo <= j < hi:
-                    continue
+            for e in range(cols - (hi - lo)):  # the edge columns [0, lo) and [hi, cols)
+                j = e if e < lo else e + hi - lo
                 a = max(j - d, 0) * m
                 b = min(j + d, cols - 1) * m
                 for v in range(m):
