@@ -455,12 +455,12 @@ def _blend(d, pos, shape, m, levels, feather, plan=None):
         # The pyramids' float32 kernels themselves: the inputs are this function's.
         weighted = _laplacian32(layer, levels)
         for band, g in zip(weighted, plan.weights[index]):
-            np.multiply(band, g, out=band)  # G_l(W) (h, w, 1) over every frame
+            _weigh(band, g)
         return weighted
 
-    # The layers' pyramids on threads (compiled kernels and OpenCV release the GIL; a
-    # few layers in flight), weighted there, and summed here in layer order: the same
-    # sums as one thread's (each product rounded, then added).
+    # The layers' pyramids on threads (the compiled kernels release the GIL; a few
+    # layers in flight), weighted there, and summed here in layer order: the same sums
+    # as one thread's (each product rounded, then added).
     acc = None
     for bs in _in_order(bands, range(len(plan.layers))):
         if acc is None:
@@ -501,6 +501,22 @@ class _BlendPlan:
                 s += g
         self.weight_sums = sums
         self.covered = _weight_sum(pos, shape, np.ones((FRAGMENT, FRAGMENT))) > 0
+
+
+@njit(cache=True, nogil=True)
+def _weigh(band, weight):
+    """``band *= weight`` in place: ``weight`` (h, w, 1) over every frame of ``band`` (h, w, N).
+
+    numpy's broadcast multiply, a pixel's frames as one contiguous run (twice as fast).
+    """
+    h, w, n = band.shape
+    rows = band.reshape(h * w, n)
+    g = weight.reshape(h * w)
+    for p in range(h * w):
+        s = g[p]
+        row = rows[p]
+        for f in range(n):
+            row[f] *= s
 
 
 @njit(cache=True, nogil=True)
