@@ -16,11 +16,11 @@ wide transitions and high ones over narrow ones, so no seam shows.
 - :func:`blend_values`: per-fragment values (a mean motion, say) spread over the canvas
   with the same weights.
 
-The blend's pyramids run in float32 through OpenCV (``precision="float32"`` of
-:func:`fluidnb.fields.laplacian_pyramid` and its kin: the same Gaussian of
-``sigma = 1`` truncated at 4 sigma, the same half-sample-symmetric border and the same
-pixel-centre-aligned bilinear resampling as the float64 pyramids, to float32
-round-off). :func:`fluidnb.videodb.reference_blend_differences` is the blend written
+The blend's pyramids run in float32 (``precision="float32"`` of
+:func:`fluidnb.fields.laplacian_pyramid` and its kin, compiled or through OpenCV: the
+same Gaussian of ``sigma = 1`` truncated at 4 sigma, the same half-sample-symmetric
+border and the same pixel-centre-aligned bilinear resampling as the float64 pyramids,
+to float32 round-off). :func:`fluidnb.videodb.reference_blend_differences` is the blend written
 per fragment, as one would first write it, with the float64 pyramids.
 """
 
