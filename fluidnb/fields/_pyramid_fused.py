@@ -21,6 +21,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+# Private kernels of the float32 pyramids (fluidnb.fields._pyramid): nothing public.
+__all__: list[str] = []
+
 
 def reduce_kernel(k):
     """The stride-2 kernel of blur ``k`` (2r + 1 taps) then the 2-tap mean: 2r + 2 taps."""
