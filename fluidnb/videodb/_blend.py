@@ -16,11 +16,11 @@ wide transitions and high ones over narrow ones, so no seam shows.
 - :func:`blend_values`: per-fragment values (a mean motion, say) spread over the canvas
   with the same weights.
 
-The blend's pyramids run in float32 through OpenCV (``precision="float32"`` of
-:func:`fluidnb.fields.laplacian_pyramid` and its kin: the same Gaussian of
-``sigma = 1`` truncated at 4 sigma, the same half-sample-symmetric border and the same
-pixel-centre-aligned bilinear resampling as the float64 pyramids, to float32
-round-off). :func:`fluidnb.videodb.reference_blend_differences` is the blend written
+The blend's pyramids run in float32 (``precision="float32"`` of
+:func:`fluidnb.fields.laplacian_pyramid` and its kin, compiled or through OpenCV: the
+same Gaussian of ``sigma = 1`` truncated at 4 sigma, the same half-sample-symmetric
+border and the same pixel-centre-aligned bilinear resampling as the float64 pyramids,
+to float32 round-off). :func:`fluidnb.videodb.reference_blend_differences` is the blend written
 per fragment, as one would first write it, with the float64 pyramids.
 """
 
@@ -445,25 +445,29 @@ def _blend(d, pos, shape, m, levels, feather, plan=None):
         plan = _BlendPlan(pos, shape, m, levels, feather)
     fill = _fill(d, pos, m, shape, plan.fill_den)
 
-    def bands(members):
-        """One phase layer's Laplacian bands L_l(X)."""
+    def bands(index):
+        """One phase layer's Laplacian bands L_l(X), each weighted by G_l(W)."""
         layer = fill.copy()
-        for k in members:
+        for k in plan.layers[index]:
             r, c = pos[k]
             (rs, cs), (wr, wc) = _window(r, c, m, plan.tile, shape)
             layer[rs, cs] = d[k, wr, wc]
         # The pyramids' float32 kernels themselves: the inputs are this function's.
-        return _laplacian32(layer, levels)
+        weighted = _laplacian32(layer, levels)
+        for band, g in zip(weighted, plan.weights[index]):
+            _weigh(band, g)
+        return weighted
 
-    # The layers' pyramids on threads (OpenCV releases the GIL; a few layers in
-    # flight), weighted by G_l(W) and summed here in layer order: the same sums as
-    # one thread's.
+    # The layers' pyramids on threads (the compiled kernels release the GIL; a few
+    # layers in flight), weighted there, and summed here in layer order: the same sums
+    # as one thread's (each product rounded, then added).
     acc = None
-    for layer, bs in enumerate(_in_order(bands, plan.layers)):
+    for bs in _in_order(bands, range(len(plan.layers))):
         if acc is None:
             acc = bs
-        for a, b, g in zip(acc, bs, plan.weights[layer]):
-            _add_weighted(a, b, g, a is b)
+            continue
+        for a, b in zip(acc, bs):
+            np.add(a, b, out=a)
     for a, s in zip(acc, plan.weight_sums):
         _normalise(a, s, np.float32(_TINY))
     out = _collapse32(acc)
@@ -500,21 +504,19 @@ class _BlendPlan:
 
 
 @njit(cache=True, nogil=True)
-def _add_weighted(acc, band, weight, first):
-    """``acc += band * weight`` (``acc = band * weight`` the first time), float32.
+def _weigh(band, weight):
+    """``band *= weight`` in place: ``weight`` (h, w, 1) over every frame of ``band`` (h, w, N).
 
-    ``weight`` (h, w, 1) over every channel of ``band`` (h, w, N): numpy's ``b *= g``
-    then ``a += b``, in one pass.
+    numpy's broadcast multiply, a pixel's frames as one contiguous run (twice as fast).
     """
     h, w, n = band.shape
-    for i in range(h):
-        for j in range(w):
-            g = weight[i, j, 0]
-            for f in range(n):
-                if first:
-                    acc[i, j, f] = band[i, j, f] * g
-                else:
-                    acc[i, j, f] += band[i, j, f] * g
+    rows = band.reshape(h * w, n)
+    g = weight.reshape(h * w)
+    for p in range(h * w):
+        s = g[p]
+        row = rows[p]
+        for f in range(n):
+            row[f] *= s
 
 
 @njit(cache=True, nogil=True)
@@ -534,13 +536,20 @@ def _normalise(acc, total, tiny):
 
 @njit(cache=True, nogil=True)
 def _covered_frames(blended, covered, out):
-    """The collapsed blend (Hc, Wc, N) times the cores' union, frame-major (N, Hc, Wc)."""
+    """The collapsed blend (Hc, Wc, N) times the cores' union, frame-major (N, Hc, Wc).
+
+    A canvas row at a time, each frame's row written in one run (the row read
+    from cache): five times as fast as pixel by pixel with strided writes.
+    """
     h, w, n = blended.shape
     for i in range(h):
-        for j in range(w):
-            c = np.float32(1.0) if covered[i, j] else np.float32(0.0)
-            for f in range(n):
-                out[f, i, j] = blended[i, j, f] * c
+        row = blended[i]
+        cover = covered[i]
+        for f in range(n):
+            o = out[f, i]
+            for j in range(w):
+                c = np.float32(1.0) if cover[j] else np.float32(0.0)
+                o[j] = row[j, f] * c
 
 
 def difference_frames(frames, loop=0, *, out=None):

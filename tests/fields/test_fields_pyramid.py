@@ -196,11 +196,15 @@ def test_expand_without_blur_is_bilinear_resize(shape, target):
     )
 
 
-@pytest.mark.parametrize("shape", [(37, 53, 3), (48, 72, 130), (5, 9, 1), (37, 53)])
+@pytest.mark.parametrize(
+    "shape", [(37, 53, 3), (48, 72, 130), (5, 9, 1), (37, 53), (64, 96, 12), (6, 10, 2), (64, 53)]
+)
 @pytest.mark.parametrize("sigma", [1.0, 0.7, 0.0])
 def test_float32_pyramids_are_the_float64_pyramids(shape, sigma):
-    """precision="float32" (OpenCV) equals the float64 pyramids to float32 rounding,
-    also beyond OpenCV's channel limit (chunks), on tiny odd levels and without blur."""
+    """precision="float32" equals the float64 pyramids to float32 rounding: beyond
+    OpenCV's channel limit (chunks), on tiny odd levels, without blur, and where the
+    levels halve exactly (the fused reduce and expand; on tiny levels the kernel
+    reaches past the border more than once)."""
     x = np.random.default_rng(5).random(shape).astype(np.float32)
     levels = 4
     kw = {"sigma": sigma}
@@ -266,3 +270,27 @@ def test_float32_block_means_are_the_block_means(shape):
     )
     with pytest.raises(ValueError, match="factor must divide"):
         downsample(x, 5, precision="float32")
+
+
+@pytest.mark.parametrize("shape", [(64, 96, 12), (6, 10, 2), (24, 42, 1)])
+@pytest.mark.parametrize("sigma", [1.0, 0.7])
+def test_fused_reduce_and_expand_are_blur_and_resample(shape, sigma):
+    """On even sides the float32 reduce (expand) filters and resamples in one step:
+    the blur then the halving (the doubling then the blur) in OpenCV, to float32
+    round-off, with the Laplacian's difference and the collapse's sum fused in."""
+    from fluidnb.fields._pyramid import _blur32, _expand32, _half, _reduce32, _resize32
+
+    rng = np.random.default_rng(11)
+    x = rng.random(shape).astype(np.float32)
+    np.testing.assert_allclose(
+        _reduce32(x, sigma), _resize32(_blur32(x, sigma), _half(shape)), rtol=0, atol=1e-6
+    )
+    coarse = np.ascontiguousarray(x[::2, ::2])
+    steps = _blur32(_resize32(coarse, shape[:2]), sigma)
+    np.testing.assert_allclose(_expand32(coarse, shape[:2], sigma), steps, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(
+        _expand32(coarse, shape[:2], sigma, x, -1.0), x - steps, rtol=0, atol=1e-6
+    )
+    np.testing.assert_allclose(
+        _expand32(coarse, shape[:2], sigma, x, 1.0), x + steps, rtol=0, atol=1e-6
+    )

@@ -357,3 +357,27 @@ def test_valid_positions_of_the_identity_and_small_sources():
 def test_bad_input_is_refused(call, match):
     with pytest.raises(ValueError, match=match):
         call()
+
+
+@pytest.mark.parametrize("shape", [(40, 50, 24), (7, 3, 2), (2, 9, 1), (30, 1, 3)])
+@pytest.mark.parametrize("sigma", [0.5, 1.5])
+def test_prefilter_blur_is_the_clamped_gaussian(shape, sigma):
+    """The prefilter's row-at-a-time blur is scipy's Gaussian with clamped edges (the
+    reference sampler's), on a window of a larger array and on rows shorter than the
+    kernel; and a window's interior is the whole's bit for bit."""
+    from scipy import ndimage as ndi
+
+    from fluidnb.videodb._augment import _TRUNCATE, _blur, _gaussian_kernel
+
+    rng = np.random.default_rng(12)
+    whole = rng.random((shape[0] + 8, shape[1] + 8, shape[2])).astype(np.float32)
+    window = whole[4:-4, 4:-4]  # not contiguous
+    kernel = _gaussian_kernel(sigma)
+    out = _blur(window, kernel)
+    ref = ndi.gaussian_filter(
+        window.astype(np.float64), (sigma, sigma, 0), mode="nearest", truncate=_TRUNCATE
+    )
+    np.testing.assert_allclose(out, ref, rtol=0, atol=1e-6)
+    r = len(kernel) - 1
+    inner = _blur(whole, kernel)[4 + r : -4 - r, 4 + r : -4 - r]  # the window's, context r
+    assert np.array_equal(out[r:-r, r:-r], inner)
