@@ -458,10 +458,13 @@ def _half(shape):
     return (math.ceil(shape[0] / 2), math.ceil(shape[1] / 2))
 
 
-def _reduce32(x, sigma):
-    """The blur then the halving; filtered and decimated in one step for even sides."""
+def _reduce32(x, sigma, fused=True):
+    """The blur then the halving; filtered and decimated in one step for even sides.
+
+    ``fused=False``: always OpenCV's blur then resize (see :func:`_laplacian32`).
+    """
     h, w = x.shape[:2]
-    if sigma > 0 and h % 2 == 0 and w % 2 == 0:
+    if fused and sigma > 0 and h % 2 == 0 and w % 2 == 0:
         out = np.empty((h // 2, w // 2, x.shape[2]), np.float32)
         _fused._reduce_fused(x, _fused_kernels(sigma)[0], out)
         return out
@@ -469,13 +472,14 @@ def _reduce32(x, sigma):
     return g.copy() if g is x else g  # sigma 0 on a 1-pixel level
 
 
-def _expand32(x, shape, sigma, base=None, sign=1.0):
+def _expand32(x, shape, sigma, base=None, sign=1.0, fused=True):
     """``base + sign * expand(x, shape)`` (``base`` None: the expansion alone), a new array.
 
-    For an exact doubling with a blur, the doubling and the blur in one step.
+    For an exact doubling with a blur, the doubling and the blur in one step
+    (``fused=False``: always OpenCV's resize then blur).
     """
     h, w = x.shape[:2]
-    if sigma > 0 and tuple(shape) == (2 * h, 2 * w):
+    if fused and sigma > 0 and tuple(shape) == (2 * h, 2 * w):
         kernels, d0 = _fused_kernels(sigma)[1]
         out = np.empty((2 * h, 2 * w, x.shape[2]), np.float32)
         _fused._expand_fused(x, kernels, d0, base, np.float32(sign), out)
@@ -489,16 +493,23 @@ def _expand32(x, shape, sigma, base=None, sign=1.0):
     return out
 
 
-def _gaussian32(x, levels, sigma=1.0):
+def _gaussian32(x, levels, sigma=1.0, fused=True):
     pyr = [x]
     for _ in range(levels - 1):
-        pyr.append(_reduce32(pyr[-1], sigma))
+        pyr.append(_reduce32(pyr[-1], sigma, fused))
     return pyr
 
 
-def _laplacian32(x, levels, sigma=1.0):
-    gauss = _gaussian32(x, levels, sigma)
-    bands = [_expand32(g_next, g.shape[:2], sigma, g, -1.0) for g, g_next in pairwise(gauss)]
+def _laplacian32(x, levels, sigma=1.0, fused=True):
+    """The float32 Laplacian pyramid of ``x`` (h, w, C).
+
+    ``fused=False`` keeps every level on OpenCV's blur and resample, the arithmetic the
+    stored video databases' textureness was computed with: the two paths differ by
+    float32 round-off, enough to change a few stored float16 values, so a database
+    built again would no longer be the same database.
+    """
+    gauss = _gaussian32(x, levels, sigma, fused)
+    bands = [_expand32(g_next, g.shape[:2], sigma, g, -1.0, fused) for g, g_next in pairwise(gauss)]
     bands.append(gauss[-1])
     return bands
 

@@ -31,7 +31,8 @@ import numpy as np
 from numba import njit
 
 from .._image import LUMA
-from ..fields import downsample, expand, laplacian_pyramid
+from ..fields import downsample, expand
+from ..fields._pyramid import _laplacian32
 from ._geometry import (
     FRAGMENT,
     SPECTRA_BLOCK,
@@ -142,8 +143,11 @@ def _textureness(stack):
     h, w = stack.shape[:2]
     # The frames are the channels of one pyramid (channels never mix): N pyramids for
     # the price of one call, in float32 through OpenCV (the library's pyramid to
-    # float32 round-off, ~15 times as fast as its float64 version).
-    bands = laplacian_pyramid(stack, TEXTURE_LEVELS, precision="float32")
+    # float32 round-off, ~15 times as fast as its float64 version). Not the fused
+    # float32 steps the renderer's blend uses: this is what databases store, and the
+    # same sources must keep giving the same database (the starter caches, a build
+    # resumed by a newer fluidnb).
+    bands = _laplacian32(np.ascontiguousarray(stack, np.float32), TEXTURE_LEVELS, fused=False)
     levels = []
     for band in bands:
         # Summing over frames first is exact (resampling is linear) and N times cheaper;

@@ -119,6 +119,48 @@ def test_textureness_sums_over_frames():
     np.testing.assert_allclose(textureness(flicker)[:3], N * one[:3], rtol=1e-4, atol=1e-4)
 
 
+def test_stored_textureness_keeps_opencvs_pyramid_steps_bit_for_bit():
+    """Databases store the textureness: it stays on the OpenCV blur-and-resample steps it
+    was built with (not the renderer's fused float32 steps, equal only to round-off), so
+    the same sources keep giving the same database."""
+    import cv2
+
+    from fluidnb.fields._pyramid import _kernel, _laplacian32
+    from fluidnb.videodb._features import _textureness
+
+    gen = np.random.default_rng(5)
+    stack = gen.random((H, W, 6)).astype(np.float32)  # even sides: the fused path applies
+    k = _kernel(1.0)
+
+    def blur(a):
+        return cv2.sepFilter2D(a, -1, k, k, borderType=cv2.BORDER_REFLECT)
+
+    def resize(a, shape):
+        return cv2.resize(a, (shape[1], shape[0]), interpolation=cv2.INTER_LINEAR)
+
+    gauss = [stack]
+    for _ in range(3):
+        g = gauss[-1]
+        gauss.append(resize(blur(g), ((g.shape[0] + 1) // 2, (g.shape[1] + 1) // 2)))
+    want = [g - blur(resize(nxt, g.shape[:2])) for g, nxt in zip(gauss[:-1], gauss[1:])]
+    got = _laplacian32(stack, 4, fused=False)
+    for band, ref in zip(got, want + [gauss[-1]]):
+        assert np.array_equal(band, ref)
+    # The fused steps differ in the last bits here: the choice is not a no-op.
+    fused = _laplacian32(stack, 4)
+    assert any(not np.array_equal(a, b) for a, b in zip(fused, got))
+    # And the stored textureness is made from the OpenCV steps.
+    levels = [np.abs(band).sum(axis=-1, dtype=np.float32) for band in got]
+    assert np.array_equal(_textureness(stack)[0], _block_mean_2(levels[0]))
+
+
+def _block_mean_2(a):
+    """The 2 x 2 block means of ``a`` (TEXTURE_BLOCK = 2), in float32 as the library."""
+    from fluidnb.videodb._features import block_mean
+
+    return block_mean(a[None], 2)[0].astype(np.float32)
+
+
 # ------------------------------------------------------------------- window features
 
 
