@@ -46,6 +46,7 @@ from fluidnb.videodb import (
     motion_arrows,
     open_database,
     prefetch,
+    prefetch_preview,
     preview_frame,
     render,
     starter_database,
@@ -1179,7 +1180,17 @@ class VideoDBApp(App):
         wanted = {k: getattr(params, k) for k in _SOLVE_FIELDS}
         if all(getattr(current.params, k) == v for k, v in wanted.items()):
             if self.live_preview:
-                self._preview_cache_for(current)  # after a run: ready for the first drag
+                # After a run: ready for the first drag, and the candidates' mean images
+                # read (0.3-0.5 s once; a re-solve's preview then reads one frame per
+                # new fragment). A value arriving meanwhile stops it between clips.
+                cache = self._preview_cache_for(current)
+
+                def moved(fraction, message):
+                    if self._closed or self.assignment is not current or self._values_changed():
+                        raise Cancelled
+
+                with contextlib.suppress(Cancelled):
+                    prefetch_preview(current, cache, progress=moved)
             return
         started = time.perf_counter()
         new = base.resolve(**wanted)

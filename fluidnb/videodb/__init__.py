@@ -86,7 +86,7 @@ from ._geometry import ANGLES, FRAGMENT, SCALES, STRIDE, VERSIONS
 from ._lock import DatabaseBusy
 from ._mrf import MRFSolution, alpha_expansion, brute_force, energy, grid_edges, icm, solve
 from ._params import AUGMENTATIONS, FLOW_BACKENDS, RENDERINGS, AnimateParams, DatabaseParams
-from ._preview import preview_frame
+from ._preview import prefetch_preview, preview_frame
 from ._reference import (
     reference_alpha_expansion,
     reference_blend_differences,
@@ -181,6 +181,7 @@ __all__ = [
     "pair_tables",
     "prebuild_starters",
     "prefetch",
+    "prefetch_preview",
     "preview_frame",
     "pyramid_histograms",
     "quantise",

@@ -5,9 +5,16 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from fluidnb import data, param
+from fluidnb import Cancelled, data, param
 from fluidnb.fields import downsample
-from fluidnb.videodb import AnimateParams, assign, preview_frame, render, starter_database
+from fluidnb.videodb import (
+    AnimateParams,
+    assign,
+    prefetch_preview,
+    preview_frame,
+    render,
+    starter_database,
+)
 
 SIZE = 160  # the stream photo at 160 px: 125 x 160
 # The paper's rendering (where the library also offers the flow rendering).
@@ -100,6 +107,44 @@ def test_a_cache_rebuilds_only_new_fragments(scene, monkeypatch):
     preview_frame(other, cache=cache)
     assert 0 < len(reads) <= len(new)
     assert set(other.fragments.tolist()) <= fragments(cache)
+
+
+def test_prefetched_mean_images_give_the_same_previews_without_reading_them(scene, monkeypatch):
+    a, _ = scene
+    other = a.resolve(lam=1e-4)  # looks alone: other fragments, among the same candidates
+    plain = preview_frame(other, cache={})
+    cache = {}
+    read = prefetch_preview(a, cache)
+    assert read == len(np.unique(a.candidates))
+    assert prefetch_preview(other, cache) == 0  # the same candidates: nothing more to read
+    means = []
+    real = type(a.db).mean_images
+    monkeypatch.setattr(
+        type(a.db), "mean_images", lambda *args, **kw: means.append(1) or real(*args, **kw)
+    )
+    np.testing.assert_allclose(preview_frame(other, cache=cache), plain, rtol=0, atol=1e-6)
+    assert means == []  # one frame per fragment read, no mean image
+    assert set(other.fragments.tolist()) <= fragments(cache)
+
+
+def test_prefetch_preview_stops_when_asked_and_keeps_what_it_read(scene):
+    a, _ = scene
+    cache, seen = {}, []
+
+    def stop(fraction, message):
+        seen.append(fraction)
+        raise Cancelled
+
+    with pytest.raises(Cancelled):
+        prefetch_preview(a, cache, progress=stop)
+    assert len(seen) == 1
+    kept = len(next(v for k, v in cache.items() if isinstance(k, tuple)))
+    assert 0 < kept < len(np.unique(a.candidates))  # one clip's candidates
+    assert prefetch_preview(a, cache) == len(np.unique(a.candidates)) - kept
+    with pytest.raises(ValueError, match="assignment must be an Assignment"):
+        prefetch_preview("a", {})
+    with pytest.raises(ValueError, match="cache must be a dict"):
+        prefetch_preview(a, None)
 
 
 def fragments(cache):

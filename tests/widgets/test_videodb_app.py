@@ -571,6 +571,11 @@ def test_dragging_sigma_shows_the_map_and_a_preview_then_the_clip_when_it_rests(
     first_clip, renders = app.result, app.renders
     assert app.previews == 0
     assert app.player.image.value == app.player._encode(app.player.frame)
+    # While the values rested after the run, the candidates' mean images were read for
+    # the previews: a drag reads one frame per new fragment, no mean image.
+    cache = app._preview_cache[1]
+    means = next(v for k, v in cache.items() if isinstance(k, tuple) and "mean" in k[0])
+    assert set(means) == set(np.unique(app.assignment.candidates).tolist())
     app.settle = 30.0  # no render while we look at the previews
     drag_sigma(app, [300.0, 1e3, 3e3, 1e4])
     app.wait_resolve()
