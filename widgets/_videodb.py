@@ -1184,13 +1184,8 @@ class VideoDBApp(App):
                 # read (0.3-0.5 s once; a re-solve's preview then reads one frame per
                 # new fragment). A value arriving meanwhile stops it between clips.
                 cache = self._preview_cache_for(current)
-
-                def moved(fraction, message):
-                    if self._closed or self.assignment is not current or self._values_changed():
-                        raise Cancelled
-
                 with contextlib.suppress(Cancelled):
-                    prefetch_preview(current, cache, progress=moved)
+                    prefetch_preview(current, cache, progress=self._stop_when_moved(current))
             return
         started = time.perf_counter()
         new = base.resolve(**wanted)
@@ -1226,11 +1221,6 @@ class VideoDBApp(App):
         the render on rest (or a press of Render) waits for the re-solves, so it starts
         with them. A newer value stops it between source clips.
         """
-
-        def moved(fraction, message):
-            if self._closed or self.assignment is not a or self._values_changed():
-                raise Cancelled
-
         # Only once the values rest (prefetch_after seconds without a new one): a drag
         # sends a value every ~30 ms, and a prefetch for each would hold this worker
         # (30-90 ms measured in Chromium) while the next value waits for its map. A
@@ -1244,7 +1234,20 @@ class VideoDBApp(App):
             time.sleep(0.005)
         # Stopped by a newer value, or settings the render will refuse (and say so).
         with contextlib.suppress(Cancelled, ValueError):
-            prefetch(a, self.panel.params, progress=moved)
+            prefetch(a, self.panel.params, progress=self._stop_when_moved(a))
+
+    def _stop_when_moved(self, a):
+        """A progress callback that stops background work for ``a`` once it is stale.
+
+        Raises :class:`Cancelled` when the app closes, another assignment replaces
+        ``a``, or σ, λ, ρ no longer match it.
+        """
+
+        def moved(fraction, message):
+            if self._closed or self.assignment is not a or self._values_changed():
+                raise Cancelled
+
+        return moved
 
     def wait_resolve(self, timeout=30):
         """Block until every re-solve asked for so far, and its preview, is done (tests)."""

@@ -231,7 +231,7 @@ def prefetch_preview(assignment, cache, *, progress=None):
         [i for i in np.unique(assignment.candidates).tolist() if i not in means], np.int64
     )
     report = Progress(progress)
-    clips = db.clip_of(todo) if len(todo) else np.zeros(0, np.int64)
+    clips = db.clip_of(todo)
     by_clip = np.unique(clips)
     for k, clip in enumerate(by_clip):
         ids = todo[clips == clip]  # one read of each clip's mean images
@@ -245,14 +245,13 @@ def _difference_frames(db, ids, t, cache):
     """:math:`D_t = F_t - A` (grey, 48 x 48) of every fragment in ``ids``, (P, 48, 48)."""
     missing = np.unique([i for i in ids.tolist() if i not in cache]).astype(np.int64)
     if len(missing):
+        # The mean images prefetch_preview read, the others from the store.
         known = cache.get(_MEANS, {})
-        unknown = [k for k, i in enumerate(missing.tolist()) if i not in known]
-        means = np.empty((len(missing), FRAGMENT, FRAGMENT), np.float32)
-        if unknown:
-            means[unknown] = grey(db.mean_images(missing[unknown]))
-        for k, i in enumerate(missing.tolist()):
-            if i in known:
-                means[k] = known[i]
+        unknown = [i for i in missing.tolist() if i not in known]
+        read = {}
+        if unknown:  # (no store access at all when prefetch_preview read them all)
+            read = dict(zip(unknown, grey(db.mean_images(np.array(unknown, np.int64)))))
+        means = [known[i] if i in known else read[i] for i in missing.tolist()]
         source = db.source[missing]
         # One read of frame t of each (clip, window) serves all its fragments.
         keys = source[:, [0, 2]]
