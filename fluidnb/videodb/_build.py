@@ -48,6 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from .._progress import Progress
+from .._threads import opencv_single_threaded
 from .._validation import check_int
 from ._features import grey
 from ._geometry import FRAGMENT
@@ -230,7 +231,6 @@ def _process_clip(root, index, params_dict, codebook, frames=None):
         words_writer = None
     else:
         words_writer = _ChunkWriter(clip, {"words": layout["words"]})
-    from ._flow import opencv_single_threaded
     from ._words import quantise
 
     with opencv_single_threaded():  # the clips run side by side: one thread each
@@ -799,26 +799,17 @@ def _train_codebook(root, counts, params, seed, report):
 def _quantise_clips(root, counts, codebook, params, workers):
     """Every clip's visual words, clips side by side on ``workers`` threads.
 
-    Each thread's matrix products on one BLAS thread: OpenBLAS's own threads spin
-    while they wait, and beside ours (or other programs) they only slowed it down
-    (measured: 1.5-2x the wall time with two of them on two busy cores). The words
-    are the same whatever the threads (:func:`quantise` is exact).
+    :func:`quantise` runs its products on one BLAS thread: OpenBLAS's own threads
+    beside ours only slowed it down (measured: 1.5-2x the wall time with two of them
+    on two busy cores). The words are the same whatever the threads (it is exact).
 
     Returns each clip's words as stored (read back), for :func:`_read_back`'s arrays.
     """
-    with _one_blas_thread(), ThreadPoolExecutor(max(1, min(workers, len(counts)))) as pool:
+    with ThreadPoolExecutor(max(1, min(workers, len(counts)))) as pool:
         jobs = {
             i: pool.submit(_quantise_clip, root, i, n, codebook, params) for i, n in counts.items()
         }
         return {i: job.result() for i, job in jobs.items()}
-
-
-def _one_blas_thread():
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover - installed with scikit-learn
-        return contextlib.nullcontext()
-    return threadpool_limits(limits=1, user_api="blas")
 
 
 def _quantise_clip(root, index, count, codebook, params):

@@ -18,13 +18,11 @@ The flow is computed once per source clip; the augmented versions get theirs by
 
 from __future__ import annotations
 
-import contextlib
-import threading
-
 import numpy as np
 
 from .._image import to_uint8
 from .._progress import Progress
+from .._threads import opencv_single_threaded
 from .._validation import check_array, check_choice
 from ._params import FLOW_BACKENDS
 
@@ -164,38 +162,6 @@ def optical_flow(frames, *, backend="dis", progress=None):
         out[t] = estimate(arr[t], arr[t + 1])
         report((t + 1) / pairs, f"optical flow ({backend}): pair {t + 1} of {pairs}")
     return out
-
-
-_opencv_lock = threading.Lock()
-_opencv_users = 0
-_opencv_threads = None
-
-
-@contextlib.contextmanager
-def opencv_single_threaded():
-    """OpenCV on one thread while the block runs (nested and concurrent uses count).
-
-    A build computes several clips at once on its own threads; OpenCV's own threads
-    inside each (DIS flow, filters) then only compete for the same cores: measured on
-    two busy cores, DIS took 20-50 % more CPU time and twice the wall time with two
-    OpenCV threads as with one, for the same flow. The setting is OpenCV's, for the
-    whole process: it is restored when the last block using it ends.
-    """
-    import cv2
-
-    global _opencv_users, _opencv_threads
-    with _opencv_lock:
-        if _opencv_users == 0:
-            _opencv_threads = cv2.getNumThreads()
-            cv2.setNumThreads(1)
-        _opencv_users += 1
-    try:
-        yield
-    finally:
-        with _opencv_lock:
-            _opencv_users -= 1
-            if _opencv_users == 0:
-                cv2.setNumThreads(_opencv_threads)
 
 
 def _check_frames(frames):

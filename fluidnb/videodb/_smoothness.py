@@ -54,9 +54,9 @@ import numpy as np
 from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
-from threadpoolctl import threadpool_limits
 
 from .._progress import Progress
+from .._threads import blas_single_threaded
 from .._validation import check_array, check_range
 from ._geometry import SPECTRA_BLOCK, SPECTRA_SIDE, TEXTURE_BLOCK, TEXTURE_SIDE
 from ._mrf import _check_edges
@@ -546,7 +546,7 @@ def pair_tables(candidates, edges, horizontal, spectra, texture, *, progress=Non
     # many mid-sized products stalls badly when other processes share the cores
     # (measured on 2 busy cores: 5-55 s instead of 5-10 s).
     done = 0
-    with threadpool_limits(1, user_api="blas"), ThreadPoolExecutor(workers) as pool:
+    with blas_single_threaded(), ThreadPoolExecutor(workers) as pool:
         futures = [pool.submit(builder, es, o) for es, o in batches]
         try:
             for future in as_completed(futures):

@@ -47,6 +47,7 @@ import os
 import numpy as np
 
 from .._random import rng
+from .._threads import blas_single_threaded
 from .._validation import check_array, check_int
 from ._geometry import FRAGMENT, GRID, LEVELS
 
@@ -261,6 +262,11 @@ def quantise(descriptors, centres):
     does. A centre outside that margin cannot be the nearest, so the answer is
     exact, and it does not depend on how the rows are split into blocks.
 
+    The products run on one BLAS thread: a block's product is a few milliseconds,
+    and OpenBLAS's threads, once woken, spin on the cores for a while after it --
+    through the smoothness tables that follow in :func:`~fluidnb.videodb.assign`
+    (~0.08 s of CPU each time, measured), or beside a build's other clips.
+
     Examples
     --------
     >>> centres = np.array([[0.0, 0.0], [4.0, 0.0]])
@@ -276,24 +282,25 @@ def quantise(descriptors, centres):
     cmax = float(np.sqrt(c2.max()))
     c32, c2_32 = c.astype(np.float32), c2.astype(np.float32)
     margin = 4.0 * (d + 6) * 2.0**-24
-    for lo in range(0, len(rows), _BLOCK):
-        xb = np.asarray(rows[lo : lo + _BLOCK], dtype=np.float64)
-        scores = c2_32[None, :] - np.float32(2) * (xb.astype(np.float32) @ c32.T)
-        best = scores.min(axis=1).astype(np.float64)
-        tol = margin * (np.sqrt((xb * xb).sum(axis=1)) + cmax) ** 2
-        near = scores <= (best + tol)[:, None]
-        words = scores.argmin(axis=1)
-        many = np.flatnonzero(near.sum(axis=1) > 1)
-        if len(many):
-            # Near-ties: decide them on the directly computed distances, over the
-            # candidates only (in index order, so argmin keeps the lowest index).
-            j = int(near[many].sum(axis=1).max())
-            cand = np.argsort(~near[many], axis=1, kind="stable")[:, :j]
-            valid = np.take_along_axis(near[many], cand, axis=1)
-            dist = _squared_distances(xb[many], c[cand])
-            dist[~valid] = np.inf
-            words[many] = cand[np.arange(len(many)), dist.argmin(axis=1)]
-        out[lo : lo + len(xb)] = words
+    with blas_single_threaded():  # see Notes
+        for lo in range(0, len(rows), _BLOCK):
+            xb = np.asarray(rows[lo : lo + _BLOCK], dtype=np.float64)
+            scores = c2_32[None, :] - np.float32(2) * (xb.astype(np.float32) @ c32.T)
+            best = scores.min(axis=1).astype(np.float64)
+            tol = margin * (np.sqrt((xb * xb).sum(axis=1)) + cmax) ** 2
+            near = scores <= (best + tol)[:, None]
+            words = scores.argmin(axis=1)
+            many = np.flatnonzero(near.sum(axis=1) > 1)
+            if len(many):
+                # Near-ties: decide them on the directly computed distances, over the
+                # candidates only (in index order, so argmin keeps the lowest index).
+                j = int(near[many].sum(axis=1).max())
+                cand = np.argsort(~near[many], axis=1, kind="stable")[:, :j]
+                valid = np.take_along_axis(near[many], cand, axis=1)
+                dist = _squared_distances(xb[many], c[cand])
+                dist[~valid] = np.inf
+                words[many] = cand[np.arange(len(many)), dist.argmin(axis=1)]
+            out[lo : lo + len(xb)] = words
     return out.reshape(lead)
 
 
