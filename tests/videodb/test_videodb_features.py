@@ -333,3 +333,32 @@ def test_pixel_features_equal_the_reference_bit_for_bit(n, h, w, threshold):
     assert sorted(feats) == sorted(ref)
     for name in ref:
         assert _same_bits(feats[name], ref[name]), name
+
+
+def test_half_rounding_is_numpys_cast_bit_for_bit():
+    # The stored spectra and textureness are cast to float16 by the build's integer
+    # port of numpy's cast (numpy's own slows down on values that underflow). Checked
+    # once over all 2^32 float32 patterns; here every half, the midpoints between
+    # neighbouring halves (the ties) and a float32 step either side of them, the
+    # underflow and overflow boundaries, and random bit patterns, both signs.
+    from fluidnb.videodb._features import _to_half
+
+    halves = np.arange(1 << 16, dtype=np.uint32).astype(np.uint16).view(np.float16)
+    finite = np.sort(halves[np.isfinite(halves)].astype(np.float32))
+    mids = (finite[:-1].astype(np.float64) + finite[1:]) / 2  # exact in float64
+    mids = mids.astype(np.float32)
+    near = np.concatenate([np.nextafter(mids, -np.inf), mids, np.nextafter(mids, np.inf)])
+    gen = np.random.default_rng(0)
+    random_bits = gen.integers(0, 1 << 32, 1 << 20, dtype=np.uint64).astype(np.uint32)
+    edges = np.array([2.0**-25, 2.0**-24, 2.0**-14, 65504, 65519.996, 65520, 1e30, np.inf])
+    edges = edges.astype(np.float32)
+    x = np.concatenate([finite, near, random_bits.view(np.float32), edges, -edges])
+    x = x[~np.isnan(x)]
+    with np.errstate(over="ignore"):
+        want = x.astype(np.float16)
+    assert _same_bits(_to_half(x), want)
+    assert np.isnan(_to_half(np.array([np.nan, -np.nan], np.float32))).all()
+    # Any layout: a strided (transposed) 4-d view casts as the contiguous array.
+    arr = gen.standard_normal((3, 4, 5, 6)).astype(np.float32) * np.float32(1e-5)
+    view = arr.transpose(0, 3, 1, 2)
+    assert _same_bits(_to_half(view), view.astype(np.float16))
