@@ -41,6 +41,7 @@ from ._geometry import (
     TEXTURE_LEVELS,
     TEXTURE_SIDE,
 )
+from ._sums import _pairwise_sum
 
 __all__ = [
     "block_mean",
@@ -164,65 +165,17 @@ def _textureness(stack):
     return block_mean(np.stack(levels), TEXTURE_BLOCK).astype(np.float32)
 
 
-# numpy sums up to this many values in one unrolled block (PW_BLOCKSIZE); more are
-# split in halves recursively, which the kernel leaves to numpy (numba's cache cannot
-# reload recursive functions; windows are N = 32 frames by default).
-_PAIRWISE_BLOCK = 128
-
-
 @njit(cache=True, nogil=True)
-def _pairwise_sum(a):
-    """The float32 sum of ``a`` (at most 128 values) in numpy's order, bit for bit.
-
-    numpy adds the values of a reduction along a contiguous axis by pairwise
-    summation (``pairwise_sum`` in numpy's ``loops_utils.h.src``): fewer than 8
-    values one after the other from -0.0; up to 128 in 8 interleaved partial sums
-    combined as a tree, then the rest one by one. The reduction then adds that to
-    its start, 0.
-    """
-    n = a.shape[0]
-    if n < 8:
-        res = np.float32(-0.0)
-        for i in range(n):
-            res += a[i]
-        return np.float32(0.0) + res
-    r0, r1, r2, r3, r4, r5, r6, r7 = a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]
-    i = 8
-    while i < n - n % 8:
-        r0 += a[i]
-        r1 += a[i + 1]
-        r2 += a[i + 2]
-        r3 += a[i + 3]
-        r4 += a[i + 4]
-        r5 += a[i + 5]
-        r6 += a[i + 6]
-        r7 += a[i + 7]
-        i += 8
-    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    for j in range(i, n):
-        res += a[j]
-    return np.float32(0.0) + res
-
-
 def _band_magnitudes(g, e, out):
     """``out[i, j] = sum_c |g[i, j, c] - e[i, j, c]|`` (``e`` None: ``sum_c |g[i, j, c]|``).
 
     ``g`` a Gaussian level (H, W, C) and ``e`` the next level's expansion: the
     Laplacian band's magnitudes summed over the channels (frames) in float32, the
-    values of ``np.abs(g - e).sum(axis=-1, dtype=np.float32)``; for up to 128
-    channels by a kernel that never writes the band, its absolute value or its
-    negation out (``g + (-1) e``, what ``_laplacian32`` computes, is ``g - e``
-    exactly).
+    values of ``np.abs(g - e).sum(axis=-1, dtype=np.float32)`` (summed in numpy's
+    order, :func:`~fluidnb.videodb._sums._pairwise_sum`), without the band, its
+    absolute value or its negation ever being written out (``g + (-1) e``, what
+    ``_laplacian32`` computes, is ``g - e`` exactly).
     """
-    if g.shape[2] <= _PAIRWISE_BLOCK:
-        _band_magnitudes_kernel(g, e, out)
-    else:
-        out[...] = np.abs(g if e is None else g - e).sum(axis=-1, dtype=np.float32)
-
-
-@njit(cache=True, nogil=True)
-def _band_magnitudes_kernel(g, e, out):
-    """:func:`_band_magnitudes` for at most 128 channels, one pixel at a time."""
     row = np.empty(g.shape[2], np.float32)
     for i in range(g.shape[0]):
         for j in range(g.shape[1]):
