@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from functools import cache
+from functools import cache, lru_cache
 
 import numpy as np
 from numba import njit
@@ -497,6 +497,22 @@ class _Plan:
         return src.reshape((self.bottom - self.top) * (self.right - self.left), src.shape[2])
 
 
+@lru_cache(maxsize=16)
+def _whole_plan(h, w, version):
+    """The :class:`_Plan` of a whole version of an (h, w) source, made once (read-only).
+
+    A build samples each window's grey frames, mean image and flow at the same
+    points, and its clips are often all one size: the plan (coordinates, corners,
+    indices; ~0.3 s a water build when made for every call) depends on nothing else.
+    The 8 unflipped, resampled versions of a 180 x 320 clip hold 8.6 MB of indices.
+    """
+    hv, wv = version_shape((h, w), version)
+    plan = _Plan(h, w, version, 0, 0, hv, wv)
+    for arr in plan.indices:
+        arr.flags.writeable = False
+    return plan
+
+
 class _Layout:
     """Frames (T, H, W[, C]) moved to and from the pixel-major layout the kernels use.
 
@@ -597,7 +613,7 @@ class VersionSampler:
                 matrix = version_matrix(version).astype(np.float32)
                 _apply_matrix(out.reshape(-1, 2), matrix, out.reshape(-1, 2))
             return out
-        plan = _Plan(h, w, version, 0, 0, hv, wv)
+        plan = _whole_plan(h, w, version)
         if plan.whole:  # always, for a whole version: its prefilter is shared by scale
             if plan.sigma not in self._src:
                 self._src[plan.sigma] = _blur(src, plan.kernel) if plan.sigma else src

@@ -32,7 +32,7 @@ from numba import njit
 
 from .._image import LUMA
 from ..fields import downsample, expand
-from ..fields._pyramid import _laplacian32
+from ..fields._pyramid import _expand32, _gaussian32
 from ._geometry import (
     FRAGMENT,
     SPECTRA_BLOCK,
@@ -41,6 +41,7 @@ from ._geometry import (
     TEXTURE_LEVELS,
     TEXTURE_SIDE,
 )
+from ._sums import _pairwise_sum
 
 __all__ = [
     "block_mean",
@@ -146,16 +147,41 @@ def _textureness(stack):
     # float32 round-off, ~15 times as fast as its float64 version). Not the fused
     # float32 steps the renderer's blend uses: this is what databases store, and the
     # same sources must keep giving the same database (the starter caches, a build
-    # resumed by a newer fluidnb).
-    bands = _laplacian32(np.ascontiguousarray(stack, np.float32), TEXTURE_LEVELS, fused=False)
+    # resumed by a newer fluidnb). These are _laplacian32(..., fused=False)'s steps,
+    # but each band L = G - expand(G_next) is never stored: one kernel takes it, its
+    # magnitude and the sum over frames in one pass (the same float32 values as
+    # np.abs(band).sum(axis=-1, dtype=np.float32); the tests check it bit for bit).
+    gauss = _gaussian32(np.ascontiguousarray(stack, np.float32), TEXTURE_LEVELS, fused=False)
     levels = []
-    for band in bands:
+    for g, g_next in zip(gauss, [*gauss[1:], None]):
+        mag = np.empty(g.shape[:2], np.float32)
+        # The last level is the residual itself, no band: its magnitude is |G|.
+        e = None if g_next is None else _expand32(g_next, g.shape[:2], 1.0, fused=False)
+        _band_magnitudes(g, e, mag)
         # Summing over frames first is exact (resampling is linear) and N times cheaper;
         # back to the full grid by bilinear resampling (expand without its blur).
-        mag = np.abs(band).sum(axis=-1, dtype=np.float32)
         full = mag.shape == (h, w)
         levels.append(mag if full else expand(mag, (h, w), sigma=0, precision="float32"))
     return block_mean(np.stack(levels), TEXTURE_BLOCK).astype(np.float32)
+
+
+@njit(cache=True, nogil=True)
+def _band_magnitudes(g, e, out):
+    """``out[i, j] = sum_c |g[i, j, c] - e[i, j, c]|`` (``e`` None: ``sum_c |g[i, j, c]|``).
+
+    ``g`` a Gaussian level (H, W, C) and ``e`` the next level's expansion: the
+    Laplacian band's magnitudes summed over the channels (frames) in float32, the
+    values of ``np.abs(g - e).sum(axis=-1, dtype=np.float32)`` (summed in numpy's
+    order, :func:`~fluidnb.videodb._sums._pairwise_sum`), without the band, its
+    absolute value or its negation ever being written out (``g + (-1) e``, what
+    ``_laplacian32`` computes, is ``g - e`` exactly).
+    """
+    row = np.empty(g.shape[2], np.float32)
+    for i in range(g.shape[0]):
+        for j in range(g.shape[1]):
+            for q in range(g.shape[2]):
+                row[q] = abs(g[i, j, q] if e is None else g[i, j, q] - e[i, j, q])
+            out[i, j] = _pairwise_sum(row)
 
 
 def window_features(frames, colour_mean, flow, positions, *, threshold, n_bins):
@@ -203,7 +229,9 @@ def pixel_features(stack, colour_mean, flow, positions, *, threshold, n_bins):
     ``stack`` is the grey frames as (Hv, Wv, N) and ``flow`` the flows as (Hv, Wv,
     2 (N - 1)), each pixel's (dy, dx) pairs frame after frame
     (:class:`~fluidnb.videodb._augment.VersionSampler`'s layout); the results are
-    :func:`window_features`'s, bit for bit.
+    :func:`window_features`'s, bit for bit. So are those of the numpy version it
+    replaced (``reference_pixel_features``): its kernels write each stored array once,
+    in its final layout, with numpy's and OpenCV's operations in their order.
     """
     h, w, m = flow.shape
     moving = np.empty((h, w), bool)
@@ -211,31 +239,37 @@ def pixel_features(stack, colour_mean, flow, positions, *, threshold, n_bins):
     _moving_blocks(flow, np.float32(threshold), moving, blocks)
     # Everything per fragment comes from sums over 4 x 4-pixel blocks: a fragment is
     # 12 x 12 of them on a grid of step 6 blocks.
-    count = _window_sums(block_mean(moving.astype(np.float32), SPECTRA_BLOCK), positions)
+    moving_blocks = block_mean(moving.astype(np.float32), SPECTRA_BLOCK)
+    count = _window_sums(moving_blocks[None, :, :, None], positions)[:, 0, 0]
     count *= np.float32(SPECTRA_BLOCK**2)
     keep = count > 0.5
     if not keep.any():
         return keep, None
     positions, count = positions[keep], count[keep]
-    blocks = np.moveaxis(blocks, -1, 1)  # (n, 2, Hb, Wb)
-    sums = _window_sums(blocks, positions) * np.float32(SPECTRA_BLOCK**2)  # (n, 2, k)
-    motion = (np.moveaxis(sums, -1, 0) / count[:, None, None]).astype(np.float32)
+    sums = _window_sums(blocks, positions) * np.float32(SPECTRA_BLOCK**2)  # (k, n, 2)
+    motion = sums / count[:, None, None]
 
     # Rounded to the stored types before being cut into fragments: the same values,
     # converted once per block instead of once per overlapping fragment.
-    spectra = _power(blocks, n_bins).astype(np.float16)
-    texture = _textureness(stack).astype(np.float16)
+    spectra = _to_half(_power(np.moveaxis(blocks, -1, 1), n_bins))
+    texture = _to_half(_textureness(stack))
     mean = (np.clip(colour_mean, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
-    spec = spectra[(slice(None), slice(None), *_windows(positions, SPECTRA_BLOCK, SPECTRA_SIDE))]
-    tex = texture[(slice(None), *_windows(positions, TEXTURE_BLOCK, TEXTURE_SIDE))]
-    return keep, {
-        "mean": mean[_windows(positions, 1, FRAGMENT)],
-        "mean_motion": motion.mean(axis=1).astype(np.float32),
-        "motion": motion,
-        "spectra": np.ascontiguousarray(np.moveaxis(spec, 2, 0)),
-        "texture": np.ascontiguousarray(np.moveaxis(tex, 1, 0)),
-        "moving": (count / FRAGMENT**2).astype(np.float32),
+    k = len(positions)
+    out = {
+        "mean": np.empty((k, FRAGMENT, FRAGMENT, 3), np.uint8),
+        "spectra": np.empty((k, n_bins, 2, SPECTRA_SIDE, SPECTRA_SIDE), np.float16),
+        "texture": np.empty((k, TEXTURE_LEVELS, TEXTURE_SIDE, TEXTURE_SIDE), np.float16),
     }
+    # numba has no float16: the halves are copied as their bit patterns.
+    _cut_fragments(
+        positions,
+        (mean, spectra.view(np.uint16), texture.view(np.uint16)),
+        (out["mean"], out["spectra"].view(np.uint16), out["texture"].view(np.uint16)),
+    )
+    out["mean_motion"] = motion.mean(axis=1).astype(np.float32)
+    out["motion"] = motion
+    out["moving"] = (count / FRAGMENT**2).astype(np.float32)
+    return keep, out
 
 
 @njit(cache=True, nogil=True)
@@ -291,19 +325,115 @@ def _moving_blocks(flow, threshold, moving, out):
     _moving_rows(flow, 4 * hb, h, threshold, moving)
 
 
-def _windows(positions, block, side):
-    """Index arrays (k, side, side) of each fragment's cells on a grid of ``block`` px."""
-    offs = np.arange(side)
-    rows, cols = positions[:, 0] // block, positions[:, 1] // block
-    return rows[:, None, None] + offs[None, :, None], cols[:, None, None] + offs[None, None, :]
+@njit(cache=True, nogil=True)
+def _half_bits(f):
+    """The float16 bit pattern of the float32 of bits ``f``: nearest, ties to even.
+
+    A line-by-line port of numpy's ``npy_floatbits_to_halfbits`` (what ``astype``
+    does): integer operations on the bits, so the same halves, whatever the value.
+    numpy's own cast slows down about 25-fold on values that underflow to half
+    subnormals or zero (measured 67 against 2.6 ns a value), which a window's
+    spectra are full of: most blocks barely move at most frequencies.
+    """
+    f = np.int64(f)  # numba types mixed unsigned / signed integers as floats
+    h_sgn = (f & 0x80000000) >> 16
+    f_exp = f & 0x7F800000
+    if f_exp >= 0x47800000:  # exponent overflow, inf or NaN: signed inf or NaN
+        f_sig = f & 0x007FFFFF
+        if f_exp == 0x7F800000 and f_sig != 0:
+            ret = 0x7C00 + (f_sig >> 13)  # NaN: the payload's top bits...
+            if ret == 0x7C00:
+                ret += 1  # ... but still a NaN
+            return np.uint16(h_sgn + ret)
+        return np.uint16(h_sgn + 0x7C00)
+    if f_exp <= 0x38000000:  # exponent underflow: a half subnormal or signed zero
+        if f_exp < 0x33000000:
+            return np.uint16(h_sgn)
+        f_sig = (0x00800000 + (f & 0x007FFFFF)) >> (113 - (f_exp >> 23))  # 1-11 more bits
+        # Round half to even: not when the half is even and the rest exactly a half
+        # (the bits shifted out of f_sig are checked in f).
+        if (f_sig & 0x3FFF) != 0x1000 or (f & 0x7FF) != 0:
+            f_sig += 0x1000
+        return np.uint16(h_sgn + (f_sig >> 13))  # a carry makes it the smallest normal
+    h_exp = (f_exp - 0x38000000) >> 13
+    f_sig = f & 0x007FFFFF
+    if (f_sig & 0x3FFF) != 0x1000:  # round half to even
+        f_sig += 0x1000
+    # A carry out of the significand increments the exponent (to inf at most).
+    return np.uint16(h_sgn + h_exp + (f_sig >> 13))
 
 
+@njit(cache=True, nogil=True)
+def _halves(x, out):
+    """``out`` = the bits of ``x.astype(np.float16)``, ``x`` float32 bits (uint32, 4-d)."""
+    for i in range(x.shape[0]):
+        for j in range(x.shape[1]):
+            for k in range(x.shape[2]):
+                for m in range(x.shape[3]):
+                    out[i, j, k, m] = _half_bits(x[i, j, k, m])
+
+
+def _to_half(x):
+    """``x.astype(np.float16)`` (float32 x, up to 4-d) through :func:`_half_bits`."""
+    out = np.empty(x.shape, np.float16)
+    lead = (1,) * (4 - x.ndim)
+    bits = x.view(np.uint32).reshape(lead + x.shape)  # numba has no float16: bits
+    _halves(bits, out.view(np.uint16).reshape(lead + x.shape))
+    return out
+
+
+@njit(cache=True, nogil=True)
 def _window_sums(blocks, positions):
-    """Sums of ``blocks`` (..., Hb, Wb) over each fragment's 12 x 12 blocks."""
-    # An integral image: four lookups a fragment, whatever its size.
-    pad = [(0, 0)] * (blocks.ndim - 2) + [(1, 0), (1, 0)]
-    ii = np.pad(blocks.astype(np.float64).cumsum(-2).cumsum(-1), pad)
-    r0, c0 = positions[:, 0] // SPECTRA_BLOCK, positions[:, 1] // SPECTRA_BLOCK
-    r1, c1 = r0 + SPECTRA_SIDE, c0 + SPECTRA_SIDE
-    out = ii[..., r1, c1] - ii[..., r0, c1] - ii[..., r1, c0] + ii[..., r0, c0]
-    return out.astype(np.float32)
+    """Sums of ``blocks`` (P, Hb, Wb, Q) over each fragment's 12 x 12 blocks: (k, P, Q).
+
+    An integral image, four lookups a fragment whatever its size, in float64 and then
+    rounded to float32: the operations, in their order, of numpy's
+    ``np.pad(b.astype(np.float64).cumsum(-2).cumsum(-1), ((1, 0), (1, 0)))`` and
+    ``ii[r1, c1] - ii[r0, c1] - ii[r1, c0] + ii[r0, c0]`` per (P, Q) plane
+    (``reference_window_sums``, which the tests check it against bit for bit).
+    """
+    n_p, hb, wb, n_q = blocks.shape
+    k = positions.shape[0]
+    out = np.empty((k, n_p, n_q), np.float32)
+    ii = np.zeros((hb + 1, wb + 1))  # row and column 0: the padding's zeros
+    for p in range(n_p):
+        for q in range(n_q):
+            # cumsum(-2): each column's running sum down the rows, the first row as it
+            # is (not 0 + it: a -0.0 stays -0.0).
+            for r in range(hb):
+                for c in range(wb):
+                    v = np.float64(blocks[p, r, c, q])
+                    ii[r + 1, c + 1] = v if r == 0 else ii[r, c + 1] + v
+            # cumsum(-1): then each row's running sum across the columns.
+            for r in range(1, hb + 1):
+                for c in range(2, wb + 1):
+                    ii[r, c] = ii[r, c - 1] + ii[r, c]
+            for i in range(k):
+                r0, c0 = positions[i, 0] // SPECTRA_BLOCK, positions[i, 1] // SPECTRA_BLOCK
+                r1, c1 = r0 + SPECTRA_SIDE, c0 + SPECTRA_SIDE
+                out[i, p, q] = ii[r1, c1] - ii[r0, c1] - ii[r1, c0] + ii[r0, c0]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _cut_fragments(positions, maps, out):
+    """Copy each fragment's cells of the whole-canvas maps into its rows of ``out``.
+
+    ``maps`` is the rounded mean image (Hv, Wv, 3), the spectra (NB, 2, Hv / 4, Wv / 4)
+    and the textureness (L, Hv / 2, Wv / 2) (the halves as uint16 bits); ``out`` the
+    stored arrays (k, 48, 48, 3), (k, NB, 2, 12, 12) and (k, L, 24, 24), written once
+    in their final layout (the fancy-index gathers of ``reference_pixel_features``
+    made (NB, 2, k, 12, 12) and needed a transposed copy).
+    """
+    mean, spectra, texture = maps
+    out_mean, out_spectra, out_texture = out
+    for i in range(positions.shape[0]):
+        r, c = positions[i, 0], positions[i, 1]
+        out_mean[i] = mean[r : r + FRAGMENT, c : c + FRAGMENT]
+        rs, cs = r // SPECTRA_BLOCK, c // SPECTRA_BLOCK
+        for f in range(spectra.shape[0]):
+            for a in range(spectra.shape[1]):
+                out_spectra[i, f, a] = spectra[f, a, rs : rs + SPECTRA_SIDE, cs : cs + SPECTRA_SIDE]
+        rt, ct = r // TEXTURE_BLOCK, c // TEXTURE_BLOCK
+        for lev in range(texture.shape[0]):
+            out_texture[i, lev] = texture[lev, rt : rt + TEXTURE_SIDE, ct : ct + TEXTURE_SIDE]

@@ -13,6 +13,9 @@ plain version                          fast path (tested against it)
 :func:`reference_sample_version`       :func:`~fluidnb.videodb.sample_version`
 :func:`reference_transform_vectors`    :func:`~fluidnb.videodb.transform_vectors`
 :func:`reference_fragment_frames`      :meth:`~fluidnb.videodb.VideoDatabase.fragment_frames`
+:func:`reference_pixel_features`       ``pixel_features`` (the build's features, bits)
+:func:`reference_textureness`          :func:`~fluidnb.videodb.textureness` (bits)
+:func:`reference_window_sums`          ``_window_sums`` (bits)
 :func:`reference_dense_sift`           :func:`~fluidnb.videodb.dense_sift`
 :func:`reference_quantise`             :func:`~fluidnb.videodb.quantise`
 :func:`reference_top_k`                :meth:`~fluidnb.videodb.HistogramIndex.top_k`
@@ -43,7 +46,7 @@ from scipy import ndimage as ndi
 
 from .._progress import Progress
 from .._validation import check_int, check_vector_field
-from ..fields import backward_warp, collapse, gaussian_pyramid, laplacian_pyramid
+from ..fields import backward_warp, collapse, expand, gaussian_pyramid, laplacian_pyramid
 from ..fields._pyramid import _collapse32, _gaussian32, _laplacian32
 from ._appearance import (
     _QUANTILES,
@@ -67,6 +70,7 @@ from ._blend import (
 )
 from ._blend import MARGIN as _BLEND_MARGIN
 from ._blend import _window as _blend_window
+from ._features import _flow_blocks, _power, block_mean
 from ._flow_render import loop_phases
 from ._geometry import (
     FRAGMENT,
@@ -74,6 +78,7 @@ from ._geometry import (
     SPECTRA_BLOCK,
     SPECTRA_SIDE,
     TEXTURE_BLOCK,
+    TEXTURE_LEVELS,
     TEXTURE_SIDE,
     VERSIONS,
 )
@@ -95,11 +100,14 @@ __all__ = [
     "reference_match_histograms_cells",
     "reference_motion_blur",
     "reference_pair_tables",
+    "reference_pixel_features",
     "reference_quantise",
     "reference_sample_version",
+    "reference_textureness",
     "reference_top_k",
     "reference_transform_vectors",
     "reference_water_flow",
+    "reference_window_sums",
 ]
 
 
@@ -182,6 +190,90 @@ def reference_fragment_frames(db, ids, *, margin=0, grey=False):
         out.append(np.clip(rebuilt, 0.0, 1.0))
     shape = (0, n, side, side) + (() if grey else (3,))
     return np.stack(out).astype(np.float32) if out else np.zeros(shape, np.float32)
+
+
+# --------------------------------------------------------- fragment features (secs. 4-5)
+
+
+def reference_pixel_features(stack, colour_mean, flow, positions, *, threshold, n_bins):
+    """The build's fragment features in numpy and OpenCV, as first written.
+
+    Arguments and result as ``pixel_features`` (:func:`window_features` of
+    pixel-major arrays), which must equal it bit for bit: a database built again is
+    the same database. Here the moving mask and the flow's block means are numpy's
+    mean and OpenCV's area resize, the window sums numpy's integral image
+    (:func:`reference_window_sums`), the textureness the OpenCV pyramid's bands
+    (:func:`reference_textureness`), and each fragment's cells are gathered with
+    fancy indices, then moved to the stored layout.
+    """
+    h, w, m = flow.shape
+    n = m // 2
+    # Frame-major (n, H, W, 2) and contiguous: numpy's mean over frames then adds the
+    # frames one after the other, as the build's kernel does.
+    frame_major = np.ascontiguousarray(np.moveaxis(flow.reshape(h, w, n, 2), 2, 0))
+    speed = np.sqrt(frame_major[..., 0] ** 2 + frame_major[..., 1] ** 2)
+    moving = speed.mean(axis=0) > np.float32(threshold)
+    count = reference_window_sums(block_mean(moving.astype(np.float32), SPECTRA_BLOCK), positions)
+    count *= np.float32(SPECTRA_BLOCK**2)
+    keep = count > 0.5
+    if not keep.any():
+        return keep, None
+    positions, count = positions[keep], count[keep]
+    blocks = _flow_blocks(frame_major, moving)  # (n, 2, Hb, Wb)
+    sums = reference_window_sums(blocks, positions) * np.float32(SPECTRA_BLOCK**2)  # (n, 2, k)
+    motion = (np.moveaxis(sums, -1, 0) / count[:, None, None]).astype(np.float32)
+    spectra = _power(blocks, n_bins).astype(np.float16)
+    texture = reference_textureness(stack).astype(np.float16)
+    mean = (np.clip(colour_mean, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+
+    def cells(block, side):  # index arrays (k, side, side) of each fragment's cells
+        offs = np.arange(side)
+        rows, cols = positions[:, 0] // block, positions[:, 1] // block
+        return rows[:, None, None] + offs[None, :, None], cols[:, None, None] + offs[None, None, :]
+
+    spec = spectra[(slice(None), slice(None), *cells(SPECTRA_BLOCK, SPECTRA_SIDE))]
+    tex = texture[(slice(None), *cells(TEXTURE_BLOCK, TEXTURE_SIDE))]
+    return keep, {
+        "mean": mean[cells(1, FRAGMENT)],
+        "mean_motion": motion.mean(axis=1).astype(np.float32),
+        "motion": motion,
+        "spectra": np.ascontiguousarray(np.moveaxis(spec, 2, 0)),
+        "texture": np.ascontiguousarray(np.moveaxis(tex, 1, 0)),
+        "moving": (count / FRAGMENT**2).astype(np.float32),
+    }
+
+
+def reference_window_sums(blocks, positions):
+    """Sums of ``blocks`` (..., Hb, Wb) over each fragment's 12 x 12 blocks: (..., k).
+
+    An integral image in float64 (numpy's cumulative sums, padded with a zero row
+    and column), four lookups a fragment, rounded to float32; ``_window_sums``, on
+    (P, Hb, Wb, Q) planes, equals it bit for bit.
+    """
+    pad = [(0, 0)] * (blocks.ndim - 2) + [(1, 0), (1, 0)]
+    ii = np.pad(blocks.astype(np.float64).cumsum(-2).cumsum(-1), pad)
+    r0, c0 = positions[:, 0] // SPECTRA_BLOCK, positions[:, 1] // SPECTRA_BLOCK
+    r1, c1 = r0 + SPECTRA_SIDE, c0 + SPECTRA_SIDE
+    out = ii[..., r1, c1] - ii[..., r0, c1] - ii[..., r1, c0] + ii[..., r0, c0]
+    return out.astype(np.float32)
+
+
+def reference_textureness(stack):
+    """:func:`textureness` of the frames as the channels of one (H, W, N) image, in numpy.
+
+    The Laplacian pyramid's bands on OpenCV's steps (``_laplacian32(..., fused=False)``),
+    each band's magnitude summed over the frames by numpy, brought back to the full
+    grid and averaged over 2 x 2 blocks. The library's version fuses the band, its
+    magnitude and the sum in one kernel and must equal this bit for bit.
+    """
+    h, w = stack.shape[:2]
+    bands = _laplacian32(np.ascontiguousarray(stack, np.float32), TEXTURE_LEVELS, fused=False)
+    levels = []
+    for band in bands:
+        mag = np.abs(band).sum(axis=-1, dtype=np.float32)
+        full = mag.shape == (h, w)
+        levels.append(mag if full else expand(mag, (h, w), sigma=0, precision="float32"))
+    return block_mean(np.stack(levels), TEXTURE_BLOCK).astype(np.float32)
 
 
 # ------------------------------------------------------------ appearance (secs. 4-5, Eq. 1)

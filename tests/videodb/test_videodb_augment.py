@@ -184,6 +184,13 @@ def test_the_version_sampler_gives_sample_version_bit_for_bit(shape):
             assert np.array_equal(bits(c), bits(sample_version(colour, v)[0]))
             carried = np.moveaxis(transform_flow(flow, v), 0, 2).reshape(hv, wv, -1)
             assert np.array_equal(bits(f), bits(carried))
+    # The three samplers (and later windows and clips of this size) share each
+    # version's sampling plan, made once and read-only: nothing can change it under them.
+    from fluidnb.videodb._augment import _whole_plan
+
+    plan = _whole_plan(*shape[1:], 0)
+    assert plan is _whole_plan(*shape[1:], 0)
+    assert not any(a.flags.writeable for a in plan.indices)
 
 
 def test_mirror_partners_are_mirror_images():

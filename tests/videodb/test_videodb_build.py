@@ -308,6 +308,27 @@ def test_read_video_reads_files_folders_and_clips(tmp_path):
     assert big.scaled == 0.5
 
 
+def test_a_clips_frames_are_converted_to_8_bits_as_to_uint8_does():
+    # read_video converts a Clip's float32 frames with a one-pass kernel: it must give
+    # to_uint8's bytes (the stored frames and the clips' SHA-256), rounding ties and
+    # values outside [0, 1] included.
+    from fluidnb import to_uint8
+    from fluidnb.videodb._video import _clip_uint8
+
+    gen = np.random.default_rng(4)
+    ties = (np.arange(256, dtype=np.float32) - np.float32(0.5)) / np.float32(255)
+    near = np.concatenate([np.nextafter(ties, -1), ties, np.nextafter(ties, 2)])
+    values = np.concatenate(
+        [near, gen.uniform(-0.3, 1.3, 30_000), [0.0, -0.0, 1.0, np.inf, -np.inf, 1e30, -1e-30]]
+    ).astype(np.float32)
+    assert np.array_equal(_clip_uint8(values), to_uint8(values))
+    frames = gen.random((3, 5, 7, 3)).astype(np.float32)
+    for arr in (frames, frames[..., 0], frames[:, ::2, ::-1]):  # RGB, grey, strided
+        assert np.array_equal(_clip_uint8(arr), to_uint8(arr))
+    clip = Clip(frames)
+    assert np.array_equal(read_video(clip).frames, to_uint8(frames))
+
+
 def _encode_webm(path, clip):
     """A WebM (VP9) file, as a user's browser recording would be."""
     import subprocess

@@ -239,3 +239,126 @@ def test_pixel_features_are_window_features_of_the_same_pixels():
     for name, value in feats.items():
         assert np.array_equal(value, feats2[name]), name
     assert feats["spectra"].shape == (3, 5, 2, 12, 12)
+
+
+# ------------------------------------------------- the build's kernels against numpy
+
+
+def _same_bits(a, b):
+    a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
+    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+def _wide_range(gen, shape):
+    """float32 values over many magnitudes, both signs, with exact zeros and -0.0."""
+    x = gen.standard_normal(shape) * np.exp(gen.uniform(-12, 12, shape))
+    x = x.astype(np.float32)
+    x.flat[::7] = 0.0
+    x.flat[3::11] = -0.0
+    return x
+
+
+@pytest.mark.parametrize("c", [*range(1, 34), 64, 100, 127, 128, 129, 300])
+def test_band_magnitudes_are_numpys_sum_bit_for_bit(c):
+    # The kernel replicates numpy's pairwise summation order for up to 128 channels
+    # (numpy's own sum beyond): the stored textureness must not change by one bit.
+    from fluidnb.videodb._features import _band_magnitudes
+
+    gen = np.random.default_rng(c)
+    g, e = _wide_range(gen, (5, 7, c)), _wide_range(gen, (5, 7, c))
+    for base in (e, None):
+        out = np.empty((5, 7), np.float32)
+        _band_magnitudes(g, base, out)
+        band = g if base is None else g + np.float32(-1.0) * base  # _laplacian32's sign
+        assert _same_bits(out, np.abs(band).sum(axis=-1, dtype=np.float32))
+
+
+@pytest.mark.parametrize(("n", "h", "w"), [(1, 4, 4), (2, 9, 13), (5, 33, 31), (32, 48, 72)])
+def test_textureness_equals_the_reference_bit_for_bit(n, h, w):
+    from fluidnb.videodb._features import _textureness
+    from fluidnb.videodb._reference import reference_textureness
+
+    stack = np.random.default_rng(n + h).random((h, w, n)).astype(np.float32)
+    assert _same_bits(_textureness(stack), reference_textureness(stack))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_window_sums_equal_the_numpy_integral_image_bit_for_bit(seed):
+    from fluidnb.videodb._features import _window_sums
+    from fluidnb.videodb._reference import reference_window_sums
+
+    gen = np.random.default_rng(seed)
+    p, q = int(gen.integers(1, 6)), int(gen.integers(1, 3))
+    hb, wb = int(gen.integers(12, 40)), int(gen.integers(12, 40))
+    blocks = _wide_range(gen, (p, hb, wb, q)) * np.float32(1e-6)
+    blocks[:, :2] = -0.0  # whole windows of -0.0: the sign of zero is kept too
+    # A huge block that every later corner of the integral image carries and the
+    # four lookups cancel: their float64 round-off shows in the float32 sums, so
+    # they must be the same operations in the same order.
+    blocks[:, 2, 3] = np.float32(1e12)
+    # Every corner on the stride-24 grid (6 blocks) whose window fits, edges included.
+    rows, cols = np.arange(0, hb - 11, 6), np.arange(0, wb - 11, 6)
+    positions = 4 * np.stack(np.meshgrid(rows, cols, indexing="ij"), -1).reshape(-1, 2)
+    want = reference_window_sums(np.moveaxis(blocks, -1, 1), positions)  # (p, q, k)
+    assert _same_bits(_window_sums(blocks, positions), np.moveaxis(want, -1, 0))
+
+
+@pytest.mark.parametrize(
+    ("n", "h", "w", "threshold"),
+    [(1, 48, 48, 0.5), (5, 50, 75, 0.8), (9, 72, 96, 0.5), (31, 99, 121, 1.0), (9, 72, 96, 9.0)],
+)
+def test_pixel_features_equal_the_reference_bit_for_bit(n, h, w, threshold):
+    # The build's features (kernels: the moving mask and block means, the window sums,
+    # the textureness's magnitudes, the cut into fragments) against the numpy and
+    # OpenCV version they replaced: every stored array the same bits, ragged edges,
+    # fragments at the canvas's edges and windows with nothing moving included.
+    from fluidnb.videodb._reference import reference_pixel_features
+
+    gen = np.random.default_rng(n * h)
+    stack = gen.random((h, w, n + 1)).astype(np.float32)
+    colour = (gen.random((h, w, 3)) * 1.2 - 0.1).astype(np.float32)  # clipped too
+    flow = (gen.standard_normal((h, w, 2 * n)) * 0.7).astype(np.float32)
+    flow[: 2 * h // 3, : 2 * w // 3] *= np.float32(0.1)  # a still corner: fragments dropped
+    rows, cols = np.arange(0, h - 47, 24), np.arange(0, w - 47, 24)
+    positions = np.stack(np.meshgrid(rows, cols, indexing="ij"), -1).reshape(-1, 2)
+    args = stack, colour, flow, positions
+    keep, feats = pixel_features(*args, threshold=threshold, n_bins=n // 2 + 1)
+    keep_ref, ref = reference_pixel_features(*args, threshold=threshold, n_bins=n // 2 + 1)
+    assert np.array_equal(keep, keep_ref)
+    if threshold > 5:  # nothing moves that fast
+        assert feats is None
+        assert ref is None
+        return
+    assert keep.sum() > 0
+    assert sorted(feats) == sorted(ref)
+    for name in ref:
+        assert _same_bits(feats[name], ref[name]), name
+
+
+def test_half_rounding_is_numpys_cast_bit_for_bit():
+    # The stored spectra and textureness are cast to float16 by the build's integer
+    # port of numpy's cast (numpy's own slows down on values that underflow). Checked
+    # once over all 2^32 float32 patterns; here every half, the midpoints between
+    # neighbouring halves (the ties) and a float32 step either side of them, the
+    # underflow and overflow boundaries, and random bit patterns, both signs.
+    from fluidnb.videodb._features import _to_half
+
+    halves = np.arange(1 << 16, dtype=np.uint32).astype(np.uint16).view(np.float16)
+    finite = np.sort(halves[np.isfinite(halves)].astype(np.float32))
+    mids = (finite[:-1].astype(np.float64) + finite[1:]) / 2  # exact in float64
+    mids = mids.astype(np.float32)
+    near = np.concatenate([np.nextafter(mids, -np.inf), mids, np.nextafter(mids, np.inf)])
+    gen = np.random.default_rng(0)
+    random_bits = gen.integers(0, 1 << 32, 1 << 20, dtype=np.uint64).astype(np.uint32)
+    edges = np.array([2.0**-25, 2.0**-24, 2.0**-14, 65504, 65519.996, 65520, 1e30, np.inf])
+    edges = edges.astype(np.float32)
+    x = np.concatenate([finite, near, random_bits.view(np.float32), edges, -edges])
+    x = x[~np.isnan(x)]
+    with np.errstate(over="ignore"):
+        want = x.astype(np.float16)
+    assert _same_bits(_to_half(x), want)
+    assert np.isnan(_to_half(np.array([np.nan, -np.nan], np.float32))).all()
+    # Any layout: a strided (transposed) 4-d view casts as the contiguous array.
+    arr = gen.standard_normal((3, 4, 5, 6)).astype(np.float32) * np.float32(1e-5)
+    view = arr.transpose(0, 3, 1, 2)
+    assert _same_bits(_to_half(view), view.astype(np.float16))

@@ -487,12 +487,15 @@ def test_the_compiled_expansion_equals_the_plain_one_on_ties_and_lam_zero(kind):
 def test_energy_sums_as_numpy_does():
     # The compiled acceptance check sums Eq. (4) in numpy's pairwise order, so the
     # energies (and every `new < current` decision) are the plain version's bits.
-    from fluidnb.videodb._mrf import _pairwise_sum
+    from fluidnb.videodb._sums import _pairwise_sum
 
     gen = np.random.default_rng(3)
     for n in [*range(0, 300), 511, 1024, 1031, 4099, 70001]:
         a = gen.standard_normal(n) * 10.0 ** gen.integers(-6, 6, n)
         assert _pairwise_sum(a) == a.sum(), n
+        # float32 (the stored textureness's sums) in float32 throughout, to the bit.
+        a32 = a.astype(np.float32)
+        assert np.float32(_pairwise_sum(a32)).tobytes() == a32.sum().tobytes(), n
     a = np.full(200, 0.1)  # a left-to-right sum is 20.000000000000014
     assert _pairwise_sum(a) == a.sum() == 20.0 != sum(a.tolist())
 
