@@ -249,9 +249,13 @@ def part_starter(ctx):
     rows, out, total = [], [], 0.0
     tmp = Path(tempfile.mkdtemp(prefix="bench-videodb-build-"))
     saved = os.environ.get("FLUIDNB_CACHE_DIR")
+    # The run's own cache, if any, for each kind: found before the loop points the cache
+    # at an empty folder per kind (read inside it, the second and third kinds' were
+    # looked for in the first kind's empty folder).
+    cache = {kind: starter_path(kind, quick=ctx.quick) for kind in KINDS}
     try:
         for kind in KINDS:
-            cached = starter_path(kind, quick=ctx.quick)  # the cache of this run, if any
+            cached = cache[kind]
             os.environ["FLUIDNB_CACHE_DIR"] = str(tmp / kind)
             ends = {}
             load0 = load()
