@@ -22,7 +22,6 @@ import numpy as np
 
 from .._image import to_uint8
 from .._progress import Progress
-from .._threads import opencv_single_threaded
 from .._validation import check_array, check_choice
 from ._params import FLOW_BACKENDS
 
@@ -34,7 +33,6 @@ __all__ = [
     "TVL1_LAMBDA",
     "TVL1_THETA",
     "TVL1_WARPS",
-    "opencv_single_threaded",
     "optical_flow",
 ]
 
@@ -85,8 +83,8 @@ def optical_flow(frames, *, backend="dis", progress=None):
     -----
     **DIS.** OpenCV returns (dx, dy); the components are swapped to (dy, dx). The
     result does not depend on OpenCV's thread count (checked with 1, 2 and the
-    default); a build runs it on one (:func:`opencv_single_threaded`), as it runs
-    clips side by side itself.
+    default); a build runs it on one (``fluidnb._threads.opencv_single_threaded``),
+    as it runs clips side by side itself.
 
     **TV-L1 and the paper's parameters** [1]_. Zach et al. [3]_ minimise
     :math:`\int |\nabla u| + \frac{1}{2\theta}(u - v)^2 + \lambda |\rho(v)|` with the
