@@ -6,12 +6,18 @@ Usage (from the repository root)::
     FLUIDNB_PEERS_PYTHON=/tmp/peers-fluid/bin/python FLUIDNB_CHROMIUM=/usr/bin/chromium \\
         .venv/bin/python benchmarks/run_all.py --out /tmp/bench-run
     ... run_all.py --only fluid,interactive          # some of them
+    ... run_all.py --busy 1 --out /tmp/bench-load1   # with one other process busy
 
 An issue's rows are "re-measured in one run" when they come from the same minutes of the
 same machine: this runs each benchmark as its own process (so none inherits another's
 caches, threads or memory), writes what it prints to ``OUT/<name>.txt``, and ends with
 a summary of the wall time and the load average before and after each. It asserts
 nothing; the tables to read are in the files (and on the screen as they come).
+
+``--busy N`` measures under load: N other processes (each a Python loop that keeps one
+core busy, "load about N") run from before the first benchmark to after the last, and
+are stopped whatever happens -- a loop left behind by hand would skew every later
+measurement on the machine.
 
 The benchmarks (see benchmarks/README.md for each one's cases and peers):
 
@@ -27,6 +33,7 @@ The benchmarks (see benchmarks/README.md for each one's cases and peers):
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import subprocess
 import sys
@@ -44,6 +51,25 @@ RUNS = {
 }
 
 
+#: What each ``--busy`` process runs: one core kept busy, nothing else.
+BUSY_LOOP = "while True: pass"
+
+
+@contextlib.contextmanager
+def busy(n):
+    """``n`` processes each keeping one core busy while the block runs; always stopped."""
+    procs = []
+    try:
+        for _ in range(n):
+            procs.append(subprocess.Popen([sys.executable, "-c", BUSY_LOOP]))
+        yield procs
+    finally:
+        for proc in procs:
+            proc.kill()
+        for proc in procs:
+            proc.wait()
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True, help="folder for each one's output")
@@ -51,35 +77,53 @@ def main():
         "--only", help=f"comma-separated names among {', '.join(RUNS)} (default: all)"
     )
     parser.add_argument("--quick", action="store_true", help="pass --quick where it is taken")
+    parser.add_argument(
+        "--busy",
+        type=int,
+        default=0,
+        metavar="N",
+        help="keep N other processes busy (one core each) throughout: measure under load",
+    )
     args = parser.parse_args()
+    if args.busy < 0:
+        parser.error(f"--busy must be 0 or more, got {args.busy}")
     names = list(RUNS) if not args.only else [n.strip() for n in args.only.split(",")]
     unknown = [n for n in names if n not in RUNS]
     if unknown:
         parser.error(f"--only: unknown {', '.join(unknown)}; choose among {', '.join(RUNS)}")
     args.out.mkdir(parents=True, exist_ok=True)
-    summary = []
-    for name in names:
-        cmd = [sys.executable, str(HERE / RUNS[name][0]), *RUNS[name][1:]]
-        if args.quick:
-            cmd.append("--quick")
-        before = os.getloadavg()[0]
-        started = time.monotonic()
-        print(f"== {name}: {' '.join(cmd[1:])} (load {before:.1f})", flush=True)
-        with (args.out / f"{name}.txt").open("w") as log:
-            proc = subprocess.Popen(
-                cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=HERE.parent
-            )
-            for line in proc.stdout:
-                sys.stdout.write(line)
-                log.write(line)
-            code = proc.wait()
-        seconds = time.monotonic() - started
-        summary.append((name, code, seconds, before, os.getloadavg()[0]))
+    with busy(args.busy):
+        if args.busy:
+            print(f"== {args.busy} other process(es) busy throughout ({BUSY_LOOP!r})", flush=True)
+            time.sleep(2)  # the load average starts to show them
+        summary = [run(name, args) for name in names]
     print("\nname         exit   wall     load before -> after")
     for name, code, seconds, before, after in summary:
         print(f"{name:<12} {code:>4} {seconds:>7.0f} s  {before:.1f} -> {after:.1f}")
+    if args.busy:
+        print(f"with {args.busy} other process(es) busy throughout (stopped)")
     print(f"outputs in {args.out}")
     return max((code != 0 for _, code, *_ in summary), default=0)
+
+
+def run(name, args):
+    """Run one benchmark as its own process; returns (name, exit code, s, load before, after)."""
+    cmd = [sys.executable, str(HERE / RUNS[name][0]), *RUNS[name][1:]]
+    if args.quick:
+        cmd.append("--quick")
+    before = os.getloadavg()[0]
+    started = time.monotonic()
+    print(f"== {name}: {' '.join(cmd[1:])} (load {before:.1f})", flush=True)
+    with (args.out / f"{name}.txt").open("w") as log:
+        proc = subprocess.Popen(
+            cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=HERE.parent
+        )
+        for line in proc.stdout:
+            sys.stdout.write(line)
+            log.write(line)
+        code = proc.wait()
+    seconds = time.monotonic() - started
+    return name, code, seconds, before, os.getloadavg()[0]
 
 
 if __name__ == "__main__":

@@ -1,11 +1,20 @@
 """Other libraries' thread counts held at one while fluidnb's own threads work."""
 
+import os
 import threading
+import time
 
 import numpy as np
 import pytest
 
-from fluidnb._threads import _blas_controller, blas_single_threaded, opencv_single_threaded
+from fluidnb import _threads
+from fluidnb._threads import (
+    _blas_controller,
+    blas_single_threaded,
+    opencv_single_threaded,
+    spread_pool,
+    usable_cores,
+)
 
 
 def _blas_threads():
@@ -134,3 +143,60 @@ def test_blas_limit_from_a_worker_while_the_main_thread_holds_control(two_blas_t
     finally:
         held.restore_original_limits()
     assert seen == {"inside": {1}, "after": {2}}
+
+
+# ------------------------------------------------------------------ spread_pool
+
+needs_affinity = pytest.mark.skipif(
+    not hasattr(os, "sched_setaffinity"), reason="the system does not let threads choose a core"
+)
+
+
+def _affinities(pool, n_tasks=16):
+    """Each pool thread's cores, as the thread itself sees them (name -> set)."""
+    seen = {}
+
+    def task(_):
+        time.sleep(0.005)  # every thread gets some
+        seen[threading.current_thread().name] = frozenset(os.sched_getaffinity(0))
+
+    with pool:
+        list(pool.map(task, range(n_tasks)))
+    return seen
+
+
+@needs_affinity
+def test_spread_pool_one_core_per_thread_when_it_has_one_for_every_core(monkeypatch):
+    # Any machine: pretend the process may use two of its cores (or the one it has
+    # twice over, which still must be pinned thread by thread).
+    cores = sorted(os.sched_getaffinity(0))
+    two = [cores[0], cores[-1]] if len(cores) > 1 else [cores[0], cores[0]]
+    monkeypatch.setattr(_threads, "usable_cores", lambda: two)
+    seen = _affinities(spread_pool(2, "test-spread"))
+    assert len(seen) == 2
+    assert sorted(seen.values(), key=sorted) == sorted((frozenset({c}) for c in two), key=sorted)
+    # The caller's own thread is never pinned.
+    assert os.sched_getaffinity(0) == set(cores)
+
+
+@needs_affinity
+def test_spread_pool_plain_when_fewer_threads_than_cores(monkeypatch):
+    cores = sorted(os.sched_getaffinity(0))
+    monkeypatch.setattr(_threads, "usable_cores", lambda: [*cores, max(cores) + 1])
+    seen = _affinities(spread_pool(len(cores), "test-plain"))
+    assert set(seen.values()) == {frozenset(cores)}
+
+
+def test_spread_pool_runs_every_task_once():
+    workers = len(usable_cores())
+    with spread_pool(workers) as pool:
+        out = list(pool.map(lambda x: x * x, range(100)))
+    assert out == [x * x for x in range(100)]
+
+
+def test_usable_cores_is_the_process_affinity():
+    cores = usable_cores()
+    assert cores == sorted(cores)
+    assert len(cores) >= 1
+    if hasattr(os, "sched_getaffinity"):
+        assert set(cores) == os.sched_getaffinity(0)

@@ -14,12 +14,12 @@ is the same in plain numpy.
 from __future__ import annotations
 
 import math
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from numba import njit
 from scipy import ndimage as ndi
 
+from .._threads import spread_pool
 from .._validation import check_array, check_int, check_range, check_vector_field
 
 __all__ = ["HISTOGRAM_BINS", "match_histograms_cells", "motion_blur"]
@@ -137,11 +137,13 @@ def motion_blur(image, velocity, *, shutter, denoise):
     if len(times):
         flat = img.reshape(*img.shape[:2], -1)
         blurred = np.empty_like(flat)
-        bounds = np.linspace(0, flat.shape[0], _THREADS + 1).astype(int)
+        # Bands of rows, several per core, to whichever thread is free.
+        bands = min(flat.shape[0], 8 * _THREADS)
+        bounds = np.linspace(0, flat.shape[0], bands + 1).astype(int)
         _each_frame(
             lambda k: _line_average(flat, v, times, weights, bounds[k], bounds[k + 1], blurred),
-            _THREADS,
-        )  # bands of rows on the cores
+            bands,
+        )
         out = blurred.reshape(img.shape)
     if denoise > 0:
         out = _variable_blur(out, denoise * speed)
@@ -607,20 +609,18 @@ _THREADS = 2
 
 
 def _each_frame(fn, n):
-    """``fn(t)`` for t in range(n), on up to :data:`_THREADS` threads (contiguous runs)."""
+    """``fn(t)`` for t in range(n), on up to :data:`_THREADS` threads.
+
+    A frame at a time to whichever thread is free (not a fixed half each: a thread
+    whose core another process shares would keep the other waiting at the end).
+    """
     workers = min(_THREADS, n)
     if workers <= 1:
         for t in range(n):
             fn(t)
         return
-    bounds = np.linspace(0, n, workers + 1).astype(int)
-
-    def run(k):
-        for t in range(bounds[k], bounds[k + 1]):
-            fn(t)
-
-    with ThreadPoolExecutor(workers) as pool:
-        list(pool.map(run, range(workers)))
+    with spread_pool(workers, "fluidnb-frames") as pool:
+        list(pool.map(fn, range(n)))
 
 
 # The compiled kernels below follow the numpy functions of

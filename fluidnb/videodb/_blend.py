@@ -27,11 +27,11 @@ per fragment, as one would first write it, with the float64 pyramids.
 from __future__ import annotations
 
 from collections import deque
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from numba import njit
 
+from .._threads import spread_pool
 from .._validation import check_array, check_int, check_range
 from ..fields._pyramid import _collapse32, _gaussian32, _laplacian32
 from ._geometry import FRAGMENT, STRIDE
@@ -717,7 +717,7 @@ def _in_order(fn, items):
     if workers <= 1:
         yield from map(fn, items)
         return
-    with ThreadPoolExecutor(workers) as pool:
+    with spread_pool(workers, "fluidnb-blend") as pool:
         pending = deque()
         try:
             for item in items:

@@ -48,7 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from .._progress import Progress
-from .._threads import opencv_single_threaded
+from .._threads import opencv_single_threaded, spread_pool, usable_cores
 from .._validation import check_int
 from ._features import grey
 from ._geometry import FRAGMENT
@@ -298,7 +298,8 @@ def build_database(
     client : dask.distributed.Client, optional
         Run the per-clip work on this cluster; default: local threads.
     workers : int, optional
-        Local threads cutting clips into fragments (default: all cores).
+        Local threads cutting clips into fragments (default: one per core the process
+        may use).
     resume : bool
         Continue an interrupted build in ``path`` (same sources, params and seed).
     progress : callable, optional
@@ -647,7 +648,9 @@ def _pipeline(ingest, params, codebook, workers, report):
             _pause("fragments")
 
     report(0.0, f"reading clip 1/{n}")
-    pool = ThreadPoolExecutor(workers, thread_name_prefix="fluidnb-videodb")
+    # Leaf work (no threads of its own: OpenCV and BLAS are held at one), a clip at a
+    # time to whichever worker is free.
+    pool = spread_pool(workers, "fluidnb-videodb")
     try:
         for k in range(n):
             while len(cutting) > workers:  # every worker busy and one clip waiting
@@ -805,7 +808,7 @@ def _quantise_clips(root, counts, codebook, params, workers):
 
     Returns each clip's words as stored (read back), for :func:`_read_back`'s arrays.
     """
-    with ThreadPoolExecutor(max(1, min(workers, len(counts)))) as pool:
+    with spread_pool(max(1, min(workers, len(counts))), "fluidnb-words") as pool:
         jobs = {
             i: pool.submit(_quantise_clip, root, i, n, codebook, params) for i, n in counts.items()
         }
@@ -943,8 +946,8 @@ def _check_kind(kind):
 
 
 def _check_workers(workers):
-    if workers is None:
-        return os.cpu_count() or 1
+    if workers is None:  # one per core this process may use (a container's share)
+        return len(usable_cores())
     return check_int("workers", workers, 1, 1024)
 
 

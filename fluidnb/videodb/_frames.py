@@ -40,7 +40,7 @@ import hashlib
 import os
 import threading
 from collections import OrderedDict
-from concurrent.futures import ThreadPoolExecutor, as_completed
+from concurrent.futures import as_completed
 from pathlib import Path
 
 import numpy as np
@@ -48,6 +48,7 @@ from numba import njit
 
 from .._image import LUMA
 from .._progress import Progress
+from .._threads import spread_pool
 from .._validation import check_int
 from ._augment import (
     _NO_MATRIX,
@@ -334,7 +335,7 @@ def rebuild_fragments(db, ids, *, margin, grey, differences=None, progress=None)
     groups = np.unique(src[:, [0, 2]], axis=0)
     jobs = [todo[(src[:, 0] == c) & (src[:, 2] == t)] for c, t in groups]
     jobs.sort(key=len, reverse=True)
-    with ThreadPoolExecutor(min(_WORKERS, len(jobs))) as pool:
+    with spread_pool(min(_WORKERS, len(jobs)), "fluidnb-rebuild") as pool:
         futures = [pool.submit(_rebuild_clip, db, job, kind) for job in jobs]
         try:
             for future in as_completed(futures):

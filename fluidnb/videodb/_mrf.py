@@ -51,7 +51,6 @@ References
 
 from __future__ import annotations
 
-import os
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -62,6 +61,7 @@ import numpy as np
 from numba import njit
 
 from .._progress import Cancelled, Progress
+from .._threads import usable_cores
 from .._validation import check_array, check_finite, check_int, check_range
 from . import _maxflow
 from ._sums import _pairwise_sum
@@ -832,11 +832,7 @@ _SIDE_BY_SIDE = 4096
 
 def _side_by_side(prob):
     """Whether :func:`solve` runs its two expansions on two threads."""
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        cores = os.cpu_count() or 1
-    return cores > 1 and prob.n_nodes * prob.n_labels >= _SIDE_BY_SIDE
+    return len(usable_cores()) > 1 and prob.n_nodes * prob.n_labels >= _SIDE_BY_SIDE
 
 
 def _beside(aside, main, report):

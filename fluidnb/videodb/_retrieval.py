@@ -52,12 +52,12 @@ References
 from __future__ import annotations
 
 import math
-from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
+from .._threads import spread_pool
 from .._validation import check_array, check_int, check_range
 from ._geometry import GRID
 from ._smoothness import _workers
@@ -252,15 +252,17 @@ class HistogramIndex:
                 n_eligible[rows],
             )
 
-        # Queries are independent: split over the cores (the kernel releases the GIL,
-        # each call has its own score buffer), in contiguous runs of rows.
-        parts = min(_workers(), max(1, len(q) // _MIN_QUERIES))
-        bounds = np.linspace(0, len(q), parts + 1).astype(int)
-        runs = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]
-        if len(runs) == 1:
-            search(runs[0])
+        # Queries are independent: spread over the cores (the kernel releases the GIL,
+        # each call has its own score buffer), in runs of _MIN_QUERIES or more rows
+        # handed out as threads free up -- never one fixed share per thread, which
+        # would wait for a thread whose core another process is using.
+        workers = min(_workers(), max(1, len(q) // _MIN_QUERIES))
+        if workers == 1:
+            search(slice(0, len(q)))
         else:
-            with ThreadPoolExecutor(len(runs)) as pool:
+            step = max(_MIN_QUERIES, -(-len(q) // (8 * workers)))
+            runs = [slice(a, min(a + step, len(q))) for a in range(0, len(q), step)]
+            with spread_pool(workers, "fluidnb-retrieval") as pool:
                 list(pool.map(search, runs))
         return TopK(ids, scores, n_eligible)
 

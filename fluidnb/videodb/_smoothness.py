@@ -45,9 +45,8 @@ References
 from __future__ import annotations
 
 import functools
-import os
 import threading
-from concurrent.futures import ThreadPoolExecutor, as_completed
+from concurrent.futures import as_completed
 from dataclasses import dataclass
 
 import numpy as np
@@ -56,7 +55,7 @@ from numba import njit, types
 from numba.extending import intrinsic
 
 from .._progress import Progress
-from .._threads import blas_single_threaded
+from .._threads import blas_single_threaded, spread_pool, usable_cores
 from .._validation import check_array, check_range
 from ._geometry import SPECTRA_BLOCK, SPECTRA_SIDE, TEXTURE_BLOCK, TEXTURE_SIDE
 from ._mrf import _check_edges
@@ -393,10 +392,7 @@ def _centre(x, centre):
 
 
 def _workers():
-    try:
-        return max(1, min(4, len(os.sched_getaffinity(0))))
-    except AttributeError:  # not on Linux
-        return max(1, min(4, os.cpu_count() or 1))
+    return max(1, min(4, len(usable_cores())))
 
 
 class _TableBatches:
@@ -546,7 +542,7 @@ def pair_tables(candidates, edges, horizontal, spectra, texture, *, progress=Non
     # many mid-sized products stalls badly when other processes share the cores
     # (measured on 2 busy cores: 5-55 s instead of 5-10 s).
     done = 0
-    with blas_single_threaded(), ThreadPoolExecutor(workers) as pool:
+    with blas_single_threaded(), spread_pool(workers, "fluidnb-tables") as pool:
         futures = [pool.submit(builder, es, o) for es, o in batches]
         try:
             for future in as_completed(futures):

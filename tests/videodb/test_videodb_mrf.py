@@ -394,7 +394,7 @@ def test_solve_runs_its_expansions_side_by_side_with_the_same_result(monkeypatch
         return expand(*args, **kwargs)
 
     monkeypatch.setattr(_mrf, "_expand", recording)
-    monkeypatch.setattr(_mrf.os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    monkeypatch.setattr(_mrf, "usable_cores", lambda: [0, 1])
     results, seen = [], []
     for side_by_side in (True, False):
         monkeypatch.setattr(_mrf, "_SIDE_BY_SIDE", 1 if side_by_side else 10**9)
@@ -423,7 +423,7 @@ def test_cancelling_solve_stops_both_expansions(monkeypatch):
     from fluidnb.videodb import _mrf
 
     monkeypatch.setattr(_mrf, "_SIDE_BY_SIDE", 1)
-    monkeypatch.setattr(_mrf.os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    monkeypatch.setattr(_mrf, "usable_cores", lambda: [0, 1])
     unary, pairwise, edges, lam = realistic_problem(2)
     expand, ended = _mrf._expand, {}
 

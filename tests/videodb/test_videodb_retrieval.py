@@ -62,7 +62,7 @@ def test_queries_split_over_threads_give_the_same_candidates(monkeypatch):
     direction[::4] = np.nan
     whole = index.top_k(queries, 30, direction=direction)
     monkeypatch.setattr(_retrieval, "_MIN_QUERIES", 1)
-    monkeypatch.setattr(_retrieval, "_workers", lambda: 3)  # runs of 3, 4 and 4 queries
+    monkeypatch.setattr(_retrieval, "_workers", lambda: 3)  # 3 threads, a query per run
     split = index.top_k(queries, 30, direction=direction)
     assert same(split, whole)
     ref = reference_top_k(words, 20, queries, 30, mean_motion=motion, direction=direction)
