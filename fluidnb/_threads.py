@@ -142,9 +142,14 @@ def spread_pool(workers, thread_name_prefix="fluidnb"):
     system call -- a plain pool.
 
     For leaf work only: a thread started inside one of these threads would inherit
-    its single core. Hand out the work in many small pieces (``submit`` / ``map``
-    over pieces, never one fixed share per thread): a thread that shares its core
-    with a busy process then simply takes fewer of them.
+    its single core. So that no library starts one there, a pool that pins its
+    threads also holds BLAS and OpenCV at one thread (:func:`blas_single_threaded`,
+    :func:`opencv_single_threaded`) from its creation until it is shut down, in the
+    creating thread: their own thread pools are then neither started nor resized
+    inside a pinned thread (our threads are the parallelism anyway). Shut it down
+    with ``wait=True`` (as ``with`` does). Hand out the work in many small pieces
+    (``submit`` / ``map`` over pieces, never one fixed share per thread): a thread
+    that shares its core with a busy process then simply takes fewer of them.
 
     Parameters
     ----------
@@ -155,15 +160,33 @@ def spread_pool(workers, thread_name_prefix="fluidnb"):
     cores = usable_cores()
     if workers != len(cores) or workers < 2 or not hasattr(os, "sched_setaffinity"):
         return ThreadPoolExecutor(workers, thread_name_prefix=thread_name_prefix)
-    order = itertools.count()
-    lock = threading.Lock()
+    return _PinnedPool(workers, thread_name_prefix, cores)
 
-    def pin():
-        with lock:
-            core = cores[next(order) % len(cores)]
-        # Pool threads end with the pool: nothing to restore. The OS may refuse (a
-        # container's rules); the thread then runs where the scheduler puts it.
-        with contextlib.suppress(OSError):
-            os.sched_setaffinity(0, {core})
 
-    return ThreadPoolExecutor(workers, thread_name_prefix=thread_name_prefix, initializer=pin)
+class _PinnedPool(ThreadPoolExecutor):
+    """:func:`spread_pool`'s pool when it pins: each thread on ``cores[i]``, libraries at one."""
+
+    def __init__(self, workers, thread_name_prefix, cores):
+        order = itertools.count()
+        lock = threading.Lock()
+
+        def pin():
+            with lock:
+                core = cores[next(order) % len(cores)]
+            # Pool threads end with the pool: nothing to restore. The OS may refuse (a
+            # container's rules); the thread then runs where the scheduler puts it.
+            with contextlib.suppress(OSError):
+                os.sched_setaffinity(0, {core})
+
+        self._held = contextlib.ExitStack()
+        self._held.enter_context(blas_single_threaded())
+        try:
+            self._held.enter_context(opencv_single_threaded())
+            super().__init__(workers, thread_name_prefix=thread_name_prefix, initializer=pin)
+        except BaseException:
+            self._held.close()
+            raise
+
+    def shutdown(self, wait=True, *, cancel_futures=False):
+        super().shutdown(wait=wait, cancel_futures=cancel_futures)
+        self._held.close()  # back to the libraries' own counts (once; later calls: none)

@@ -200,3 +200,40 @@ def test_usable_cores_is_the_process_affinity():
     assert len(cores) >= 1
     if hasattr(os, "sched_getaffinity"):
         assert set(cores) == os.sched_getaffinity(0)
+
+
+@needs_affinity
+def test_pinned_pool_holds_blas_and_opencv_at_one_thread_until_shutdown(
+    monkeypatch, two_blas_threads
+):
+    # So that neither library starts or resizes its own thread pool inside a pinned
+    # thread (its threads would inherit the one core): the limits are set and
+    # restored in the creating thread, around the pool's whole life.
+    cv2 = pytest.importorskip("cv2")
+    cores = sorted(os.sched_getaffinity(0))
+    monkeypatch.setattr(_threads, "usable_cores", lambda: [cores[0], cores[-1]])
+    before = cv2.getNumThreads()
+    cv2.setNumThreads(2)
+    try:
+        seen = []
+
+        def task(_):
+            with opencv_single_threaded():  # a worker's own use, ended inside the pool
+                pass
+            seen.append((set(_blas_threads()), cv2.getNumThreads()))
+
+        with spread_pool(2, "test-holds") as pool:
+            list(pool.map(task, range(8)))
+            assert (set(_blas_threads()), cv2.getNumThreads()) == ({1}, 1)
+        assert seen == [({1}, 1)] * 8
+        assert (set(_blas_threads()), cv2.getNumThreads()) == ({2}, 2)
+    finally:
+        cv2.setNumThreads(before)
+
+
+def test_plain_pool_leaves_the_libraries_alone(monkeypatch, two_blas_threads):
+    cores = usable_cores()
+    monkeypatch.setattr(_threads, "usable_cores", lambda: [*cores, max(cores) + 1])
+    with spread_pool(len(cores)) as pool:
+        assert pool.submit(_blas_threads).result() == _blas_threads()
+        assert set(_blas_threads()) == {2}
