@@ -89,10 +89,18 @@ def test_candidate_search_error_is_within_the_stated_factor_of_exhaustive(
 
 
 def _brute_force(photo, alpha, target, size, weight):
-    """The paper's search written out: every input pixel, every output pixel, in order."""
+    """The paper's search written out: every input pixel, every output pixel, in order.
+
+    Values are compared as 8-bit levels, as fluidnb compares them.
+    """
     h = size // 2
-    ap = np.pad(photo.astype(np.float64), ((h, h), (h, h), (0, 0)), mode="edge")
-    al = np.pad(alpha.astype(np.float64), h, mode="edge")
+
+    def levels(x):
+        return np.rint(np.clip(np.asarray(x, np.float32), 0, 1) * 255) / 255.0
+
+    photo, alpha, target = levels(photo), levels(alpha), levels(target)
+    ap = np.pad(photo, ((h, h), (h, h), (0, 0)), mode="edge")
+    al = np.pad(alpha, h, mode="edge")
     upper, lower = neighbourhoods(size)
     hh, ww = target.shape
     out = np.zeros((hh, ww, 3))
