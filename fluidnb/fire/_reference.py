@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._random import resolve_seed, rng
+from ..fields import advect, backward_warp
 from ._synthesis import (
     _check_params,
     _check_photo,
@@ -32,7 +33,7 @@ from ._synthesis import (
     neighbourhoods,
 )
 
-__all__ = ["synthesize_reference"]
+__all__ = ["advance_reference", "synthesize_reference"]
 
 
 def synthesize_reference(photo, target, params=None, *, matte=None, seed=None):
@@ -176,3 +177,22 @@ def distance(I_s_q, I_t_q, I_a_q, a_a_q, p, candidates, colour_offsets, N_L, w, 
 def inside(q, H, W):
     """Whether pixel ``q`` = (row, col) lies in an H x W image."""
     return 0 <= q[0] < H and 0 <= q[1] < W
+
+
+def advance_reference(d, steps, K, weight, frame):
+    r"""One clip frame between keyframes, in numpy (sec. 3.3, Fig. 5).
+
+    For each displacement ``u`` of ``steps`` (the velocity over a part of a simulation
+    frame), one more backtrace, :math:`d(x) \leftarrow -u(x) + d(x - u(x))`; then the
+    keyframe sampled at :math:`x + d(x)` is added to ``frame`` with ``weight``.
+    ``fluidnb.fire._advance`` does the same in one compiled pass per step.
+
+    Returns
+    -------
+    d : ndarray, shape (H, W, 2)
+        The new displacement (``frame`` is updated in place).
+    """
+    for u in steps:
+        d = advect(d, u) - u
+    frame += np.float32(weight) * backward_warp(K, d)
+    return d

@@ -47,7 +47,7 @@ def cutout(size=96, seed=0):
 def run():
     temp, vel = flame_sequence()
     rgba = cutout()
-    result = fire(rgba, (temp, vel), FireParams(interval=6, input_size=96), seed=0)
+    result = fire(rgba, (temp, vel), FireParams.paper(interval=6, input_size=96), seed=0)
     normalised = (temp - temp.min()) / (temp.max() - temp.min())
     return rgba, normalised, result
 
@@ -70,12 +70,13 @@ def test_an_rgba_file_gives_the_same_fire_as_the_array(tmp_path, run):
     path = tmp_path / "flame.png"
     Image.fromarray(to_uint8(rgba), mode="RGBA").save(path)
     temp, vel = flame_sequence(n_frames=3)
-    from_file = fire(path, (temp, vel), FireParams(interval=3), seed=1)
-    from_array = fire(as_image(path), (temp, vel), FireParams(interval=3), seed=1)
+    from_file = fire(path, (temp, vel), FireParams.paper(interval=3), seed=1)
+    from_array = fire(as_image(path), (temp, vel), FireParams.paper(interval=3), seed=1)
     assert not np.array_equal(from_file.clip.frames, from_array.clip.frames)  # alpha used
     uint8 = np.asarray(Image.open(path))
     np.testing.assert_array_equal(
-        from_file.clip.frames, fire(uint8, (temp, vel), FireParams(interval=3), seed=1).clip.frames
+        from_file.clip.frames,
+        fire(uint8, (temp, vel), FireParams.paper(interval=3), seed=1).clip.frames,
     )
 
 
@@ -120,8 +121,8 @@ def test_keyframes_are_made_of_coherent_patches(run):
     assert continues[in_flame].mean() > 0.6
     # The coherence penalty is what does it: without it (kappa = 0) patches are smaller.
     temp, vel = flame_sequence(n_frames=1)
-    plain = fire(run[0], (temp, vel), FireParams(coherence=0.0, input_size=96), seed=0)
-    pen = fire(run[0], (temp, vel), FireParams(input_size=96), seed=0)
+    plain = fire(run[0], (temp, vel), FireParams.paper(coherence=0.0, input_size=96), seed=0)
+    pen = fire(run[0], (temp, vel), FireParams.paper(input_size=96), seed=0)
     mask = (normalised[0] > 0.2)[:, 1:]
 
     def share(r):

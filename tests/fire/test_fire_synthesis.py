@@ -218,7 +218,12 @@ def test_bad_inputs_name_the_parameter(change, match):
         ({"size": 4}, "size must be an odd integer"),
         ({"weight": 1.5}, r"weight must be in \[0, 1\]"),
         ({"interval": 6, "overlap": 6}, "overlap must be < interval"),
-        ({"input_size": 4}, "input_size must be 0 or >= 8"),
+        ({"input_size": 4}, "input_size must be -1, 0 or >= 8"),
+        ({"input_size": -2}, r"input_size must be an integer in \[-1, 4096\], got -2"),
+        ({"output_size": 8}, r"output_size must be 0 \(the simulation's grid\) or >= 16 pixels"),
+        ({"output_size": 5000}, r"output_size must be an integer in \[0, 4096\], got 5000"),
+        ({"fps": 0}, r"fps must be in \[1, 120\], got 0"),
+        ({"fps": float("nan")}, "fps must be"),
     ],
 )
 def test_bad_params_are_refused(fields, match):
