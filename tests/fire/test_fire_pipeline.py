@@ -303,7 +303,8 @@ def test_in_between_frames_are_advected_not_repeated(photo):
     params = FireParams(interval=6, overlap=0, output_size=96)
     result = fire(photo[0], (temp, vel), params, matte=photo[1], seed=2)
     frames = result.clip.frames
-    assert len(frames) == 19 and result.starts.tolist() == [0, 18]
+    assert len(frames) == 19
+    assert result.starts.tolist() == [0, 18]
     key = result.keyframes[0]
     lum = frames @ np.array([0.2126, 0.7152, 0.0722], np.float32)
     for t in range(1, 18):
@@ -345,8 +346,8 @@ def test_the_compiled_advance_is_the_numpy_composition_bit_for_bit():
 
 
 def test_the_compiled_velocity_upsampling_is_resize_vector_field():
-    from fluidnb.fire import _advance
     from fluidnb.fields import resize_vector_field
+    from fluidnb.fire import _advance
 
     v = np.random.default_rng(1).standard_normal((24, 18, 2)).astype(np.float32)
     for shape in [(48, 36), (50, 41), (24, 18)]:
