@@ -4,11 +4,14 @@
 the photo; ``fire(photo, simulation)`` uses your own simulation. The other names are
 the steps it is made of, for lessons and experiments: :func:`synthesize` (one
 keyframe), :func:`dissolve_weights` (the cross-dissolve), :func:`clip_times` (the
-clip's frames in simulation time), :func:`output_shape`, :func:`alpha_from_photo`,
-:func:`neighbourhoods` and :func:`neighbourhood_error` (the search), and
-:func:`synthesize_reference`, the same keyframe scan written out in plain numpy.
+clip's frames in simulation time), :func:`output_shape`, :func:`flame_matte` (a
+painted matte made the flame's own), :func:`alpha_from_photo`, :func:`neighbourhoods`
+and :func:`neighbourhood_error` (the search), and :func:`synthesize_reference`, the
+same keyframe scan written out in plain numpy. :class:`FireParams` holds the
+parameters; :meth:`FireParams.paper` the paper's set-up.
 """
 
+from ._matte import flame_matte
 from ._params import SIMULATION_FPS, FireParams
 from ._pipeline import (
     FireResult,
@@ -31,6 +34,7 @@ __all__ = [
     "colour_temperature",
     "dissolve_weights",
     "fire",
+    "flame_matte",
     "neighbourhood_error",
     "neighbourhoods",
     "output_shape",

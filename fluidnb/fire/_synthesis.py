@@ -55,6 +55,7 @@ from numba import njit, prange
 from .._image import as_image
 from .._random import resolve_seed, rng
 from .._validation import check_array, check_choice, check_shape_match
+from ._matte import flame_matte, is_hard
 from ._params import FireParams
 
 __all__ = ["alpha_from_photo", "neighbourhood_error", "neighbourhoods", "synthesize"]
@@ -297,7 +298,9 @@ def _photo_and_matte(photo, matte):
 
     An RGBA photo's alpha channel is its matte unless ``matte`` is given. Colour is
     premultiplied by the matte (PNG's alpha is "straight": a cut-out's transparent
-    pixels may hold any colour, which must never be copied into the fire).
+    pixels may hold any colour, which must never be copied into the fire). A hard
+    (0/1) ``matte``, one painted with a brush, is a hint of which flame is meant:
+    :func:`fluidnb.fire.flame_matte` makes it the flame's own soft matte.
     """
     photo, alpha = as_image(photo, name="photo", return_alpha=True)
     if photo.ndim != 3 or photo.shape[2] != 3:
@@ -318,6 +321,8 @@ def _photo_and_matte(photo, matte):
                 "matte has no flame region: it is 0 (black) everywhere; white marks the "
                 "flame to copy"
             )
+        if is_hard(alpha):
+            alpha = flame_matte(photo, alpha)
     elif alpha is not None and not alpha.any():
         raise ValueError(
             "photo's alpha channel (its matte) has no flame region: it is fully "
