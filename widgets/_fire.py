@@ -22,12 +22,14 @@ __all__ = ["FireApp", "FireAppParams"]
 
 #: The panel's groups: the flame and the synthesis's main settings open, the rest folded.
 GROUPS = (
-    ("flame and synthesis", ("kappa_b", "epsilon", "C_r", "interval", "weight")),
+    ("flame and synthesis", ("kappa_b", "epsilon", "C_r", "interval", "weight", "fps")),
     ("the flame's source", ("source_radius", "source_T")),
-    ("synthesis details", ("overlap", "coherence", "cutoff")),
+    ("synthesis details", ("overlap", "coherence", "cutoff", "output_size")),
 )
 #: The sample photos the photo menu offers ("upload" joins them after an upload).
 SAMPLES = ("fire", "flame")
+#: Longest side of a sample photo: as large as the default keyframes (256 px).
+SAMPLE_SIZE = 256
 
 
 def _field_of(cls, name):
@@ -56,6 +58,8 @@ class FireAppParams(Params):
     weight: float = _field_of(FireParams, "weight")
     coherence: float = _field_of(FireParams, "coherence")
     cutoff: float = _field_of(FireParams, "cutoff")
+    fps: float = _field_of(FireParams, "fps")
+    output_size: int = _field_of(FireParams, "output_size")
 
     def check(self):
         # Each class checks its own combinations (overlap < interval, say).
@@ -82,6 +86,8 @@ class FireAppParams(Params):
             weight=self.weight,
             coherence=self.coherence,
             cutoff=self.cutoff,
+            fps=self.fps,
+            output_size=self.output_size,
         )
 
 
@@ -93,8 +99,13 @@ class FireApp(App):
     flame's buoyancy, vorticity confinement, cooling and source, and the synthesis's
     keyframe interval, cross-dissolve overlap and user-control weight. **Run**
     simulates the flame, synthesises the keyframes and advects and blends them (with
-    progress and Cancel); the player plays the fire and exports it, and the
-    comparison shows temperature | latest keyframe | fire side by side.
+    progress and Cancel); the player plays the fire at its own size and exports it,
+    and the comparison shows temperature | latest keyframe | fire side by side on the
+    simulation's grid. The defaults synthesise at 256 pixels, 24 frames a second;
+    **Paper defaults** sets the paper's set-up (keyframes on the 128 x 128 grid, 8
+    fps: :meth:`fluidnb.fire.FireParams.paper`), and the other parameters to their
+    defaults. A painted matte may cover only part of the flame: the library finds
+    the whole flame (:func:`fluidnb.fire.flame_matte`).
 
     Parameters
     ----------
@@ -103,7 +114,8 @@ class FireApp(App):
     matte : array_like, optional
         The photo's alpha matte (used when nothing is painted).
     quick : bool
-        Small sizes for a quick look or a headless run: a 64 x 64 grid, 16 frames.
+        Small sizes for a quick look or a headless run: a 64 x 64 grid, 16 frames,
+        keyframes of 128 pixels.
     n_frames : int, optional
         Frames to simulate (default 72, 16 with ``quick``).
     seed : int
@@ -116,8 +128,8 @@ class FireApp(App):
     >>> app = FireApp(quick=True)
     >>> app.panel.set("weight", 0.7)
     >>> clip = app.run(timeout=120)
-    >>> clip.n_frames, clip.metadata["method"]
-    (16, 'fire')
+    >>> clip.n_frames, clip.shape, clip.fps, clip.metadata["method"]
+    (46, (128, 128), 24.0, 'fire')
     >>> app.close()
     """
 
@@ -129,7 +141,7 @@ class FireApp(App):
         self.quick = bool(quick)
         name = "fire" if photo is None else photo if _is_sample(photo) else "upload"
         if name != "upload":
-            photo, matte = data.sample(name, size=128, return_alpha=True)
+            photo, matte = data.sample(name, size=SAMPLE_SIZE, return_alpha=True)
         self.photo, self.photo_matte = self._load(photo, matte)
         self.photo_name = name  #: The photo shown: a sample's name or "upload".
         self.shape = (64, 64) if quick else (128, 128)
@@ -160,17 +172,25 @@ class FireApp(App):
             (self._upload, "fluidnb-upload"),
         ]:
             wid.add_class(cls)
-        self.compare = FramePlayer(display_width=3 * 128, label="compare")
+        # Both players show their clips at their own size (a clip is drawn as it is,
+        # never enlarged: _show sets the width from the clip).
+        self.compare = FramePlayer(display_width=3 * self.shape[1], label="compare")
+        self._paper = W.Button(description="Paper defaults", icon="book")
+        self._paper.add_class("fluidnb-paper-defaults")
+        self._paper.on_click(lambda _: self.paper_defaults())
         super().__init__(
             panel=panel,
+            player=FramePlayer(display_width=FireParams().output_size),
             run=self._run,
             canvas=self._make_canvas(),
             seed=seed,
             title="Fire from a photograph — Furukawa, Dobashi & Yamamoto",
             inputs=[row(self._sample, self._upload)],
         )
+        if self.quick:
+            panel.set("output_size", 128)
         self.controls = (
-            row(self._frames, self.seed_box),
+            row(self._frames, self.seed_box, self._paper),
             hint(
                 "Paint the flame's matte on the photo (white = flame) or leave it empty "
                 "to use the photo's own matte / luminance."
@@ -178,6 +198,21 @@ class FireApp(App):
         )
         comparison = self.titled("temperature | latest keyframe | fire", self.compare)
         self.views = (self.player, comparison)
+
+    def paper_defaults(self):
+        """Set the panel to the paper's set-up: grid-sized keyframes, 8 fps.
+
+        Every other parameter goes back to its default (the paper gives no values for
+        them: :class:`fluidnb.fire.FireParams`, :func:`fluidnb.fluid.flame_preset`).
+        """
+        paper = FireParams.paper()
+        defaults = FireAppParams()
+        for name in self.panel.controls:
+            value = getattr(defaults, name)
+            if name in ("fps", "output_size"):
+                value = getattr(paper, name)
+            self.panel.set(name, value)
+        self.say("the paper's set-up: keyframes on the simulation's grid, 8 fps")
 
     # ------------------------------------------------------------------ inputs
     def _make_canvas(self):
@@ -212,7 +247,7 @@ class FireApp(App):
 
         name = photo if _is_sample(photo) else "upload"
         if name != "upload":
-            photo, matte = data.sample(photo, size=128, return_alpha=True)
+            photo, matte = data.sample(photo, size=SAMPLE_SIZE, return_alpha=True)
         try:
             self.photo, self.photo_matte = self._load(photo, matte)
         except ValueError as exc:
@@ -272,14 +307,17 @@ class FireApp(App):
             progress=first,
             warmup=preset.warmup_for(self.shape),
         )
-        fire_params = params.fire(FireParams(input_size=max(self.shape)))
         # An uploaded cut-out's alpha is photo_matte: fire composites the colour onto
         # black with it, so the clear pixels' colour never shows.
         result = fire(
-            self.photo, sim, fire_params, matte=self.matte(), seed=self.seed, progress=second
+            self.photo, sim, params.fire(), matte=self.matte(), seed=self.seed, progress=second
         )
         self.fire_result = result
-        self.compare.clip = comparison_clip(result)
+        compare = comparison_clip(result)
+        self.compare.display_width = compare.shape[1]
+        self.compare.clip = compare
+        # The fire at its own size: the player never enlarges it.
+        self.player.display_width = result.clip.shape[1]
         return result.clip
 
 
@@ -293,10 +331,26 @@ def _photo_options(name):
 
 
 def comparison_clip(result):
-    """Temperature | the keyframe in effect | fire, side by side, as one clip."""
-    n = result.clip.n_frames
+    """Temperature | the keyframe in effect | fire, side by side, as one clip.
+
+    One frame per simulation frame, on the simulation's grid (the keyframes and the
+    fire resized to it): the three at the size the simulation computes, and a clip
+    that stays small at any keyframe size and frame rate.
+    """
+    from fluidnb.fields import resize
+
     temp = colour_temperature(result.target)
-    latest = np.searchsorted(result.starts, np.arange(n), side="right") - 1
-    keys = result.keyframes[latest]
-    frames = np.concatenate([temp, keys, result.clip.frames], axis=2)
-    return Clip(frames, fps=result.clip.fps, metadata={"method": "fire", "what": "comparison"})
+    n, h, w = result.target.shape
+    # The clip frames at whole simulation frames (the clip has fps / 8 per frame).
+    at = np.searchsorted(result.times, np.arange(n) - 1e-9)
+    at = np.minimum(at, result.clip.n_frames - 1)
+    latest = np.searchsorted(result.starts, at, side="right") - 1
+
+    def small(image):
+        return image if image.shape[:2] == (h, w) else np.clip(resize(image, (h, w)), 0, 1)
+
+    keys = np.stack([small(result.keyframes[k]) for k in latest])
+    fires = np.stack([small(result.clip.frames[t]) for t in at])
+    frames = np.concatenate([temp, keys, fires], axis=2)
+    fps = result.temperature_clip.fps
+    return Clip(frames, fps=fps, metadata={"method": "fire", "what": "comparison"})

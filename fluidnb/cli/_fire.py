@@ -20,7 +20,10 @@ def register(sub):
             "overlapping segments. The simulation is read from --sim (an .npz written "
             "by `fluidnb simulate` or Simulation.save, or any .npz with 'temperature' "
             "(T, H, W) and 'velocity' (T, H, W, 2) arrays) or, without --sim, the "
-            "flame preset is simulated."
+            "flame preset is simulated. By default the keyframes are synthesised at "
+            "256 px on the longer side and the clip has 24 frames a second (in-between "
+            "frames advected); --paper gives the paper's set-up (keyframes on the "
+            "simulation's grid, one frame per simulation frame: 128 x 128, 8 fps)."
         ),
     )
     add_input(
@@ -58,6 +61,14 @@ def register(sub):
         metavar="OUT",
         help="also write the colour-mapped temperature clip here",
     )
+    p.add_argument(
+        "--paper",
+        action="store_true",
+        help=(
+            "start from the paper's set-up (FireParams.paper(): --output-size 0, "
+            "--fps 8); options given as well change it"
+        ),
+    )
     add_params_options(p, FireParams)
     add_seed_option(p)
     add_output_option(p)
@@ -71,6 +82,9 @@ def _fire(args):
     from ..fire import FireParams, fire
 
     params = params_from_args(FireParams, args)
+    if args.paper:  # the paper's set-up, then what was given on top
+        given = {k: getattr(args, k) for k in FireParams.specs() if getattr(args, k) is not None}
+        params = FireParams.paper().replace(**given)
     photo, alpha = as_image(args.photo, mode="rgb", name="PHOTO", return_alpha=True)
     # Without --matte, an RGBA photo's own alpha channel is its matte (fire composites
     # the colour onto black with it, so a cut-out's clear pixels never show).

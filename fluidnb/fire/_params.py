@@ -6,7 +6,12 @@ from dataclasses import dataclass
 
 from .._params import Params, param
 
-__all__ = ["FireParams"]
+__all__ = ["SIMULATION_FPS", "FireParams"]
+
+#: Frames a second of the simulation's own frames (one solver frame each): the pace at
+#: which the flame preset looks like a flame, and the paper's clip rate (one output
+#: frame per simulation frame). ``fps`` above it adds in-between frames.
+SIMULATION_FPS = 8.0
 
 
 @dataclass(frozen=True)
@@ -14,8 +19,16 @@ class FireParams(Params):
     r"""Parameters of the fire texture synthesis and its animation (Furukawa et al. 2013).
 
     The paper gives no values for these; the defaults are ours, chosen so that a
-    128 x 128 keyframe takes well under a second and follows the target's shape
-    (measured in ``tests/fire`` and ``benchmarks/bench_fire_synthesis.py``).
+    keyframe takes a fraction of a second and follows the target's shape (measured in
+    ``tests/fire`` and ``benchmarks/bench_fire_synthesis.py``).
+
+    Two defaults go beyond the paper, so that the clip looks right at the size and
+    pace a screen shows it: the keyframes are synthesised at ``output_size`` = 256
+    pixels on the longer side over the paper's 128 x 128 simulation (its temperature
+    and velocity resampled smoothly), and the clip has ``fps`` = 24 frames a second,
+    the in-between frames advected along the flow (not repeated).
+    :meth:`FireParams.paper` gives the paper's set-up: keyframes on the simulation's
+    grid, one frame per simulation frame (8 fps).
 
     Attributes
     ----------
@@ -50,16 +63,33 @@ class FireParams(Params):
         normalised temperature as it is (``cutoff=0`` keeps the cut-off out but
         still matches ranks).
     interval : int
-        :math:`N`, the number of frames of one segment (Furukawa et al. (2013), sec. 3.4, Fig. 6): a
-        keyframe is synthesised, then advected for :math:`N - 1` frames.
+        :math:`N`, the number of simulation frames of one segment (Furukawa et al.
+        (2013), sec. 3.4, Fig. 6): a keyframe is synthesised, then advected for the
+        rest of the segment. At ``fps`` above :data:`SIMULATION_FPS` a segment has
+        ``N * fps / 8`` clip frames (rounded): the same time, more frames.
     overlap : int
-        :math:`m`, the frames two consecutive segments share and cross-dissolve
-        over (Fig. 6); ``-1`` means :math:`N / 2` (rounded down, the paper's
-        choice). Must be < ``interval``. Keyframes are :math:`N - m` frames apart.
+        :math:`m`, the simulation frames two consecutive segments share and
+        cross-dissolve over (Fig. 6); ``-1`` means :math:`N / 2` (rounded down, the
+        paper's choice). Must be < ``interval``. Keyframes are :math:`N - m`
+        simulation frames apart.
     input_size : int
         The photo is resized so its longest side has this many pixels before it is
-        used as the texture source (0 keeps its size). The flame in the photo should
-        be about as large, in pixels, as the simulated flame.
+        used as the texture source: ``-1`` (default) as many as the keyframes'
+        longest side, 0 keeps its size. The flame in the photo should be about as
+        large, in pixels, as the simulated flame.
+    output_size : int
+        The longest side, in pixels, of the synthesised keyframes and the clip
+        (beyond the paper): the simulation's temperature (the target
+        :math:`I_t`) is resampled to it by cubic interpolation and its velocity
+        bilinearly (scaled to pixels of the finer grid). 0 keeps the simulation's
+        grid, the paper's set-up (its 128 x 128 keyframes look blocky when a screen
+        shows them larger).
+    fps : float
+        Frames a second of the clip (beyond the paper, which shows one frame per
+        simulation frame, :data:`SIMULATION_FPS`). Above it, each simulation frame
+        is divided into ``fps / 8`` clip frames, each advected by that fraction of
+        the frame's velocity (sec. 3.3's backtrace in smaller steps), so motion is
+        smooth and the clip lasts as long.
     """
 
     weight: float = param(
@@ -137,17 +167,51 @@ class FireParams(Params):
         ui_range=(-1, 39),
     )
     input_size: int = param(
-        128,
+        -1,
+        lo=-1,
+        hi=4096,
+        integer=True,
+        doc="longest side the photo is resized to (-1: the keyframes', 0: as given)",
+        unit="px",
+        ui_range=(-1, 512),
+    )
+    output_size: int = param(
+        256,
         lo=0,
         hi=4096,
         integer=True,
-        doc="longest side the photo is resized to (0: as given)",
+        doc="longest side of the keyframes and the clip (0: the simulation's grid)",
         unit="px",
-        ui_range=(32, 256),
+        ui_range=(0, 512),
+        step=32,
+    )
+    fps: float = param(
+        24.0,
+        lo=1,
+        hi=120,
+        doc="frames a second; above 8 the in-between frames are advected",
+        unit="fps",
+        ui_range=(8, 60),
+        step=1,
     )
 
+    @classmethod
+    def paper(cls, **changes):
+        """The paper's set-up: keyframes on the simulation's grid, 8 frames a second.
+
+        Furukawa et al. (2013) synthesise on the 128 x 128 simulation grid and show
+        one frame per simulation frame; fluidnb's defaults synthesise at 256 pixels
+        and add in-between frames for 24 fps. Keyword arguments change fields.
+
+        Examples
+        --------
+        >>> FireParams.paper().output_size, FireParams.paper().fps
+        (0, 8.0)
+        """
+        return cls(output_size=0, fps=SIMULATION_FPS, **changes)
+
     def check(self):
-        """Cross-field rules: odd ``size``, ``overlap < interval``, ``input_size``."""
+        """Cross-field rules: odd ``size``, ``overlap < interval``, the sizes."""
         if self.size % 2 == 0:
             raise ValueError(f"size must be an odd integer in [3, 15], got {self.size}")
         if self.overlap >= self.interval:
@@ -156,7 +220,12 @@ class FireParams(Params):
                 f"got {self.overlap}"
             )
         if 0 < self.input_size < 8:
-            raise ValueError(f"input_size must be 0 or >= 8, got {self.input_size}")
+            raise ValueError(f"input_size must be -1, 0 or >= 8, got {self.input_size}")
+        if 0 < self.output_size < 16:
+            raise ValueError(
+                f"output_size must be 0 (the simulation's grid) or >= 16 pixels, "
+                f"got {self.output_size}"
+            )
 
     @property
     def m(self):

@@ -10,14 +10,24 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._clip import DEFAULT_FPS, Clip
+from .._clip import Clip
 from .._progress import Progress
 from .._random import resolve_seed, rng
 from .._validation import check_array, check_int
-from ..fields import advect, backward_warp, resize
-from ._synthesis import _check_params, _check_photo, _photo_and_matte, _run
+from ..fields import resize, resize_vector_field
+from . import _advance
+from ._params import SIMULATION_FPS
+from ._synthesis import _check_params, _check_photo, _photo_and_matte, _Prepared, _run
 
-__all__ = ["FireResult", "colour_temperature", "dissolve_weights", "fire", "temperature_target"]
+__all__ = [
+    "FireResult",
+    "clip_times",
+    "colour_temperature",
+    "dissolve_weights",
+    "fire",
+    "output_shape",
+    "temperature_target",
+]
 
 
 def dissolve_weights(n_frames, interval, overlap):
@@ -115,21 +125,35 @@ def temperature_target(temperature, alpha, cutoff=0.2):
     >>> temperature_target(temp, alpha, cutoff=0.2).astype(float).round(2).tolist()
     [[[0.0, 0.0, 0.5, 0.9, 1.0]]]
     """
+    return _target_map(temperature, alpha, cutoff)(temperature)
+
+
+def _target_map(temperature, alpha, cutoff):
+    """:func:`temperature_target`'s map, fitted on a sequence, for any temperatures.
+
+    The cut-off and the ranks come from the whole ``temperature`` sequence; the map
+    then applies to other temperatures too (the sequence resampled to the keyframes'
+    grid, or at an in-between time).
+    """
     t = np.asarray(temperature, dtype=np.float64)
     lo, hi = float(t.min()), float(t.max())
-    if hi <= lo:
-        return np.zeros(t.shape, np.float32)
-    t = (t - lo) / (hi - lo)  # the paper's normalisation
-    target = np.zeros(t.shape, np.float32)
-    glowing = t > cutoff
     flame = np.sort(np.asarray(alpha, dtype=np.float64)[np.asarray(alpha) > 0.05])
-    if not glowing.any() or flame.size == 0:
+    norm = (t - lo) / (hi - lo) if hi > lo else None
+    hot = np.sort(norm[norm > cutoff]) if norm is not None else np.empty(0)
+
+    def apply(temperature):
+        t = np.asarray(temperature, dtype=np.float64)
+        target = np.zeros(t.shape, np.float32)
+        if hi <= lo or hot.size == 0 or flame.size == 0:
+            return target
+        t = (t - lo) / (hi - lo)  # the paper's normalisation
+        glowing = t > cutoff
+        # Rank of each glowing temperature in (0, 1], then the photo's alpha at that rank.
+        rank = np.searchsorted(hot, t[glowing], side="right") / hot.size
+        target[glowing] = np.interp(rank, np.arange(1, flame.size + 1) / flame.size, flame)
         return target
-    hot = np.sort(t[glowing])
-    # Rank of each glowing temperature in (0, 1], then the photo's alpha at that rank.
-    rank = np.searchsorted(hot, t[glowing], side="right") / hot.size
-    target[glowing] = np.interp(rank, np.arange(1, flame.size + 1) / flame.size, flame)
-    return target
+
+    return apply
 
 
 def colour_temperature(temperature, cmap="inferno"):
@@ -159,10 +183,13 @@ class FireResult:
     Attributes
     ----------
     clip : Clip
-        The fire, (T, H, W, 3), with ``method="fire"``, params, the seed used,
-        timings and the keyframe frame numbers in its metadata.
+        The fire, (T, H, W, 3) at ``params.fps``, H and W from
+        ``params.output_size``, with ``method="fire"``, params, the seed used,
+        timings, the keyframe frame numbers and the simulation's grid and frame rate
+        in its metadata.
     temperature_clip : Clip
-        The normalised temperature :math:`I_t`, colour-mapped, for comparison.
+        The normalised temperature :math:`I_t`, colour-mapped, for comparison: one
+        frame per simulation frame, on the simulation's grid, at its frame rate.
     keyframes : ndarray, shape (K, H, W, 3), float32
         The synthesised keyframes, before advection and blending.
     sources : ndarray, shape (K, H, W, 2), int64
@@ -176,8 +203,13 @@ class FireResult:
         black with its matte.
     texture_alpha : ndarray, shape (Ha, Wa), float32
         Its alpha :math:`a_a` (:func:`alpha_from_photo`).
-    target : ndarray, shape (T, H, W), float32
-        :math:`I_t`: the temperature normalised to [0, 1] over the whole sequence.
+    target : ndarray, shape (N, h, w), float32
+        :math:`I_t` of every simulation frame on the simulation's grid (the
+        keyframes' targets are the same map of the temperature resampled to
+        their grid and time, see :func:`temperature_target`).
+    times : ndarray, shape (T,), float64
+        The simulation time (in simulation frames) of each clip frame
+        (:func:`clip_times`).
     simulation : object or None
         The fluid simulation the clip was made from (the one :func:`fire` ran, or
         the one it was given).
@@ -195,6 +227,7 @@ class FireResult:
     texture: np.ndarray
     texture_alpha: np.ndarray
     target: np.ndarray
+    times: np.ndarray = None
     simulation: object = None
     seed: int | None = None
 
@@ -221,6 +254,13 @@ def fire(
     segments overlap by ``m`` frames and are cross-dissolved linearly (sec. 3.4,
     Fig. 6, :func:`dissolve_weights`).
 
+    Beyond the paper, by default (``FireParams.paper()`` turns both off): the
+    keyframes are synthesised on a finer grid than the simulation's,
+    ``params.output_size`` pixels on the longer side (the temperature resampled
+    cubically, the velocity bilinearly and rescaled), and the clip has
+    ``params.fps`` frames a second, the frames between two simulation frames advected
+    by the matching fraction of its velocity (:func:`clip_times`).
+
     Advection detail (ours): rather than re-interpolating the image every frame,
     which blurs it a little more each time, the backtraces are composed into one
     displacement :math:`d_t(x) = -u_t(x) + d_{t-1}(x - u_t(x))` and the keyframe is
@@ -240,9 +280,10 @@ def fire(
         anything with ``temperature`` (T, H, W) and ``velocity`` (T, H, W, 2); or a
         pair of arrays ``(temperature, velocity)``. The temperature is normalised to
         [0, 1] by the sequence's minimum and maximum to make :math:`I_t`; the
-        velocity is (dy, dx) in pixels per frame, at most ``max(H, W)`` in
-        magnitude (frame ``t`` of a segment is frame ``t - 1`` advected with
-        ``velocity[t]``).
+        velocity is (dy, dx) in grid cells per simulation frame, at most ``max(H, W)``
+        in magnitude (simulation frame ``t`` is frame ``t - 1`` advected with
+        ``velocity[t]``). Its frames are :data:`SIMULATION_FPS` a second unless it has
+        an ``fps`` attribute.
     params : FireParams, optional
     matte : array_like, shape (Ha, Wa), optional
         The photo's alpha matte (overrides an alpha channel). Without either, the
@@ -289,11 +330,14 @@ def fire(
     >>> temp = np.stack([np.exp(-((xx - 8) ** 2 + (yy - 10 + t) ** 2) / 12) for t in range(4)])
     >>> vel = np.zeros((4, 16, 16, 2))
     >>> vel[..., 0] = -1.0
-    >>> result = fire(photo, (temp, vel), FireParams(interval=2), matte=matte, seed=0)
+    >>> params = FireParams.paper(interval=2)  # keyframes on the grid, 8 fps
+    >>> result = fire(photo, (temp, vel), params, matte=matte, seed=0)
     >>> result.clip
     Clip(4 frames, 16x16 RGB, 8 fps, method='fire')
     >>> result.starts.tolist(), result.seed
     ([0, 1, 2, 3], 0)
+    >>> fire(photo, (temp, vel), FireParams(output_size=32, interval=2), seed=0).clip
+    Clip(10 frames, 32x32 RGB, 24 fps, method='fire')
     """
     started = time.perf_counter()
     params = _check_params(params)
@@ -312,33 +356,48 @@ def fire(
         raise ValueError(
             "fluid_params is only used when fire simulates the preset (simulation=None)"
         )
-    temperature, velocity, fps = _temperature_and_velocity(simulation, n_frames)
+    temperature, velocity, sim_fps = _temperature_and_velocity(simulation, n_frames)
     n, h, w = temperature.shape
-    texture, _ = _resize_photo(photo, matte, params.input_size)
+    shape = output_shape((h, w), params.output_size)
+    photo_size = max(shape) if params.input_size < 0 else params.input_size
+    texture, _ = _resize_photo(photo, matte, photo_size)
     texture, alpha = _check_photo(texture, None)  # already composited with its matte
-    target = temperature_target(temperature, alpha, params.cutoff)
-    starts, weights = dissolve_weights(n, params.interval, params.m)
+    target_of = _target_map(temperature, alpha, params.cutoff)
+    target = target_of(temperature)
+    times, interval, overlap = clip_times(n, sim_fps, params)
+    starts, weights = dissolve_weights(len(times), interval, overlap)
+    fields = _Fields(temperature, velocity, shape)
 
-    frames = np.zeros((n, h, w, 3), np.float32)
-    keyframes = np.empty((len(starts), h, w, 3), np.float32)
-    sources = np.empty((len(starts), h, w, 2), np.int64)
+    frames = np.zeros((len(times), *shape, 3), np.float32)
+    keyframes = np.empty((len(starts), *shape, 3), np.float32)
+    sources = np.empty((len(starts), *shape, 2), np.int64)
+    prepared = _Prepared(texture, alpha, params)  # the photo's features, once
     t_synth = t_advect = 0.0
-    done, total = 0, sum(min(s + params.interval, n) - s for s in starts)
+    done, total = 0, sum(min(s + interval, len(times)) - s for s in starts)
     for k, s in enumerate(starts):
         report(done / total, f"keyframe {k + 1}/{len(starts)} (frame {s})")
         clock = time.perf_counter()
-        keyframe, src, _ = _run(texture, alpha, target[s], params, False, gen)
+        keyframe, src, _ = _run(
+            texture, alpha, target_of(fields.temperature(times[s])), params, False, gen, prepared
+        )
         t_synth += time.perf_counter() - clock
         keyframes[k], sources[k] = keyframe, src
         clock = time.perf_counter()
-        displacement = np.zeros((h, w, 2), np.float32)  # d_s = 0: the keyframe itself
-        image = keyframe
-        for t in range(s, min(s + params.interval, n)):
-            if t > s:
-                # d_t(x) = -u_t(x) + d_{t-1}(x - u_t(x)): one more backtrace (Fig. 5).
-                displacement = advect(displacement, velocity[t]) - velocity[t]
-                image = backward_warp(keyframe, displacement)
-            frames[t] += weights[k, t].astype(np.float32) * image
+        displacement = np.zeros((*shape, 2), np.float32)  # d_s = 0: the keyframe itself
+        spare = np.empty_like(displacement)
+        for t in range(s, min(s + interval, len(times))):
+            weight = weights[k, t].astype(np.float32)
+            if t == s:
+                frames[t] += weight * keyframe
+            else:
+                # d_t(x) = -u(x) + d_{t-1}(x - u(x)): one more backtrace (Fig. 5), with
+                # u the velocity over [times[t - 1], times[t]] on the keyframes' grid;
+                # then frame += weight * K(x + d_t(x)). Compiled (_advance); the same
+                # in numpy is _reference.advance_reference.
+                for u in fields.steps(times[t - 1], times[t]):
+                    _advance.compose(displacement, u, spare)
+                    displacement, spare = spare, displacement
+                _advance.warp_add(keyframe, displacement, weight, frames[t])
             done += 1
             if t > s and (t - s) % 8 == 0:
                 report(done / total, f"advecting segment {k + 1}")
@@ -355,11 +414,13 @@ def fire(
             "total": time.perf_counter() - started,
         },
         keyframes=starts.tolist(),
+        simulation_shape=[h, w],
+        simulation_fps=sim_fps,
     )
-    clip = Clip(frames, fps=fps, metadata=meta)
+    clip = Clip(frames, fps=params.fps, metadata=meta)
     tclip = Clip(
         colour_temperature(target),
-        fps=fps,
+        fps=sim_fps,
         metadata={"method": "fire", "what": "temperature (normalised, inferno)", "seed": seed},
     )
     return FireResult(
@@ -372,9 +433,127 @@ def fire(
         texture=texture,
         texture_alpha=alpha,
         target=target,
+        times=times,
         simulation=None if isinstance(simulation, tuple) else simulation,
         seed=seed,
     )
+
+
+def output_shape(shape, size):
+    """The keyframes' (H, W): ``shape`` scaled so its longest side is ``size`` (0: as is).
+
+    Examples
+    --------
+    >>> output_shape((128, 128), 256), output_shape((128, 192), 256), output_shape((128, 96), 0)
+    ((256, 256), (171, 256), (128, 96))
+    """
+    h, w = shape
+    if size == 0:
+        return int(h), int(w)
+    scale = size / max(h, w)
+    return max(1, round(h * scale)), max(1, round(w * scale))
+
+
+def clip_times(n_frames, sim_fps, params):
+    r"""When each clip frame is, in simulation frames, and the segments in clip frames.
+
+    The clip covers the simulation's ``n_frames`` frames (``(n_frames - 1) / sim_fps``
+    seconds) at ``params.fps`` frames a second: frame ``j`` is at simulation time
+    :math:`\tau_j = j \, f_{sim} / f`. A segment of :math:`N` simulation frames lasts
+    ``round(N f / f_sim)`` clip frames and segments overlap by ``round(m f / f_sim)``
+    (at least one frame less than a segment), so keyframes stay :math:`N - m`
+    simulation frames apart (Furukawa et al. (2013), Fig. 6) whatever the frame rate.
+
+    Parameters
+    ----------
+    n_frames : int
+        The simulation's frames.
+    sim_fps : float
+        Its frames a second (:data:`fluidnb.fire.SIMULATION_FPS` for fluidnb's).
+    params : FireParams
+        ``fps``, ``interval`` (N) and ``overlap`` (m).
+
+    Returns
+    -------
+    times : ndarray, shape (T,), float64
+        :math:`\tau_j` of each clip frame, from 0 to at most ``n_frames - 1``.
+    interval, overlap : int
+        :math:`N` and :math:`m` in clip frames.
+
+    Examples
+    --------
+    >>> from fluidnb.fire import FireParams
+    >>> times, interval, overlap = clip_times(4, 8.0, FireParams(fps=24, interval=4))
+    >>> times.round(3).tolist(), interval, overlap
+    ([0.0, 0.333, 0.667, 1.0, 1.333, 1.667, 2.0, 2.333, 2.667, 3.0], 12, 6)
+    """
+    ratio = params.fps / sim_fps
+    count = int(np.floor((n_frames - 1) * ratio + 1e-9)) + 1
+    times = np.arange(count) / ratio
+    interval = max(1, round(params.interval * ratio))
+    overlap = min(round(params.m * ratio), interval - 1)
+    return times, interval, overlap
+
+
+class _Fields:
+    """The simulation's temperature and velocity on the keyframes' grid, at any time.
+
+    Temperature: cubic interpolation in space (clipped to the sequence's range, a
+    cubic overshoots), linear in time; only at keyframes. Velocity: each simulation
+    frame resampled bilinearly once and rescaled to pixels of the keyframes' grid
+    (:func:`fluidnb.fields.resize_vector_field`, compiled in
+    ``_advance.upsample_velocity``), kept for the few frames a segment uses.
+    """
+
+    def __init__(self, temperature, velocity, shape):
+        self._temperature = temperature
+        self._velocity = velocity
+        self._shape = tuple(shape)
+        self._range = float(temperature.min()), float(temperature.max())
+        self._same = self._shape == tuple(temperature.shape[1:])
+        self._cache = {}
+
+    def temperature(self, tau):
+        """The temperature at simulation time ``tau`` on the keyframes' grid."""
+        i = int(np.floor(tau))
+        f = tau - i
+        t = self._temperature[i].astype(np.float32)
+        if f > 1e-9:
+            t = (1 - f) * t + f * self._temperature[i + 1]
+        if self._same:
+            return t
+        return np.clip(resize(t, self._shape, order=3), *self._range)
+
+    def velocity(self, i):
+        """Frame ``i``'s velocity (dy, dx) on the keyframes' grid, px per simulation frame."""
+        if i not in self._cache:
+            if len(self._cache) > 64:
+                self._cache.pop(next(iter(self._cache)))
+            v = self._velocity[i]
+            if self._shape[0] >= v.shape[0] and self._shape[1] >= v.shape[1]:
+                # = resize_vector_field(v, shape), compiled (30x faster).
+                fine = np.empty((*self._shape, 2), np.float32)
+                _advance.upsample_velocity(np.ascontiguousarray(v, np.float32), fine)
+                v = fine
+            elif not self._same:  # a coarser grid: anti-aliased
+                v = resize_vector_field(v, self._shape).astype(np.float32)
+            self._cache[i] = v
+        return self._cache[i]
+
+    def steps(self, t0, t1):
+        """The displacements that carry a picture from time ``t0`` to ``t1``.
+
+        Simulation frame ``i`` moves it by ``velocity[i]`` over ``(i - 1, i]``; a
+        clip frame that spans part of a frame moves by that fraction of it, one that
+        spans a frame's end takes two steps.
+        """
+        out = []
+        while t1 - t0 > 1e-9:
+            i = int(np.floor(t0 + 1e-9)) + 1
+            end = min(t1, float(i))
+            out.append(self.velocity(i) * np.float32(end - t0))
+            t0 = end
+        return out
 
 
 def _simulate_preset(fluid_params, n_frames, gen, progress):
@@ -397,7 +576,7 @@ def _simulate_preset(fluid_params, n_frames, gen, progress):
 
 def _temperature_and_velocity(simulation, n_frames):
     """Checked (temperature, velocity at the pixels, fps) of a simulation or a pair."""
-    fps = DEFAULT_FPS
+    fps = SIMULATION_FPS
     if isinstance(simulation, tuple):
         if len(simulation) != 2:
             raise ValueError(
@@ -418,7 +597,7 @@ def _temperature_and_velocity(simulation, n_frames):
             velocity = simulation.centred_velocity()
         else:
             velocity = simulation.velocity
-        fps = getattr(simulation, "fps", DEFAULT_FPS)
+        fps = float(getattr(simulation, "fps", SIMULATION_FPS))
     temperature = check_array("temperature", temperature, ndim=3, dtype_kinds="iuf")
     velocity = check_array("velocity", velocity, ndim=4, dtype_kinds="iuf")
     n, h, w = temperature.shape

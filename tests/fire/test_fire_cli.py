@@ -53,14 +53,27 @@ def test_fire_writes_a_clip_with_the_given_parameters(files, capsys):
     assert code == 0
     assert "wrote" in capsys.readouterr().out
     clip = Clip.load(out)
-    assert clip.n_frames == 5
-    assert clip.shape == (24, 24)
+    # The defaults: 256 px and 24 fps, 3 clip frames a simulation frame (4 intervals).
+    assert clip.n_frames == 13
+    assert clip.shape == (256, 256)
+    assert clip.fps == 24
     meta = clip.metadata
     assert meta["method"] == "fire"
     assert meta["seed"] == 3
     expected = FireParams(interval=4, overlap=2, weight=0.7, second_pass=False)
     assert meta["params"] == expected.to_dict()
     assert Clip.load(files / "temp.npz").n_frames == 5
+
+
+def test_paper_gives_the_papers_set_up_and_options_change_it(files):
+    args = ["fire", str(files / "photo.png"), "--sim", str(files / "sim.npz"), "--seed", "1"]
+    assert main([*args, "--paper", "-o", str(files / "p.npz")]) == 0
+    clip = Clip.load(files / "p.npz")
+    assert (clip.n_frames, clip.shape, clip.fps) == (6, (24, 24), 8)
+    assert clip.metadata["params"] == FireParams.paper().to_dict()
+    assert main([*args, "--paper", "--fps", "16", "-o", str(files / "q.npz")]) == 0
+    clip = Clip.load(files / "q.npz")
+    assert (clip.n_frames, clip.shape, clip.fps) == (11, (24, 24), 16)
 
 
 def test_same_seed_same_file(files):
@@ -81,7 +94,7 @@ def test_a_saved_simulation_is_read_with_its_velocity_at_the_pixels(files):
         + ["-o", str(files / "c.npz")]
     )
     assert code == 0
-    assert Clip.load(files / "c.npz").n_frames == 3
+    assert Clip.load(files / "c.npz").n_frames == 7  # 3 simulation frames at 24 fps
 
 
 @pytest.mark.parametrize(
@@ -91,6 +104,10 @@ def test_a_saved_simulation_is_read_with_its_velocity_at_the_pixels(files):
         (["--size", "4"], "size must be an odd integer"),
         (["--frames", "99"], "--frames must be <= the simulation's 6 frames"),
         (["--matte", "MISSING"], "--matte"),
+        (["--fps", "0"], "fps must be in [1, 120], got 0"),
+        (["--fps", "500"], "fps must be in [1, 120], got 500"),
+        (["--output-size", "8"], "output_size must be 0 (the simulation's grid) or >= 16"),
+        (["--output-size", "-3"], "output_size must be an integer in [0, 4096], got -3"),
     ],
 )
 def test_bad_options_exit_2_with_a_message(files, capsys, extra, message):
@@ -115,7 +132,8 @@ def test_without_sim_the_flame_preset_is_simulated(files):
     code = main(["fire", str(files / "photo.png"), "--frames", "2", "--seed", "0", "-o", str(out)])
     assert code == 0
     clip = Clip.load(out)
-    assert clip.n_frames == 2
+    assert clip.n_frames == 4  # 2 simulation frames, 1/8 s apart, at 24 fps
+    assert clip.shape == (256, 256)  # the preset's 128 x 128 grid, synthesised at 256
     assert "fluid_params" in clip.metadata
 
 
@@ -128,7 +146,9 @@ def test_an_rgba_cutout_is_read_with_its_alpha_as_the_matte(files):
     straight = np.where(alpha[..., None] > 0, straight, junk)
     Image.fromarray(to_uint8(np.dstack([straight, alpha])), mode="RGBA").save(files / "cut.png")
     out = files / "cut.npz"
-    code = main(["fire", str(files / "cut.png"), "--sim", str(files / "sim.npz"), "-o", str(out)])
+    code = main(
+        ["fire", str(files / "cut.png"), "--sim", str(files / "sim.npz"), "--paper", "-o", str(out)]
+    )
     assert code == 0
     frames = Clip.load(out).frames
     temp = np.load(files / "sim.npz")["temperature"]

@@ -9,7 +9,7 @@ from scipy import ndimage
 from fluidnb import Cancelled, CancelToken
 from fluidnb.data import sample
 from fluidnb.fields import advect, backward_warp
-from fluidnb.fire import FireParams, dissolve_weights, fire
+from fluidnb.fire import FireParams, clip_times, dissolve_weights, fire
 
 
 def rising_blob(n_frames=12, n=32, speed=1.0):
@@ -59,7 +59,9 @@ def test_the_blend_is_linear_over_the_overlap_as_in_fig_6():
 
 def test_a_keyframe_is_the_frame_where_its_segment_stands_alone(photo):
     temp, vel = rising_blob()
-    result = fire(photo[0], (temp, vel), FireParams(interval=4, overlap=0), matte=photo[1], seed=2)
+    result = fire(
+        photo[0], (temp, vel), FireParams.paper(interval=4, overlap=0), matte=photo[1], seed=2
+    )
     np.testing.assert_array_equal(result.starts, [0, 4, 8])
     for k, s in enumerate(result.starts):
         np.testing.assert_array_equal(result.clip.frames[s], result.keyframes[k])
@@ -71,7 +73,9 @@ def test_a_keyframe_is_the_frame_where_its_segment_stands_alone(photo):
 def test_between_keyframes_the_image_is_advected_by_backtracing(photo):
     temp, vel = rising_blob()
     vel[..., 1] = 0.3 * np.sin(np.arange(32) / 5.0)  # a sideways shear as well
-    result = fire(photo[0], (temp, vel), FireParams(interval=4, overlap=0), matte=photo[1], seed=2)
+    result = fire(
+        photo[0], (temp, vel), FireParams.paper(interval=4, overlap=0), matte=photo[1], seed=2
+    )
     frames = result.clip.frames
     key = result.keyframes[0]
     displacement = np.zeros((32, 32, 2), np.float32)
@@ -101,7 +105,7 @@ def test_advection_keeps_the_keyframe_sharp_over_a_long_segment():
     n = 24
     temp, vel = rising_blob(n_frames=n, n=48, speed=0.37)
     vel[..., 1] = 0.21 * np.cos(np.arange(48) / 4.0)
-    params = FireParams(interval=n, overlap=0, input_size=64)
+    params = FireParams.paper(interval=n, overlap=0, input_size=64)
     result = fire(photo, (temp, vel), params, matte=matte, seed=3)
     stepped = result.keyframes[0]
     for t in range(1, n):
@@ -117,9 +121,11 @@ def test_frame_to_frame_change_inside_segments_is_small(photo):
     # The paper's baseline (Furukawa et al. (2013), sec. 3.3): synthesising every
     # frame independently flickers.
     temp, vel = rising_blob(n_frames=16, speed=0.5)
-    result = fire(photo[0], (temp, vel), FireParams(interval=8), matte=photo[1], seed=5)
+    # The photo at 128 px (the texture four times the 32-px grid's scale), as measured.
+    params = FireParams.paper(interval=8, input_size=128)
+    result = fire(photo[0], (temp, vel), params, matte=photo[1], seed=5)
     per_frame = fire(
-        photo[0], (temp, vel), FireParams(interval=1, overlap=0), matte=photo[1], seed=5
+        photo[0], (temp, vel), params.replace(interval=1, overlap=0), matte=photo[1], seed=5
     )
 
     def change(frames):
@@ -139,7 +145,7 @@ def test_frame_to_frame_change_inside_segments_is_small(photo):
     still = fire(
         photo[0],
         (np.repeat(temp[:1], 6, axis=0), np.zeros((6, 32, 32, 2))),
-        FireParams(interval=6, overlap=0),
+        FireParams.paper(interval=6, overlap=0),
         matte=photo[1],
         seed=5,
     )
@@ -148,7 +154,7 @@ def test_frame_to_frame_change_inside_segments_is_small(photo):
 
 def test_same_seed_same_clip_with_its_metadata(photo):
     temp, vel = rising_blob(n_frames=8)
-    params = FireParams(interval=4)
+    params = FireParams.paper(interval=4)
     a = fire(photo[0], (temp, vel), params, matte=photo[1], seed=9)
     b = fire(photo[0], (temp, vel), params, matte=photo[1], seed=9)
     c = fire(photo[0], (temp, vel), params, matte=photo[1], seed=10)
@@ -167,7 +173,7 @@ def test_same_seed_same_clip_with_its_metadata(photo):
 
 def test_without_a_seed_the_seed_used_is_recorded_and_remakes_the_clip(photo):
     temp, vel = rising_blob(n_frames=6)
-    params = FireParams(interval=4)
+    params = FireParams.paper(interval=4)
     a = fire(photo[0], (temp, vel), params, matte=photo[1])
     assert isinstance(a.seed, int)
     assert a.clip.metadata["seed"] == a.seed
@@ -177,7 +183,7 @@ def test_without_a_seed_the_seed_used_is_recorded_and_remakes_the_clip(photo):
 
 def test_the_photo_is_resized_to_input_size(photo):
     temp, vel = rising_blob(n_frames=2)
-    result = fire(photo[0], (temp, vel), FireParams(input_size=24), matte=photo[1], seed=0)
+    result = fire(photo[0], (temp, vel), FireParams.paper(input_size=24), matte=photo[1], seed=0)
     assert max(result.texture.shape[:2]) == 24
     assert result.texture_alpha.shape == result.texture.shape[:2]
 
@@ -185,22 +191,26 @@ def test_the_photo_is_resized_to_input_size(photo):
 def test_a_simulation_object_gives_the_same_fire_as_its_arrays(photo):
     temp, vel = rising_blob(n_frames=4)
     sim = SimpleNamespace(temperature=temp, velocity=vel)
-    a = fire(photo[0], sim, FireParams(interval=2), matte=photo[1], seed=1)
-    b = fire(photo[0], (temp, vel), FireParams(interval=2), matte=photo[1], seed=1)
+    a = fire(photo[0], sim, FireParams.paper(interval=2), matte=photo[1], seed=1)
+    b = fire(photo[0], (temp, vel), FireParams.paper(interval=2), matte=photo[1], seed=1)
     np.testing.assert_array_equal(a.clip.frames, b.clip.frames)
     assert a.simulation is sim
     with pytest.raises(ValueError, match="simulation must have a 'velocity'"):
         fire(photo[0], SimpleNamespace(temperature=temp))
     with pytest.raises(ValueError, match="n_frames must be <= the simulation's 4 frames"):
         fire(photo[0], sim, n_frames=5)
-    assert fire(photo[0], sim, matte=photo[1], n_frames=3, seed=1).clip.n_frames == 3
+    assert fire(photo[0], sim, matte=photo[1], n_frames=3, seed=1).clip.n_frames == 7  # 24 fps
 
 
 def test_progress_reports_and_cancel_stops(photo):
     temp, vel = rising_blob(n_frames=8)
     seen = []
     fire(
-        photo[0], (temp, vel), FireParams(interval=4), seed=0, progress=lambda f, m: seen.append(f)
+        photo[0],
+        (temp, vel),
+        FireParams.paper(interval=4),
+        seed=0,
+        progress=lambda f, m: seen.append(f),
     )
     assert seen[-1] == 1.0
     assert seen == sorted(seen)
@@ -246,14 +256,101 @@ def test_dissolve_weights_refuses_bad_overlap():
 
 def test_without_a_simulation_the_flame_preset_is_simulated(photo):
     pytest.importorskip("fluidnb.fluid")
-    result = fire(photo[0], None, FireParams(interval=2), n_frames=3, matte=photo[1], seed=4)
+    result = fire(photo[0], None, FireParams.paper(interval=2), n_frames=3, matte=photo[1], seed=4)
     assert result.clip.n_frames == 3
     assert result.clip.shape == result.simulation.shape
     meta = result.clip.metadata
     assert meta["seed"] == 4
     assert meta["fluid_params"] == result.simulation.params.to_dict()
-    again = fire(photo[0], params=FireParams(interval=2), n_frames=3, matte=photo[1], seed=4)
+    again = fire(photo[0], params=FireParams.paper(interval=2), n_frames=3, matte=photo[1], seed=4)
     np.testing.assert_array_equal(result.clip.frames, again.clip.frames)
     temp, vel = rising_blob(n_frames=2)
     with pytest.raises(ValueError, match="fluid_params is only used"):
         fire(photo[0], (temp, vel), fluid_params=result.simulation.params)
+
+
+def test_by_default_the_clip_is_256_px_at_24_fps_and_the_paper_is_one_call_away(photo):
+    temp, vel = rising_blob(n_frames=5, n=32, speed=0.5)
+    default = fire(photo[0], (temp, vel), FireParams(interval=4), matte=photo[1], seed=0)
+    assert default.clip.shape == (256, 256)
+    assert default.clip.fps == 24
+    assert default.clip.n_frames == 13  # 4 simulation intervals x 3, and the first
+    assert default.keyframes.shape[1:3] == (256, 256)
+    np.testing.assert_allclose(default.times, np.arange(13) / 3)
+    assert default.clip.metadata["simulation_shape"] == [32, 32]
+    paper = fire(photo[0], (temp, vel), FireParams.paper(interval=4), matte=photo[1], seed=0)
+    assert (paper.clip.shape, paper.clip.fps, paper.clip.n_frames) == ((32, 32), 8, 5)
+    # A wide grid keeps its aspect ratio.
+    wide = np.repeat(temp, 2, axis=2), np.repeat(vel, 2, axis=2)
+    assert fire(photo[0], wide, FireParams(), matte=photo[1], seed=0).clip.shape == (128, 256)
+
+
+def test_keyframes_stay_the_simulations_frames_apart_at_any_fps():
+    # The paper's N and m are simulation frames; in clip frames they scale with fps.
+    for fps, interval, overlap in [(8, 10, 5), (24, 30, 15), (12, 15, 8), (60, 75, 38)]:
+        times, n, m = clip_times(73, 8.0, FireParams(fps=fps, interval=10))
+        assert (n, m) == (interval, overlap)
+        starts, _ = dissolve_weights(len(times), n, m)
+        assert times[-1] == 72.0 or times[-1] > 72.0 - 8.0 / fps
+        if fps in (8, 24):  # keyframes land on simulation frames, 5 apart
+            np.testing.assert_array_equal(times[starts], 5.0 * np.arange(len(starts)))
+
+
+def test_in_between_frames_are_advected_not_repeated(photo):
+    # A steady upward flow of 0.9 px per simulation frame on a 32 grid: on the 96-px
+    # keyframes that is 2.7 px per simulation frame, 0.9 px per clip frame at 24 fps.
+    temp, vel = rising_blob(n_frames=7, n=32, speed=0.9)
+    params = FireParams(interval=6, overlap=0, output_size=96)
+    result = fire(photo[0], (temp, vel), params, matte=photo[1], seed=2)
+    frames = result.clip.frames
+    assert len(frames) == 19
+    assert result.starts.tolist() == [0, 18]
+    key = result.keyframes[0]
+    lum = frames @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+    for t in range(1, 18):
+        # No clip frame repeats the one before, and each is the keyframe moved up by
+        # 0.9 px a frame: the shift that best explains it (in tenths of a pixel).
+        assert not np.array_equal(frames[t], frames[t - 1])
+        shifts = np.arange(0, 3.05, 0.1) * t / 3
+        errors = [
+            np.abs(
+                frames[t][20:80]
+                - backward_warp(
+                    key, np.dstack([np.full((96, 96), d), np.zeros((96, 96))]).astype(np.float32)
+                )[20:80]
+            ).mean()
+            for d in shifts
+        ]
+        assert abs(shifts[int(np.argmin(errors))] - 0.9 * t) <= 0.1 * t / 3 + 1e-9, t
+    assert lum.std() > 0
+
+
+def test_the_compiled_advance_is_the_numpy_composition_bit_for_bit():
+    from fluidnb.fire import _advance
+    from fluidnb.fire._reference import advance_reference
+
+    gen = np.random.default_rng(0)
+    keyframe = gen.random((40, 30, 3), dtype=np.float32)
+    d = (3 * gen.standard_normal((40, 30, 2))).astype(np.float32)
+    steps = [(2 * gen.standard_normal((40, 30, 2))).astype(np.float32) for _ in range(2)]
+    frame = gen.random((40, 30, 3), dtype=np.float32)
+    expected_frame = frame.copy()
+    expected = advance_reference(d, steps, keyframe, 0.3, expected_frame)
+    spare = np.empty_like(d)
+    for u in steps:
+        _advance.compose(d, u, spare)
+        d, spare = spare, d
+    _advance.warp_add(keyframe, d, np.float32(0.3), frame)
+    np.testing.assert_array_equal(d, expected)
+    np.testing.assert_array_equal(frame, expected_frame)
+
+
+def test_the_compiled_velocity_upsampling_is_resize_vector_field():
+    from fluidnb.fields import resize_vector_field
+    from fluidnb.fire import _advance
+
+    v = np.random.default_rng(1).standard_normal((24, 18, 2)).astype(np.float32)
+    for shape in [(48, 36), (50, 41), (24, 18)]:
+        out = np.empty((*shape, 2), np.float32)
+        _advance.upsample_velocity(v, out)
+        np.testing.assert_allclose(out, resize_vector_field(v, shape), atol=1e-5)

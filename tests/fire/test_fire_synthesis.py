@@ -89,10 +89,18 @@ def test_candidate_search_error_is_within_the_stated_factor_of_exhaustive(
 
 
 def _brute_force(photo, alpha, target, size, weight):
-    """The paper's search written out: every input pixel, every output pixel, in order."""
+    """The paper's search written out: every input pixel, every output pixel, in order.
+
+    Values are compared as 8-bit levels, as fluidnb compares them.
+    """
     h = size // 2
-    ap = np.pad(photo.astype(np.float64), ((h, h), (h, h), (0, 0)), mode="edge")
-    al = np.pad(alpha.astype(np.float64), h, mode="edge")
+
+    def levels(x):
+        return np.rint(np.clip(np.asarray(x, np.float32), 0, 1) * 255) / 255.0
+
+    photo, alpha, target = levels(photo), levels(alpha), levels(target)
+    ap = np.pad(photo, ((h, h), (h, h), (0, 0)), mode="edge")
+    al = np.pad(alpha, h, mode="edge")
     upper, lower = neighbourhoods(size)
     hh, ww = target.shape
     out = np.zeros((hh, ww, 3))
@@ -210,7 +218,12 @@ def test_bad_inputs_name_the_parameter(change, match):
         ({"size": 4}, "size must be an odd integer"),
         ({"weight": 1.5}, r"weight must be in \[0, 1\]"),
         ({"interval": 6, "overlap": 6}, "overlap must be < interval"),
-        ({"input_size": 4}, "input_size must be 0 or >= 8"),
+        ({"input_size": 4}, "input_size must be -1, 0 or >= 8"),
+        ({"input_size": -2}, r"input_size must be an integer in \[-1, 4096\], got -2"),
+        ({"output_size": 8}, r"output_size must be 0 \(the simulation's grid\) or >= 16 pixels"),
+        ({"output_size": 5000}, r"output_size must be an integer in \[0, 4096\], got 5000"),
+        ({"fps": 0}, r"fps must be in \[1, 120\], got 0"),
+        ({"fps": float("nan")}, "fps must be"),
     ],
 )
 def test_bad_params_are_refused(fields, match):

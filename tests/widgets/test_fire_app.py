@@ -8,6 +8,7 @@ import pytest
 from PIL import Image
 
 from fluidnb import data, to_uint8
+from fluidnb.fields import resize
 from fluidnb.fire import FireParams
 from fluidnb.widgets import FireApp
 from fluidnb.widgets._fire import FireAppParams, comparison_clip
@@ -35,10 +36,19 @@ def test_the_panel_offers_the_specs_controls():
             # beyond the spec's list: the two parameters issue 16 added to the synthesis
             "coherence",
             "cutoff",
+            # and issue 35's: the clip's frame rate and the keyframes' size
+            "fps",
+            "output_size",
         }
         params = app.panel.params
         assert isinstance(params, FireAppParams)
-        assert params.fire() == FireParams()
+        assert params.fire() == FireParams(output_size=128)  # quick: 128-px keyframes
+        assert app.panel.controls["fps"].value == 24
+    finally:
+        app.close()
+    app = FireApp()  # not quick: the library's defaults, 256 px at 24 fps
+    try:
+        assert app.panel.params.fire() == FireParams()
     finally:
         app.close()
 
@@ -50,8 +60,9 @@ def test_run_makes_fire_with_the_panels_parameters(app):
     app.panel.set("coherence", 0.5)
     app.panel.set("cutoff", 0.3)
     clip = app.run(timeout=120)
-    assert clip.n_frames == 16
-    assert clip.shape == (64, 64)
+    assert clip.n_frames == 46  # 16 simulation frames at 24 fps
+    assert clip.shape == (128, 128)
+    assert clip.fps == 24
     meta = clip.metadata
     assert meta["method"] == "fire"
     assert meta["params"]["weight"] == 0.8
@@ -60,10 +71,29 @@ def test_run_makes_fire_with_the_panels_parameters(app):
     assert meta["params"]["cutoff"] == 0.3
     assert app.fire_result.simulation.params.epsilon == 0.2
     assert app.player.clip is clip
-    # Side by side: temperature | keyframe | fire.
+    # Shown at its own size, never enlarged (before: 64 px shown at 384).
+    assert app.player.display_width == 128
+    assert app.player.image.layout.width == "128px"
+    # Side by side on the 64 x 64 grid, one frame per simulation frame:
+    # temperature | keyframe | fire (every third clip frame, at 24 fps).
     assert app.compare.clip.shape == (64, 192)
-    np.testing.assert_array_equal(app.compare.clip.frames[..., 128:, :], clip.frames)
+    assert app.compare.clip.n_frames == 16
+    assert app.compare.display_width == 192
+    fires = app.compare.clip.frames[..., 128:, :]
+    np.testing.assert_allclose(fires, [resize(f, (64, 64)) for f in clip.frames[::3]], atol=1e-5)
     assert "done" in app.status
+
+
+def test_paper_defaults_sets_the_papers_set_up_one_click_away(app):
+    app.panel.set("weight", 0.9)
+    app._paper.click()
+    params = app.panel.params
+    assert (params.fps, params.output_size, params.weight) == (8, 0, FireParams().weight)
+    assert "paper" in app.status
+    clip = app.run(timeout=120)
+    # The paper's set-up: keyframes on the 64 x 64 grid, one frame per simulation frame.
+    assert (clip.n_frames, clip.shape, clip.fps) == (16, (64, 64), 8)
+    assert app.player.display_width == 64
 
 
 def test_same_seed_same_clip(app):
@@ -79,7 +109,7 @@ def test_a_painted_matte_replaces_the_photos_own(app):
     matte = app.matte()
     assert matte.dtype == np.float32
     assert set(np.unique(matte)) == {0.0, 1.0}
-    assert app.run(timeout=120).n_frames == 16
+    assert app.run(timeout=120).n_frames == 46
 
 
 def upload(name, content):
@@ -174,8 +204,11 @@ def test_comparison_clip_shows_the_keyframe_in_effect(app):
     app.run(timeout=120)
     res = app.fire_result
     comp = comparison_clip(res)
-    np.testing.assert_array_equal(comp.frames[0, :, 64:128], res.keyframes[0])
-    np.testing.assert_array_equal(comp.frames[res.starts[1], :, 64:128], res.keyframes[1])
+    # Keyframe 1 starts at simulation frame 2 (clip frame 6): frames 0-1 show keyframe 0.
+    assert res.starts[1] == 6
+    key = [resize(k, (64, 64)) for k in res.keyframes[:2]]
+    np.testing.assert_allclose(comp.frames[1, :, 64:128], key[0], atol=1e-5)
+    np.testing.assert_allclose(comp.frames[2, :, 64:128], key[1], atol=1e-5)
 
 
 def test_an_uploaded_rgba_cutout_is_matted_by_its_alpha(app):
@@ -191,6 +224,7 @@ def test_an_uploaded_rgba_cutout_is_matted_by_its_alpha(app):
     np.testing.assert_allclose(app.photo_matte, alpha, atol=1 / 255)
     # the canvas shows the cut-out over black, not its junk colour
     assert app.canvas.image[alpha == 0].max() == 0
+    app._paper.click()  # the paper's set-up: the clip on the simulation's grid
     clip = app.run(timeout=120)
     cold = app.fire_result.target == 0
     assert cold.mean() > 0.3
