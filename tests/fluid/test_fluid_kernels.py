@@ -283,9 +283,12 @@ def test_the_inverse_cube_root_of_the_cooling_is_correct_to_a_few_units_in_the_l
     y = np.concatenate([np.linspace(1.0, 2.0, 20001), [1.0 + 1e-17, np.nextafter(2.0, 1.0)]])
     got = np.array([inv_cbrt(v) for v in y])
     assert got[0] == 1.0
-    # Against the C library's cube root (itself within about one unit of the truth,
-    # differently on every CPU): a bound, not bit equality.
-    assert _ulps(got, 1.0 / np.cbrt(y)).max() <= 3
+    # Against the C library's cube root: a bound, not bit equality. The reference
+    # 1 / cbrt(y) is itself rounded twice (cbrt within about one unit of the truth,
+    # differently on every CPU, then the division's half unit), so it may stand up
+    # to ~2 units from the truth on the other side of ours: 4 units apart at most
+    # (measured: 3 on one CPU, 4 on another).
+    assert _ulps(got, 1.0 / np.cbrt(y)).max() <= 4
     if np.finfo(np.longdouble).nmant >= 63:  # x86's 80-bit long double: near the truth
         exact = np.array([np.longdouble(v) ** (-np.longdouble(1) / 3) for v in y])
         assert _ulps(got, exact).max() <= 1.5  # measured: 1.04
