@@ -44,8 +44,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ._image import _read, to_uint8
-from ._validation import check_fps
+from ._image import _open, _read, to_uint8
+from ._validation import check_fps, check_input_file, parse_json
 
 __all__ = [
     "EXTENSIONS",
@@ -479,15 +479,14 @@ def read(path):
     if suffix not in EXTENSIONS:
         what = "no such folder" if suffix == "" else "unknown extension"
         raise ValueError(f"path must end in {_ALLOWED} ({what}): got {str(path)!r}")
-    if not path.is_file():
-        raise ValueError(f"path: no such file {str(path)!r}")
+    check_input_file(path, "path", "a clip file")
     return {".npz": _read_npz, ".gif": _read_gif, ".mp4": _read_mp4}[suffix](path)
 
 
 def _parse_json(text):
     try:
-        return json.loads(text)
-    except (TypeError, ValueError, UnicodeDecodeError):
+        return parse_json(text, "clip information")
+    except ValueError:
         return None
 
 
@@ -578,10 +577,12 @@ def _read_png_folder(folder):
 
 
 def _read_gif(path):
-    from PIL import Image, ImageSequence, UnidentifiedImageError
+    from PIL import ImageSequence, UnidentifiedImageError
 
+    # A folder, a FIFO, a bomb or a file that is no image at all: _open's own words.
+    im = _open(path, "path")
     try:
-        with Image.open(path) as im:
+        with im:
             if im.format != "GIF":
                 raise ValueError(f"it is a {im.format} image")
             # Read the comment before iterating: seeking to frame 0 forgets it.

@@ -8,6 +8,8 @@ method reads the user's intended flow from this field.
 
 from __future__ import annotations
 
+import numbers
+
 import numpy as np
 from scipy.interpolate import RBFInterpolator
 
@@ -19,10 +21,39 @@ _KERNELS = ("thin_plate_spline", "linear", "cubic", "quintic", "gaussian", "mult
 
 
 def _as_stroke(stroke, name):
+    if isinstance(stroke, (list, tuple)):
+        _check_points(stroke, name)
     arr = check_array(name, stroke, ndim=2, dtype_kinds="iuf")
     if arr.shape[1] != 2:
         raise ValueError(f"{name} must have shape (n, 2) as (row, col), got {arr.shape}")
     return arr.astype(np.float64)
+
+
+def _check_points(points, name):
+    """Refuse, naming the stroke and the point, what numpy would turn into other numbers.
+
+    A list is checked point by point before it becomes an array: numpy reads ``True``
+    as 1, and a stroke of three-coordinate points is an (n, 3) array that a reshape
+    would have made into different (row, col) points.
+    """
+    for j, point in enumerate(points):
+        if isinstance(point, np.ndarray):
+            point = point.tolist()
+        if not isinstance(point, (list, tuple)):
+            raise ValueError(
+                f"{name} point {j} is {point!r}: each point must be a pair [row, col] of numbers"
+            )
+        if len(point) != 2:
+            raise ValueError(
+                f"{name} point {j} is {list(point)!r}: it has {len(point)} coordinates; a "
+                "point has two, [row, col] in pixels"
+            )
+        for v in point:
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
+                raise ValueError(
+                    f"{name} point {j} is {list(point)!r}: coordinates must be numbers "
+                    f"(pixels), not {type(v).__name__} {v!r}"
+                )
 
 
 def check_strokes(strokes, shape=None, name="strokes"):

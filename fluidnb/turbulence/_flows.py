@@ -11,7 +11,7 @@ import numpy as np
 
 from .._cache import cache_dir
 from .._progress import Progress
-from .._validation import check_array, check_int, check_npz_file, check_range
+from .._validation import check_array, check_int, check_npz_file, check_range, parse_json
 
 __all__ = ["PAPER_SHAPES", "Flow", "cache_dir", "sample_flows"]
 
@@ -144,7 +144,7 @@ class Flow:
         check_npz_file(path, f"path {path!r} is not a saved Flow or Simulation")
         try:
             with np.load(path, allow_pickle=False) as z:
-                meta = json.loads(str(z["metadata"]))
+                meta = _metadata(z)
                 fmt = meta.get("format")
                 if fmt == _FORMAT:
                     arrays = (np.array(z["velocity"]), np.array(z["density"]), meta["dx"])
@@ -249,7 +249,7 @@ def _simulate_pair(n_frames, scale, progress):
 def _read_pair(file):
     try:
         with np.load(file, allow_pickle=False) as z:
-            meta = json.loads(str(z["metadata"]))
+            meta = _metadata(z)
             return tuple(
                 Flow(z[f"{k}_velocity"], z[f"{k}_density"], meta[f"{k}_dx"])
                 for k in ("target", "source")
@@ -276,3 +276,11 @@ def _write_pair(file, pair):
         # A read-only home: the memory cache still serves this session.
         if tmp is not None and os.path.exists(tmp):
             os.remove(tmp)
+
+
+def _metadata(archive):
+    """The JSON object in an archive's ``metadata`` (ValueError if it is not one)."""
+    meta = parse_json(str(archive["metadata"]), "its metadata")
+    if not isinstance(meta, dict):
+        raise ValueError("its metadata is not a JSON object")
+    return meta
