@@ -636,9 +636,12 @@ def read_video(path, *, max_side=None, what=None):
     Raises
     ------
     ValueError
-        If ffmpeg cannot open the file or it holds no frames.
+        If ffmpeg cannot open the file, it holds no frames, or it is truncated or
+        damaged: fewer frames decode than the container declares (its duration times
+        its frame rate) and ffmpeg's demuxer reports an error reading the stream.
     """
     what = what or f"cannot read {str(path)!r}"
+    check_input_file(path, what, "a video file")
     # When ffmpeg has already exited as a reader ends, imageio-ffmpeg drops its pipes
     # without closing them (imageio-ffmpeg issue #61): Python closes them as they are
     # freed, with a ResourceWarning that is not ours to fix. Errors are raised after
@@ -663,8 +666,55 @@ def read_video(path, *, max_side=None, what=None):
     n = len(data) // (w * h * 3)
     if n == 0:
         raise ValueError(f"{what}: the video has no frames")
+    _check_complete(path, meta, n, what)
     frames = np.frombuffer(data, np.uint8, count=n * w * h * 3).reshape(n, h, w, 3)
     return frames, float(meta.get("fps") or 0.0), scale
+
+
+def _check_complete(path, meta, n, what):
+    """Refuse a video cut short: fewer frames than its container declares, and errors.
+
+    ffmpeg decodes what there is of a truncated MP4 (its index, at the front with
+    ``+faststart``, still declares every frame) and stops without failing: 2 of 24
+    frames were converted without a word. Our decision: a user converting or building
+    from a video expects all of it, so a short read is an error naming the file, as
+    a truncated GIF or .npz is, not a warning beside a clip that silently lacks most
+    of its frames. The container's duration can exceed the video's (a longer audio
+    track), so a short count alone is not proof: ffmpeg's demuxer is asked to read
+    the video stream again without decoding it (cheap), and its error -- "partial
+    file" -- is what decides, and what the message quotes.
+    """
+    duration, fps = meta.get("duration") or 0, meta.get("fps") or 0
+    declared = round(float(duration) * float(fps))
+    if n >= declared - 1:  # the duration is printed to 1/100 s: allow a frame
+        return
+    problem = _demux_error(path)
+    if problem is not None:
+        raise ValueError(
+            f"{what}: the video is truncated or damaged: {n} of the {declared} frames its "
+            f"container declares could be decoded (ffmpeg: {problem})"
+        )
+
+
+def _demux_error(path):
+    """The first error ffmpeg reports reading the video stream of ``path``, or None."""
+    import imageio_ffmpeg
+
+    cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-nostdin", "-v", "error"]
+    cmd += ["-i", str(path), "-map", "0:v:0", "-c", "copy", "-f", "null", "-"]
+    try:
+        run = subprocess.run(cmd, capture_output=True, check=False, timeout=600)
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    lines = [
+        re.sub(r"^\[[^\]]*\]\s*", "", line).strip()  # "[in#0/mov,... @ 0x55...] " prefixes
+        for line in run.stderr.decode("utf-8", errors="replace").splitlines()
+    ]
+    lines = [line for line in lines if line]
+    if not lines and run.returncode == 0:
+        return None
+    partial = [line for line in lines if "partial file" in line]
+    return (partial or lines or [f"exit status {run.returncode}"])[0]
 
 
 def _scaling_is_intended(record):

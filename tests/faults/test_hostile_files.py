@@ -62,3 +62,47 @@ def test_the_strokes_reader_refuses_deep_json_with_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1
     assert "nested too deeply" in err
+
+
+def _moving_mp4(path, frames=24):
+    gen = np.random.default_rng(7)
+    base = gen.random((96, 120)).astype(np.float32)
+    clip = Clip(np.stack([np.roll(base, t, axis=1) for t in range(frames)]), fps=12)
+    return clip.save(path)
+
+
+@pytest.mark.parametrize("keep", [0.6, 0.8, 0.9, 0.97])
+def test_a_truncated_mp4_is_refused_not_converted_into_fewer_frames(tmp_path, keep, capsys):
+    from fluidnb.cli import main
+
+    whole = _moving_mp4(tmp_path / "whole.mp4")
+    cut = tmp_path / "cut.mp4"  # a video from elsewhere: no sidecar says how long it was
+    cut.write_bytes(whole.read_bytes()[: int(whole.stat().st_size * keep)])
+    assert main(["convert", str(cut), "-o", str(tmp_path / "out.gif")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert err.startswith(f"fluidnb convert: error: cannot read {str(cut)!r}"), err
+    assert "truncated or damaged" in err or "expected a video" in err, err
+    assert not (tmp_path / "out.gif").exists()
+    # With its sidecar, Clip.load says the same.
+    (tmp_path / "cut.mp4.json").write_text((tmp_path / "whole.mp4.json").read_text())
+    with pytest.raises(ValueError, match=r"cut\.mp4.*(truncated|expected a video)"):
+        Clip.load(cut)
+
+
+def test_a_video_shorter_than_its_audio_is_read_whole(tmp_path):
+    import subprocess
+
+    import imageio_ffmpeg
+
+    from fluidnb import _media
+
+    video = _moving_mp4(tmp_path / "video.mp4")
+    both = tmp_path / "with-audio.mp4"  # the container lasts 4 s, the video 2 s
+    cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-v", "error", "-nostdin", "-i", str(video)]
+    cmd += ["-f", "lavfi", "-t", "4", "-i", "anullsrc=r=8000:cl=mono"]
+    cmd += ["-map", "0:v", "-map", "1:a", "-c:v", "copy", "-c:a", "aac", str(both)]
+    subprocess.run(cmd, check=True, capture_output=True)
+    frames, fps, _ = _media.read_video(both)
+    assert (len(frames), fps) == (24, 12.0)
+    assert Clip.load(both).n_frames == 24
