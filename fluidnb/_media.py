@@ -37,6 +37,7 @@ import os
 import re
 import subprocess
 import tempfile
+import threading
 import warnings
 import zipfile
 from fractions import Fraction
@@ -118,6 +119,8 @@ def _write_error(exc, path, tmp=None):
     """An OSError of the same kind as ``exc`` whose message names ``path``."""
     if exc.errno is not None and exc.strerror:
         # OSError(errno, text) builds the matching subclass (FileNotFoundError, ...).
+        if exc.strerror.startswith("cannot write "):  # names its file already (a sidecar)
+            return OSError(exc.errno, exc.strerror)
         return OSError(exc.errno, f"cannot write {str(path)!r}: {exc.strerror}")
     text = str(exc)
     if tmp is not None:
@@ -214,8 +217,15 @@ def write(path, frames, fps, metadata, *, quality=None):
     else:
         q = DEFAULT_QUALITY if quality is None else quality
         padded = _pad_even(to_uint8(frames))
-        write_atomically(path, lambda tmp: _encode_mp4(tmp, padded, fps, q, name=path))
-        _write_json(sidecar(path), info)
+
+        def mp4(tmp):
+            _encode_mp4(tmp, padded, fps, q, name=path)
+            # The sidecar is written (and renamed) before the video is renamed: a disk
+            # that fills up on either keeps the video and sidecar that were there, never
+            # a new video beside an old sidecar or none.
+            _write_json(sidecar(path), info)
+
+        write_atomically(path, mp4)
     return path
 
 
@@ -430,22 +440,43 @@ def _encode_mp4(path, frames, fps, quality, *, preset="medium", name=None):
     cmd += ["-s", f"{w}x{h}", "-r", f"{rate.numerator}/{rate.denominator}", "-i", "pipe:0"]
     cmd += ["-an", "-c:v", "libx264", "-preset", preset, "-crf", str(crf)]
     cmd += ["-pix_fmt", "yuv420p", "-movflags", "+faststart", "-f", "mp4", str(path)]
-    # stderr to a file, not a pipe: a pipe nobody reads could fill up and deadlock.
-    with tempfile.TemporaryFile() as log:
-        proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=log)
-        try:
-            for frame in frames:
-                proc.stdin.write(np.ascontiguousarray(frame).data)
-        except BrokenPipeError:
-            pass  # ffmpeg stopped early; its message is reported below
-        finally:
-            with contextlib.suppress(BrokenPipeError):
-                proc.stdin.close()
-            code = proc.wait()
-        if code != 0:
-            log.seek(0)
-            message = _last_lines(log.read().decode("utf-8", errors="replace"))
-            raise OSError(f"ffmpeg could not encode {str(name or path)!r}: {message}")
+    # stderr read by a thread, not into a temporary file: on a full disk that file
+    # (in $TMPDIR) stayed empty and the error said "no message". Read, the pipe never
+    # fills up and blocks ffmpeg.
+    proc = subprocess.Popen(
+        cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+    )
+    log = []
+    reader = threading.Thread(target=lambda: log.append(proc.stderr.read()), daemon=True)
+    reader.start()
+    try:
+        for frame in frames:
+            proc.stdin.write(np.ascontiguousarray(frame).data)
+    except BrokenPipeError:
+        pass  # ffmpeg stopped early; its message is reported below
+    finally:
+        with contextlib.suppress(BrokenPipeError):
+            proc.stdin.close()
+        code = proc.wait()
+        reader.join()
+        proc.stderr.close()
+    if code != 0:
+        text = b"".join(log).decode("utf-8", errors="replace")
+        if "No space left on device" in text or _disk_full(Path(path).parent):
+            raise OSError(errno.ENOSPC, "No space left on device (the disk is full)")
+        message = _last_lines(text)
+        raise OSError(f"ffmpeg could not encode {str(name or path)!r}: {message}")
+
+
+def _disk_full(folder):
+    """Whether the disk holding ``folder`` has (next to) no room left for a file."""
+    try:
+        st = os.statvfs(folder)
+    except (OSError, AttributeError):  # no statvfs on Windows
+        return False
+    # root may write into the blocks a disk reserves for it; others may not.
+    blocks = st.f_bfree if getattr(os, "geteuid", lambda: -1)() == 0 else st.f_bavail
+    return blocks * st.f_frsize < 1 << 20
 
 
 # ---------------------------------------------------------------------- reading
