@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
-import tempfile
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -265,17 +266,19 @@ def _write_pair(file, pair):
         arrays[f"{k}_velocity"] = flow.velocity
         arrays[f"{k}_density"] = flow.density
         meta[f"{k}_dx"] = flow.dx
-    tmp = None
+    # A name of this process and thread, opened as every file we write is (mode 0666
+    # less the umask): mkstemp's 0600 kept the cache from the other users of a shared
+    # cache folder (issue 37).
+    tmp = file.with_name(f".{file.stem}.partial-{os.getpid()}-{threading.get_ident()}.npz")
     try:
         file.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(suffix=".npz", dir=file.parent)
-        os.close(fd)
-        np.savez_compressed(tmp, metadata=np.array(json.dumps(meta)), **arrays)
+        with open(tmp, "xb") as f:
+            np.savez_compressed(f, metadata=np.array(json.dumps(meta)), **arrays)
         os.replace(tmp, file)
     except OSError:
         # A read-only home: the memory cache still serves this session.
-        if tmp is not None and os.path.exists(tmp):
-            os.remove(tmp)
+        with contextlib.suppress(OSError):
+            tmp.unlink(missing_ok=True)
 
 
 def _metadata(archive):
