@@ -5,8 +5,10 @@ are lost; DrawingCanvas redraws in ``on_client_ready``. This checks that the
 preloaded mask and stroke are really painted on the canvas the user sees.
 """
 
+import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import nbformat
 import pytest
@@ -158,3 +160,103 @@ def test_voila_offline_shows_no_raw_latex(voila, page, shot):
         assert any(label.startswith("rth") or label.startswith("r") for label in labels)
     finally:
         shot(page, "offline")
+
+
+# ---------------------------------------------------------------- the frost lesson, offline
+
+LESSON = Path(__file__).resolve().parents[2] / "notebooks" / "03_frost.ipynb"
+
+
+def _offline(page):
+    """Abort every request that leaves this machine; returns the list of those blocked."""
+    blocked = []
+
+    def route(r):
+        host = r.request.url.split("/")[2].split(":")[0]
+        if host in ("127.0.0.1", "localhost"):
+            return r.continue_()
+        blocked.append(r.request.url)
+        return r.abort()
+
+    page.route("**/*", route)
+    return blocked
+
+
+def _lesson_math_is_typeset(page, shot, suffix):
+    """Wait until every Markdown cell is shown, typeset, with no raw ``$`` left."""
+    n_markdown = sum(c.cell_type == "markdown" for c in nbformat.read(LESSON, as_version=4).cells)
+    markdown = page.locator(".jp-MarkdownOutput")
+
+    def typeset():
+        texts = markdown.all_inner_texts()
+        raw = [t for t in texts if "$" in t]
+        if len(texts) < n_markdown or raw:
+            return None
+        return page.locator("mjx-container").count() or None
+
+    try:
+        poll("the frost lesson's math, typeset offline", typeset, timeout=240, interval=0.5)
+        text = page.evaluate("() => document.body.innerText")
+        assert "Math input error" not in text
+        assert "$\\" not in text, [line for line in text.splitlines() if "$" in line][:5]
+    finally:
+        shot(page, suffix)
+
+
+def test_the_frost_lesson_in_jupyterlabs_voila_route_typesets_math_offline(lab_server, page, shot):
+    # Issue 37, point 6: /voila/render/ in a running JupyterLab (and on Binder) asked a
+    # CDN for MathJax and showed 133 raw LaTeX snippets offline; standalone Voila did not.
+    from tests.browser.conftest import TOKEN
+
+    folder = lab_server.root / "voila-route"
+    folder.mkdir()
+    shutil.copy(LESSON, folder / LESSON.name)
+    blocked = _offline(page)
+    page.set_default_timeout(240_000)
+    page.goto(f"{lab_server.url}/voila/render/voila-route/{LESSON.name}?token={TOKEN}")
+    try:
+        _lesson_math_is_typeset(page, shot, "render-route")
+        assert not [u for u in blocked if "mathjax" in u.lower()], blocked
+    finally:
+        lab_server.delete_sessions("voila-route")
+
+
+def test_the_frost_lesson_in_standalone_voila_typesets_math_offline(voila_file, page, shot):
+    url = voila_file(LESSON)
+    blocked = _offline(page)
+    page.set_default_timeout(240_000)
+    page.goto(url)
+    _lesson_math_is_typeset(page, shot, "standalone")
+    assert not [u for u in blocked if "mathjax" in u.lower()], blocked
+
+
+@pytest.fixture
+def voila_file(tmp_path):
+    """Serve a copy of a notebook file with standalone Voila: ``serve(path) -> url``."""
+    procs = []
+
+    def serve(source):
+        path = tmp_path / Path(source).name
+        shutil.copy(source, path)
+        port = free_port()
+        log = tmp_path / "voila.log"
+        cmd = [
+            sys.executable, "-m", "voila", str(path),
+            "--no-browser", f"--port={port}", "--Voila.ip=127.0.0.1", "--Voila.port_retries=0",
+        ]  # fmt: skip
+        with log.open("w") as out:
+            proc = subprocess.Popen(
+                cmd,
+                env=isolated_env(tmp_path / "jupyter"),
+                cwd=tmp_path,
+                stdout=out,
+                stderr=subprocess.STDOUT,
+            )
+        procs.append(proc)
+        url = f"http://127.0.0.1:{port}/"
+        wait_http(url + "favicon.ico", proc, log, any_status=True)
+        return url
+
+    yield serve
+    for proc in procs:
+        stop(proc)
