@@ -41,17 +41,12 @@ c
 
 @pytest.fixture
 def voila(tmp_path, request):
-    """Serve a notebook with Voila; yields a function ``serve(source) -> url``."""
+    """Serve notebooks with Voila: ``serve(source, markdown=None) -> url`` for a notebook
+    of one code cell (and a Markdown cell), ``serve.file(path) -> url`` for a copy of a
+    notebook file."""
     procs = []
 
-    def serve(source, markdown=None):
-        nb = nbformat.v4.new_notebook()
-        nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3"}
-        nb.cells = [nbformat.v4.new_code_cell(source)]
-        if markdown is not None:
-            nb.cells.insert(0, nbformat.v4.new_markdown_cell(markdown))
-        path = tmp_path / f"{node_slug(request)}.ipynb"
-        nbformat.write(nb, path)
+    def start(path):
         port = free_port()
         log = tmp_path / "voila.log"
         cmd = [
@@ -72,6 +67,22 @@ def voila(tmp_path, request):
         wait_http(url + "favicon.ico", proc, log, any_status=True)
         return url
 
+    def serve(source, markdown=None):
+        nb = nbformat.v4.new_notebook()
+        nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3"}
+        nb.cells = [nbformat.v4.new_code_cell(source)]
+        if markdown is not None:
+            nb.cells.insert(0, nbformat.v4.new_markdown_cell(markdown))
+        path = tmp_path / f"{node_slug(request)}.ipynb"
+        nbformat.write(nb, path)
+        return start(path)
+
+    def serve_file(source):
+        path = tmp_path / Path(source).name
+        shutil.copy(source, path)
+        return start(path)
+
+    serve.file = serve_file
     yield serve
     for proc in procs:
         stop(proc)
@@ -125,10 +136,8 @@ $$f(\beta) = \big(T - T_{sim}(\beta)\big)^2$$
 """
 
 
-def test_voila_offline_shows_no_raw_latex(voila, page, shot):
-    # Issue 22, point 9: a lecture hall's laptop often has no network; Voila showed
-    # "sigma $\sigma$" on the sliders. Block every request that leaves this machine.
-    url = voila(APP, markdown=LESSON_TEXT)
+def _offline(page):
+    """Abort every request that leaves this machine; returns the list of those blocked."""
     blocked = []
 
     def route(r):
@@ -139,6 +148,14 @@ def test_voila_offline_shows_no_raw_latex(voila, page, shot):
         return r.abort()
 
     page.route("**/*", route)
+    return blocked
+
+
+def test_voila_offline_shows_no_raw_latex(voila, page, shot):
+    # Issue 22, point 9: a lecture hall's laptop often has no network; Voila showed
+    # "sigma $\sigma$" on the sliders. Block every request that leaves this machine.
+    url = voila(APP, markdown=LESSON_TEXT)
+    _offline(page)
     page.set_default_timeout(120_000)
     page.goto(url)
     page.locator(".fluidnb-param-beta").wait_for()
@@ -165,21 +182,6 @@ def test_voila_offline_shows_no_raw_latex(voila, page, shot):
 # ---------------------------------------------------------------- the frost lesson, offline
 
 LESSON = Path(__file__).resolve().parents[2] / "notebooks" / "03_frost.ipynb"
-
-
-def _offline(page):
-    """Abort every request that leaves this machine; returns the list of those blocked."""
-    blocked = []
-
-    def route(r):
-        host = r.request.url.split("/")[2].split(":")[0]
-        if host in ("127.0.0.1", "localhost"):
-            return r.continue_()
-        blocked.append(r.request.url)
-        return r.abort()
-
-    page.route("**/*", route)
-    return blocked
 
 
 def _lesson_math_is_typeset(page, shot, suffix):
@@ -221,42 +223,10 @@ def test_the_frost_lesson_in_jupyterlabs_voila_route_typesets_math_offline(lab_s
         lab_server.delete_sessions("voila-route")
 
 
-def test_the_frost_lesson_in_standalone_voila_typesets_math_offline(voila_file, page, shot):
-    url = voila_file(LESSON)
+def test_the_frost_lesson_in_standalone_voila_typesets_math_offline(voila, page, shot):
+    url = voila.file(LESSON)
     blocked = _offline(page)
     page.set_default_timeout(240_000)
     page.goto(url)
     _lesson_math_is_typeset(page, shot, "standalone")
     assert not [u for u in blocked if "mathjax" in u.lower()], blocked
-
-
-@pytest.fixture
-def voila_file(tmp_path):
-    """Serve a copy of a notebook file with standalone Voila: ``serve(path) -> url``."""
-    procs = []
-
-    def serve(source):
-        path = tmp_path / Path(source).name
-        shutil.copy(source, path)
-        port = free_port()
-        log = tmp_path / "voila.log"
-        cmd = [
-            sys.executable, "-m", "voila", str(path),
-            "--no-browser", f"--port={port}", "--Voila.ip=127.0.0.1", "--Voila.port_retries=0",
-        ]  # fmt: skip
-        with log.open("w") as out:
-            proc = subprocess.Popen(
-                cmd,
-                env=isolated_env(tmp_path / "jupyter"),
-                cwd=tmp_path,
-                stdout=out,
-                stderr=subprocess.STDOUT,
-            )
-        procs.append(proc)
-        url = f"http://127.0.0.1:{port}/"
-        wait_http(url + "favicon.ico", proc, log, any_status=True)
-        return url
-
-    yield serve
-    for proc in procs:
-        stop(proc)
