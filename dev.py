@@ -64,11 +64,27 @@ def setup(extras):
     candidates = [(stamp, digest)] + ([_stamp("test")] if not extras else [])
     if any(s.exists() and s.read_text() == d for s, d in candidates):
         say(f"environment up to date ({spec})")
+        install_jupyter_config()
         return
     must([PY, "-m", "pip", "install", "--upgrade", "--quiet", "pip"])
     must([PY, "-m", "pip", "install", "--quiet", "-e", spec], cwd=ROOT)
+    install_jupyter_config()
     stamp.write_text(digest)
     say(f"installed fluidnb {spec} into {VENV}")
+
+
+def install_jupyter_config():
+    """Put jupyter-config/ into .venv/etc/jupyter, where a wheel's data-files go.
+
+    pip's editable install leaves pyproject.toml's data-files out; this one enables
+    the server extension with which /voila/render/ pages typeset math offline.
+    """
+    for source in (ROOT / "jupyter-config").rglob("*.json"):
+        target = VENV / "etc" / "jupyter" / source.relative_to(ROOT / "jupyter-config")
+        if not target.is_file() or target.read_bytes() != source.read_bytes():
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(source, target)
+            say(f"installed {target.relative_to(ROOT)}")
 
 
 def _stamp(extras):

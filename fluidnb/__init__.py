@@ -7,13 +7,16 @@ conventions, and the README's References for the five papers.
 """
 
 import importlib
+from typing import TYPE_CHECKING
 
-from ._clip import Clip, load_clip
-from ._image import as_image, as_mask, to_uint8
-from ._params import Params, ParamSpec, param
-from ._progress import Cancelled, CancelToken, Progress, TextProgress, progress_bar
-from ._random import resolve_seed, rng
 from ._version import __version__
+
+if TYPE_CHECKING:  # what __getattr__ below provides, for readers and tools
+    from ._clip import Clip, load_clip
+    from ._image import as_image, as_mask, to_uint8
+    from ._params import Params, ParamSpec, param
+    from ._progress import Cancelled, CancelToken, Progress, TextProgress, progress_bar
+    from ._random import resolve_seed, rng
 
 __all__ = [
     "CancelToken",
@@ -43,8 +46,27 @@ __all__ = [
     "videodb",
 ]
 
-# Subpackages load on first use so `import fluidnb` (and `fluidnb --version`) stays
-# quick; `fluidnb.fields` and `fluidnb.sketch` pull in scikit-image.
+# Everything loads on first use, so `import fluidnb` imports nothing heavy: `fluidnb
+# --version` stays quick, and the command line is already inside main() -- where Ctrl-C
+# is one line, not a traceback -- when numpy, scipy or numba start to load (issue 37).
+# `fluidnb.fields` and `fluidnb.sketch` pull in scikit-image.
+_NAMES = {
+    "Clip": "_clip",
+    "load_clip": "_clip",
+    "as_image": "_image",
+    "as_mask": "_image",
+    "to_uint8": "_image",
+    "Params": "_params",
+    "ParamSpec": "_params",
+    "param": "_params",
+    "Cancelled": "_progress",
+    "CancelToken": "_progress",
+    "Progress": "_progress",
+    "TextProgress": "_progress",
+    "progress_bar": "_progress",
+    "resolve_seed": "_random",
+    "rng": "_random",
+}
 _SUBPACKAGES = {
     "data",
     "fields",
@@ -59,10 +81,14 @@ _SUBPACKAGES = {
 
 
 def __getattr__(name):
+    if name in _NAMES:
+        value = getattr(importlib.import_module(f"{__name__}.{_NAMES[name]}"), name)
+        globals()[name] = value  # once: later lookups do not come here
+        return value
     if name in _SUBPACKAGES:
         return importlib.import_module(f"{__name__}.{name}")
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def __dir__():
-    return sorted(set(globals()) | _SUBPACKAGES)
+    return sorted(set(globals()) | _SUBPACKAGES | set(_NAMES))

@@ -8,21 +8,40 @@ Converted once, here, so the rest of the library can assume
 from __future__ import annotations
 
 import os
+import re
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from ._validation import check_choice
+from ._validation import check_choice, check_input_file, check_int
 
-__all__ = ["LUMA", "as_image", "as_mask", "to_float01", "to_uint8"]
+__all__ = [
+    "LUMA",
+    "MAX_PIXELS",
+    "as_image",
+    "as_mask",
+    "image_size",
+    "max_pixels",
+    "shrunk_shape",
+    "to_float01",
+    "to_uint8",
+]
 
 _MODES = (None, "grey", "rgb")
 
 #: Rec. 709 luminance weights of R, G, B (as scikit-image's ``rgb2gray``): grey = RGB @ LUMA.
 LUMA = np.array([0.2125, 0.7154, 0.0721], dtype=np.float32)
 
+#: The most pixels an image file may declare (``FLUIDNB_MAX_PIXELS`` overrides it). Our
+#: decision: 50 million takes every camera and phone photo up to 50 MP (8160 x 6120),
+#: whose 8-bit decoding costs at most 200 MB, and refuses at once, from the file's
+#: header, what only a mistake or a decompression bomb declares (8000 x 8000 black
+#: pixels in 182 KiB; 30000 x 30000 in 200 bytes) -- before it fills the memory.
+MAX_PIXELS = 50_000_000
 
-def as_image(image, *, mode=None, name="image", return_alpha=False, background=None):
+
+def as_image(image, *, mode=None, name="image", return_alpha=False, background=None, max_side=None):
     """Convert an image from a path, array or PIL image to float32 in [0, 1].
 
     Parameters
@@ -47,6 +66,12 @@ def as_image(image, *, mode=None, name="image", return_alpha=False, background=N
         is taken as straight (not premultiplied), as PNG stores it, so whatever
         colour a cut-out's fully transparent pixels hold disappears. ``None`` (the
         default) returns the colour channels as stored. No effect without alpha.
+    max_side : int, optional
+        Scale an image whose longer side is larger down to this many pixels
+        (:func:`shrunk_shape`), by area averaging (alpha-weighted where there is an
+        alpha channel). A file is scaled as it is decoded, before any float copy, so
+        a large photo never fills memory at full size (the command line's
+        ``--max-side``). ``None`` (the default) keeps the size.
 
     Returns
     -------
@@ -58,9 +83,10 @@ def as_image(image, *, mode=None, name="image", return_alpha=False, background=N
     Raises
     ------
     ValueError
-        For a missing or unreadable file, an empty image, a wrong number of
-        dimensions or channels, a non-numeric dtype, NaN/infinite values, or floats
-        outside [0, 1].
+        For a missing or unreadable file (or a folder, a FIFO, ... named as such), a
+        file that declares more than :func:`max_pixels` pixels, an empty image, a
+        wrong number of dimensions or channels, a non-numeric dtype, NaN/infinite
+        values, or floats outside [0, 1].
 
     Examples
     --------
@@ -74,7 +100,9 @@ def as_image(image, *, mode=None, name="image", return_alpha=False, background=N
     [[[0.5, 0.5, 0.5]]]
     """
     check_choice("mode", mode, _MODES)
-    arr = _to_array(image, name)
+    if max_side is not None:
+        max_side = check_int("max_side", max_side, 1)
+    arr = _to_array(image, name, max_side)
     if arr.ndim == 3 and arr.shape[2] == 1:
         arr = arr[:, :, 0]
     if arr.ndim not in (2, 3) or (arr.ndim == 3 and arr.shape[2] not in (2, 3, 4)):
@@ -90,6 +118,8 @@ def as_image(image, *, mode=None, name="image", return_alpha=False, background=N
         out = out[:, :, :-1]
         if out.shape[2] == 1:
             out = out[:, :, 0]
+    if max_side is not None and max(out.shape[:2]) > max_side:  # an array or PIL image
+        out, alpha = _shrink_float(out, alpha, shrunk_shape(out.shape, max_side))
     if background is not None and alpha is not None:
         out = _composite(out, alpha, background, name)
     if mode == "grey" and out.ndim == 3:
@@ -112,9 +142,9 @@ def _composite(colour, alpha, background, name):
     return colour * a + bg.reshape(-1)[: 3 if colour.ndim == 3 else 1] * (1 - a)
 
 
-def _to_array(image, name):
+def _to_array(image, name, max_side=None):
     if isinstance(image, (str, os.PathLike)):
-        return _read(Path(image), name)
+        return _read(Path(image), name, max_side)
     if type(image).__module__.startswith("PIL."):
         return _from_pil(image)
     if isinstance(image, np.ndarray):
@@ -129,19 +159,148 @@ def _to_array(image, name):
     )
 
 
-def _read(path, name):
+def max_pixels():
+    """The most pixels an image file may declare: ``$FLUIDNB_MAX_PIXELS``, else MAX_PIXELS.
+
+    Examples
+    --------
+    >>> max_pixels() >= 25_000_000
+    True
+    """
+    text = os.environ.get("FLUIDNB_MAX_PIXELS", "").strip()
+    if not text:
+        return MAX_PIXELS
+    try:
+        value = int(float(text))
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise ValueError(
+            f"FLUIDNB_MAX_PIXELS must be a positive number of pixels (e.g. 100e6), got {text!r}"
+        )
+    return value
+
+
+def shrunk_shape(shape, max_side):
+    """The (H, W) an image of ``shape`` has once its longer side is at most ``max_side``.
+
+    Both sides scale by ``max_side / max(H, W)`` (rounded, at least 1 pixel); an image
+    that fits keeps its shape.
+
+    Examples
+    --------
+    >>> shrunk_shape((3000, 4000), 1920), shrunk_shape((1080, 1920), 1920)
+    ((1440, 1920), (1080, 1920))
+    """
+    h, w = int(shape[0]), int(shape[1])
+    if max(h, w) <= max_side:
+        return (h, w)
+    scale = max_side / max(h, w)
+    return (max(1, round(h * scale)), max(1, round(w * scale)))
+
+
+def image_size(path, name="image"):
+    """The (H, W) an image file declares, read from its header without decoding it.
+
+    Raises the same ValueError as :func:`as_image` for a file that is missing, not a
+    regular file, not an image, or larger than :func:`max_pixels`.
+
+    Examples
+    --------
+    >>> from fluidnb import data
+    >>> image_size(data.path("lake"))
+    (270, 480)
+    """
+    with _open(Path(path), name) as im:
+        return (im.height, im.width)
+
+
+def _open(path, name):
+    """Open an image file lazily (header only), refusing what must not be decoded."""
     from PIL import Image, UnidentifiedImageError
 
-    if path.is_dir():
-        raise ValueError(f"{name}: {str(path)!r} is a folder, not an image file")
-    if not path.is_file():
-        raise ValueError(f"{name}: no such file {str(path)!r}")
+    check_input_file(path, name, "an image file")
+    limit = max_pixels()
     try:
-        with Image.open(path) as im:
+        # We apply our own limit below; Pillow's warning for 89-179 MP would only repeat it.
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            im = Image.open(path)
+    except Image.DecompressionBombError as exc:  # Pillow's own limit, 179 MP
+        found = re.search(r"\((\d+) pixels\)", str(exc))
+        declared = f"{int(found.group(1)) / 1e6:.0f} MP" if found else "too many pixels"
+        raise ValueError(_too_large(name, path, declared, limit)) from None
+    except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
+        raise ValueError(f"{name}: cannot read {str(path)!r} as an image ({exc})") from None
+    if im.width * im.height > limit:
+        w, h = im.size
+        im.close()
+        raise ValueError(_too_large(name, path, f"{w} x {h} pixels ({w * h / 1e6:.0f} MP)", limit))
+    return im
+
+
+def _too_large(name, path, declared, limit):
+    return (
+        f"{name}: {str(path)!r} declares {declared}, more than the {limit / 1e6:g} MP fluidnb "
+        "reads; scale it down first, or set FLUIDNB_MAX_PIXELS to allow more"
+    )
+
+
+def _read(path, name, max_side=None):
+    from PIL import UnidentifiedImageError
+
+    with _open(path, name) as im:
+        try:
+            if max_side is not None and max(im.size) > max_side:
+                return _from_pil(_shrink_pil(im, max_side))
             im.load()
             return _from_pil(im)
-    except (UnidentifiedImageError, OSError, SyntaxError) as exc:
-        raise ValueError(f"{name}: cannot read {str(path)!r} as an image ({exc})") from None
+        except (UnidentifiedImageError, OSError, SyntaxError, ValueError, EOFError) as exc:
+            raise ValueError(f"{name}: cannot read {str(path)!r} as an image ({exc})") from None
+
+
+def _shrink_pil(im, max_side):
+    """``im`` scaled to :func:`shrunk_shape` by area averaging, decoded at a reduced size.
+
+    A JPEG is decoded straight at 1/2, 1/4 or 1/8 of its size where that is still
+    larger than the target (``draft``), so a 12 MP photo never exists in memory at
+    full size. Pillow averages RGBA and LA premultiplied by alpha, so the colour of
+    clear pixels does not bleed into their neighbours.
+    """
+    from PIL import Image
+
+    h, w = shrunk_shape((im.height, im.width), max_side)
+    if im.format == "JPEG":
+        im.draft(im.mode, (w, h))
+    im.load()
+    if im.mode == "1":
+        im = im.convert("L")
+    elif im.mode not in ("L", "LA", "RGB", "RGBA", "I;16", "I", "F"):
+        im = im.convert("RGBA" if "A" in im.getbands() or "transparency" in im.info else "RGB")
+    return im.resize((w, h), Image.Resampling.BOX)
+
+
+def _shrink_float(image, alpha, shape):
+    """Area-average float32 pixels (and alpha, colour weighted by it) down to ``shape``."""
+    from PIL import Image
+
+    h, w = shape
+
+    def box(channel):
+        return np.asarray(
+            Image.fromarray(np.ascontiguousarray(channel, np.float32)).resize(
+                (w, h), Image.Resampling.BOX
+            )
+        )
+
+    planes = image[:, :, None] if image.ndim == 2 else image
+    if alpha is None:
+        out = np.stack([box(planes[:, :, k]) for k in range(planes.shape[2])], axis=2)
+        return (out[:, :, 0] if image.ndim == 2 else out), None
+    a = box(alpha)
+    safe = np.where(a > 0, a, 1.0)
+    out = np.stack([box(planes[:, :, k] * alpha) / safe for k in range(planes.shape[2])], axis=2)
+    return (out[:, :, 0] if image.ndim == 2 else out), a
 
 
 def _from_pil(im):

@@ -37,6 +37,7 @@ import os
 import re
 import subprocess
 import tempfile
+import threading
 import warnings
 import zipfile
 from fractions import Fraction
@@ -44,8 +45,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ._image import _read, to_uint8
-from ._validation import check_fps
+from ._image import _open, _read, to_uint8
+from ._validation import check_fps, check_input_file, parse_json
 
 __all__ = [
     "EXTENSIONS",
@@ -118,6 +119,8 @@ def _write_error(exc, path, tmp=None):
     """An OSError of the same kind as ``exc`` whose message names ``path``."""
     if exc.errno is not None and exc.strerror:
         # OSError(errno, text) builds the matching subclass (FileNotFoundError, ...).
+        if exc.strerror.startswith("cannot write "):  # names its file already (a sidecar)
+            return OSError(exc.errno, exc.strerror)
         return OSError(exc.errno, f"cannot write {str(path)!r}: {exc.strerror}")
     text = str(exc)
     if tmp is not None:
@@ -214,8 +217,15 @@ def write(path, frames, fps, metadata, *, quality=None):
     else:
         q = DEFAULT_QUALITY if quality is None else quality
         padded = _pad_even(to_uint8(frames))
-        write_atomically(path, lambda tmp: _encode_mp4(tmp, padded, fps, q, name=path))
-        _write_json(sidecar(path), info)
+
+        def mp4(tmp):
+            _encode_mp4(tmp, padded, fps, q, name=path)
+            # The sidecar is written (and renamed) before the video is renamed: a disk
+            # that fills up on either keeps the video and sidecar that were there, never
+            # a new video beside an old sidecar or none.
+            _write_json(sidecar(path), info)
+
+        write_atomically(path, mp4)
     return path
 
 
@@ -430,22 +440,43 @@ def _encode_mp4(path, frames, fps, quality, *, preset="medium", name=None):
     cmd += ["-s", f"{w}x{h}", "-r", f"{rate.numerator}/{rate.denominator}", "-i", "pipe:0"]
     cmd += ["-an", "-c:v", "libx264", "-preset", preset, "-crf", str(crf)]
     cmd += ["-pix_fmt", "yuv420p", "-movflags", "+faststart", "-f", "mp4", str(path)]
-    # stderr to a file, not a pipe: a pipe nobody reads could fill up and deadlock.
-    with tempfile.TemporaryFile() as log:
-        proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=log)
-        try:
-            for frame in frames:
-                proc.stdin.write(np.ascontiguousarray(frame).data)
-        except BrokenPipeError:
-            pass  # ffmpeg stopped early; its message is reported below
-        finally:
-            with contextlib.suppress(BrokenPipeError):
-                proc.stdin.close()
-            code = proc.wait()
-        if code != 0:
-            log.seek(0)
-            message = _last_lines(log.read().decode("utf-8", errors="replace"))
-            raise OSError(f"ffmpeg could not encode {str(name or path)!r}: {message}")
+    # stderr read by a thread, not into a temporary file: on a full disk that file
+    # (in $TMPDIR) stayed empty and the error said "no message". Read, the pipe never
+    # fills up and blocks ffmpeg.
+    proc = subprocess.Popen(
+        cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+    )
+    log = []
+    reader = threading.Thread(target=lambda: log.append(proc.stderr.read()), daemon=True)
+    reader.start()
+    try:
+        for frame in frames:
+            proc.stdin.write(np.ascontiguousarray(frame).data)
+    except BrokenPipeError:
+        pass  # ffmpeg stopped early; its message is reported below
+    finally:
+        with contextlib.suppress(BrokenPipeError):
+            proc.stdin.close()
+        code = proc.wait()
+        reader.join()
+        proc.stderr.close()
+    if code != 0:
+        text = b"".join(log).decode("utf-8", errors="replace")
+        if "No space left on device" in text or _disk_full(Path(path).parent):
+            raise OSError(errno.ENOSPC, "No space left on device (the disk is full)")
+        message = _last_lines(text)
+        raise OSError(f"ffmpeg could not encode {str(name or path)!r}: {message}")
+
+
+def _disk_full(folder):
+    """Whether the disk holding ``folder`` has (next to) no room left for a file."""
+    try:
+        st = os.statvfs(folder)
+    except (OSError, AttributeError):  # no statvfs on Windows
+        return False
+    # root may write into the blocks a disk reserves for it; others may not.
+    blocks = st.f_bfree if getattr(os, "geteuid", lambda: -1)() == 0 else st.f_bavail
+    return blocks * st.f_frsize < 1 << 20
 
 
 # ---------------------------------------------------------------------- reading
@@ -479,15 +510,14 @@ def read(path):
     if suffix not in EXTENSIONS:
         what = "no such folder" if suffix == "" else "unknown extension"
         raise ValueError(f"path must end in {_ALLOWED} ({what}): got {str(path)!r}")
-    if not path.is_file():
-        raise ValueError(f"path: no such file {str(path)!r}")
+    check_input_file(path, "path", "a clip file")
     return {".npz": _read_npz, ".gif": _read_gif, ".mp4": _read_mp4}[suffix](path)
 
 
 def _parse_json(text):
     try:
-        return json.loads(text)
-    except (TypeError, ValueError, UnicodeDecodeError):
+        return parse_json(text, "clip information")
+    except ValueError:
         return None
 
 
@@ -578,10 +608,12 @@ def _read_png_folder(folder):
 
 
 def _read_gif(path):
-    from PIL import Image, ImageSequence, UnidentifiedImageError
+    from PIL import ImageSequence, UnidentifiedImageError
 
+    # A folder, a FIFO, a bomb or a file that is no image at all: _open's own words.
+    im = _open(path, "path")
     try:
-        with Image.open(path) as im:
+        with im:
             if im.format != "GIF":
                 raise ValueError(f"it is a {im.format} image")
             # Read the comment before iterating: seeking to frame 0 forgets it.
@@ -635,9 +667,12 @@ def read_video(path, *, max_side=None, what=None):
     Raises
     ------
     ValueError
-        If ffmpeg cannot open the file or it holds no frames.
+        If ffmpeg cannot open the file, it holds no frames, or it is truncated or
+        damaged: fewer frames decode than the container declares (its duration times
+        its frame rate) and ffmpeg's demuxer reports an error reading the stream.
     """
     what = what or f"cannot read {str(path)!r}"
+    check_input_file(path, what, "a video file")
     # When ffmpeg has already exited as a reader ends, imageio-ffmpeg drops its pipes
     # without closing them (imageio-ffmpeg issue #61): Python closes them as they are
     # freed, with a ResourceWarning that is not ours to fix. Errors are raised after
@@ -662,8 +697,55 @@ def read_video(path, *, max_side=None, what=None):
     n = len(data) // (w * h * 3)
     if n == 0:
         raise ValueError(f"{what}: the video has no frames")
+    _check_complete(path, meta, n, what)
     frames = np.frombuffer(data, np.uint8, count=n * w * h * 3).reshape(n, h, w, 3)
     return frames, float(meta.get("fps") or 0.0), scale
+
+
+def _check_complete(path, meta, n, what):
+    """Refuse a video cut short: fewer frames than its container declares, and errors.
+
+    ffmpeg decodes what there is of a truncated MP4 (its index, at the front with
+    ``+faststart``, still declares every frame) and stops without failing: 2 of 24
+    frames were converted without a word. Our decision: a user converting or building
+    from a video expects all of it, so a short read is an error naming the file, as
+    a truncated GIF or .npz is, not a warning beside a clip that silently lacks most
+    of its frames. The container's duration can exceed the video's (a longer audio
+    track), so a short count alone is not proof: ffmpeg's demuxer is asked to read
+    the video stream again without decoding it (cheap), and its error -- "partial
+    file" -- is what decides, and what the message quotes.
+    """
+    duration, fps = meta.get("duration") or 0, meta.get("fps") or 0
+    declared = round(float(duration) * float(fps))
+    if n >= declared - 1:  # the duration is printed to 1/100 s: allow a frame
+        return
+    problem = _demux_error(path)
+    if problem is not None:
+        raise ValueError(
+            f"{what}: the video is truncated or damaged: {n} of the {declared} frames its "
+            f"container declares could be decoded (ffmpeg: {problem})"
+        )
+
+
+def _demux_error(path):
+    """The first error ffmpeg reports reading the video stream of ``path``, or None."""
+    import imageio_ffmpeg
+
+    cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-nostdin", "-v", "error"]
+    cmd += ["-i", str(path), "-map", "0:v:0", "-c", "copy", "-f", "null", "-"]
+    try:
+        run = subprocess.run(cmd, capture_output=True, check=False, timeout=600)
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    lines = [
+        re.sub(r"^\[[^\]]*\]\s*", "", line).strip()  # "[in#0/mov,... @ 0x55...] " prefixes
+        for line in run.stderr.decode("utf-8", errors="replace").splitlines()
+    ]
+    lines = [line for line in lines if line]
+    if not lines and run.returncode == 0:
+        return None
+    partial = [line for line in lines if "partial file" in line]
+    return (partial or lines or [f"exit status {run.returncode}"])[0]
 
 
 def _scaling_is_intended(record):

@@ -236,6 +236,8 @@ class Params:
             values = json.loads(text)
         except json.JSONDecodeError as exc:
             raise ValueError(f"parameters are not valid JSON: {exc}") from None
+        except RecursionError:
+            raise ValueError("parameters are not valid JSON: nested too deeply") from None
         if not isinstance(values, dict):
             raise ValueError("parameters must be a JSON object of name: value")
         return cls.from_dict(values)

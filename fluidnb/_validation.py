@@ -6,9 +6,11 @@ Every message names the parameter, the value it got and what is allowed, e.g.
 
 from __future__ import annotations
 
+import json
 import math
 import numbers
 import os
+import stat
 import zipfile
 
 import numpy as np
@@ -18,12 +20,14 @@ __all__ = [
     "check_choice",
     "check_finite",
     "check_fps",
+    "check_input_file",
     "check_int",
     "check_mask",
     "check_npz_file",
     "check_range",
     "check_shape_match",
     "check_vector_field",
+    "parse_json",
 ]
 
 
@@ -267,10 +271,87 @@ def check_npz_file(path, what):
     sends the user the wrong way; this says what is wrong, after ``what`` (e.g.
     ``"--sim 'x.npz' is not a simulation"``).
     """
-    if os.path.isdir(path):
-        raise ValueError(f"{what}: it is a folder")
-    if not os.path.isfile(path):
+    kind = _file_kind(path)
+    if kind == "missing":
         raise ValueError(f"{what}: no such file")
+    if kind != "file":
+        raise ValueError(f"{what}: it is {kind}, not a file")
     if not zipfile.is_zipfile(path):
         raise ValueError(f"{what}: it is not an .npz archive")
     return path
+
+
+# What stat says a path is, in words, for the files that are not regular files.
+_KINDS = (
+    (stat.S_ISDIR, "a folder"),
+    (stat.S_ISFIFO, "a named pipe (FIFO)"),
+    (stat.S_ISSOCK, "a socket"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+)
+
+
+def _file_kind(path):
+    """``"file"``, ``"missing"``, or what else ``path`` is ("a folder", "a named pipe (FIFO)")."""
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        return "missing"
+    except OSError as exc:  # a loop of symlinks, a path through a file, no permission
+        return f"unreachable ({exc.strerror or exc})"
+    if stat.S_ISREG(mode):
+        return "file"
+    return next((word for test, word in _KINDS if test(mode)), "not a regular file")
+
+
+def check_input_file(path, name, what="file"):
+    """Raise ValueError unless ``path`` is an existing regular file; return it.
+
+    A folder, a named pipe, a socket or a device is named as what it is: "no such
+    file" would send the user looking for a file that is there, and reading a FIFO
+    would wait for a writer forever.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    name : str
+        How messages name the parameter (``"IMAGE"``, ``"strokes"``).
+    what : str
+        What the file should be, for messages (``"an image file"``).
+
+    Examples
+    --------
+    >>> check_input_file("/", "IMAGE", "an image file")
+    Traceback (most recent call last):
+    ...
+    ValueError: IMAGE: '/' is a folder, not an image file
+    """
+    kind = _file_kind(path)
+    if kind == "missing":
+        raise ValueError(f"{name}: no such file {os.fspath(path)!r}")
+    if kind != "file":
+        raise ValueError(f"{name}: {os.fspath(path)!r} is {kind}, not {what}")
+    return path
+
+
+def parse_json(text, what):
+    """``json.loads(text)``, with every way of failing a ValueError that names ``what``.
+
+    Beside invalid JSON this covers text nested so deeply that Python's parser runs out
+    of recursion (``[[[[...]]]]`` 200,000 deep): a RecursionError otherwise, which no
+    caller expects from a file.
+
+    Examples
+    --------
+    >>> parse_json("[" * 100_000 + "]" * 100_000, "'s.json'")
+    Traceback (most recent call last):
+    ...
+    ValueError: cannot read 's.json' as JSON (it is nested too deeply)
+    """
+    try:
+        return json.loads(text)
+    except RecursionError:
+        detail = "it is nested too deeply"
+    except (TypeError, ValueError) as exc:  # JSONDecodeError and UnicodeDecodeError too
+        detail = str(exc)
+    raise ValueError(f"cannot read {what} as JSON ({detail})")

@@ -1,5 +1,7 @@
 """binder/ alone builds an environment in which every notebook runs, as Binder would."""
 
+import re
+
 import pytest
 
 from tests.support.envs import clean_env, copy_repo, make_venv, run
@@ -32,3 +34,8 @@ def test_binder_files_build_a_working_environment(tmp_path):
     assert [f"ran {n}" for n in notebooks] == out.split("\n")[-len(notebooks) - 1 : -1]
     where = run([py, "-c", "import fluidnb; print(fluidnb.__file__)"], cwd=tmp_path, env=env)
     assert str(tmp_path / "venv") in where.stdout
+    # The server extension with which /voila/render/ pages typeset math offline is on.
+    listed = run([py, "-m", "jupyter", "server", "extension", "list"], cwd=tmp_path, env=env)
+    text = re.sub(r"\x1b\[[0-9;]*m", "", listed.stdout + listed.stderr)
+    assert re.search(r"fluidnb\._jupyter_server\s+enabled", text), text
+    assert re.search(r"fluidnb\._jupyter_server\s+OK", text), text

@@ -136,3 +136,115 @@ def test_to_uint8_rounds_and_clips():
         255,
         255,
     ]
+
+
+# ---------------------------------------------------------------- issue 37: hostile and huge files
+
+
+def _png_header_only(path, width, height):
+    """A PNG that declares width x height grey pixels and holds almost no data."""
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        body = kind + data
+        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
+
+    header = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
+    path.write_bytes(
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", header)
+        + chunk(b"IDAT", zlib.compress(b"\0" * 100))
+        + chunk(b"IEND", b"")
+    )
+    return path
+
+
+def test_a_decompression_bomb_is_a_value_error_naming_the_file(tmp_path):
+    from fluidnb._image import image_size
+
+    bomb = _png_header_only(tmp_path / "bomb.png", 30000, 30000)  # beyond Pillow's own limit
+    for read in (as_image, as_mask, image_size):
+        with pytest.raises(ValueError, match=r"photo: '.*bomb.png' declares 900 MP, more than"):
+            read(bomb, name="photo")
+    big = _png_header_only(tmp_path / "big.png", 9000, 6000)  # 54 MP: ours, not Pillow's
+    with pytest.raises(ValueError, match=r"declares 9000 x 6000 pixels \(54 MP\)"):
+        as_image(big)
+    # Where Pillow only warns (89-179 MP), the one error is ours (warnings are errors here).
+    bigger = _png_header_only(tmp_path / "bigger.png", 12000, 10000)
+    with pytest.raises(ValueError, match=r"declares 12000 x 10000 pixels \(120 MP\)"):
+        as_image(bigger)
+
+
+def test_the_pixel_limit_is_refused_before_decoding_and_can_be_raised(tmp_path, monkeypatch):
+    from fluidnb._image import MAX_PIXELS, image_size, max_pixels
+
+    assert max_pixels() == MAX_PIXELS == 50_000_000
+    Image.fromarray(np.full((30, 40), 7, np.uint8)).save(tmp_path / "small.png")
+    monkeypatch.setenv("FLUIDNB_MAX_PIXELS", "1000")
+    with pytest.raises(ValueError, match=r"declares 40 x 30 pixels.*more than the 0.001 MP"):
+        as_image(tmp_path / "small.png")
+    monkeypatch.setenv("FLUIDNB_MAX_PIXELS", "1200")
+    assert as_image(tmp_path / "small.png").shape == (30, 40)
+    assert image_size(tmp_path / "small.png") == (30, 40)
+    monkeypatch.setenv("FLUIDNB_MAX_PIXELS", "lots")
+    with pytest.raises(ValueError, match="FLUIDNB_MAX_PIXELS must be a positive number"):
+        as_image(tmp_path / "small.png")
+
+
+def test_a_fifo_or_a_folder_is_named_as_what_it_is(tmp_path):
+    import os
+
+    os.mkfifo(tmp_path / "pipe.png")  # reading it would wait for a writer forever
+    with pytest.raises(ValueError, match=r"image: '.*pipe.png' is a named pipe \(FIFO\), not an"):
+        as_image(tmp_path / "pipe.png")
+    with pytest.raises(ValueError, match="is a folder, not an image file"):
+        as_image(tmp_path)
+
+
+def test_max_side_averages_areas_down_and_keeps_what_fits(tmp_path):
+    from fluidnb._image import shrunk_shape
+
+    assert shrunk_shape((3000, 4000), 1920) == (1440, 1920)
+    assert shrunk_shape((1080, 1920), 1920) == (1080, 1920)
+    assert shrunk_shape((10, 9000), 1920) == (2, 1920)
+    # A checkerboard of 2 x 2 blocks halves to flat blocks of their means: exactly.
+    gen = np.random.default_rng(0)
+    blocks = gen.integers(0, 256, (6, 8, 3)).astype(np.uint8)
+    fine = blocks.repeat(2, axis=0).repeat(2, axis=1)
+    fine[::2, ::2] = 0  # one dark pixel in each 2 x 2 block
+    expected = fine.reshape(6, 2, 8, 2, 3).astype(np.float64).mean(axis=(1, 3)) / 255
+    Image.fromarray(fine).save(tmp_path / "fine.png")
+    for source in (tmp_path / "fine.png", fine, Image.open(tmp_path / "fine.png")):
+        out = as_image(source, max_side=8)
+        assert out.shape == (6, 8, 3)
+        np.testing.assert_allclose(out, expected, atol=1 / 255)
+    # Images that fit are returned exactly as without max_side.
+    np.testing.assert_array_equal(as_image(fine, max_side=16), as_image(fine))
+    np.testing.assert_array_equal(as_image(tmp_path / "fine.png", max_side=99), as_image(fine))
+
+
+def test_max_side_weights_colour_by_alpha(tmp_path):
+    # A cut-out: opaque red beside clear pixels whose stored colour is green.
+    rgba = np.zeros((2, 4, 4), np.uint8)
+    rgba[:, 0::2] = [255, 0, 0, 255]
+    rgba[:, 1::2] = [0, 255, 0, 0]
+    Image.fromarray(rgba).save(tmp_path / "cut.png")
+    for source in (tmp_path / "cut.png", rgba):
+        rgb, alpha = as_image(source, max_side=2, return_alpha=True)
+        assert rgb.shape == (1, 2, 3)
+        np.testing.assert_allclose(alpha, 0.5, atol=1 / 255)
+        np.testing.assert_allclose(rgb[..., 0], 1.0, atol=1 / 255)  # no green bleeds in
+        np.testing.assert_allclose(rgb[..., 1], 0.0, atol=1 / 255)
+
+
+def test_a_large_jpeg_is_decoded_small(tmp_path):
+    # 4000 x 3000 (12 MP): decoded at 1/2 size by the JPEG decoder, then averaged down.
+    y, x = np.mgrid[:3000, :4000]
+    ramp = ((x / 4000 * 200) + (y / 3000 * 50)).astype(np.uint8)
+    Image.fromarray(ramp).save(tmp_path / "phone.jpg", quality=95)
+    out = as_image(tmp_path / "phone.jpg", max_side=1920)
+    assert out.shape == (1440, 1920)
+    yy, xx = (np.mgrid[:1440, :1920] + 0.5) / 0.48 - 0.5
+    want = ((xx / 4000 * 200) + (yy / 3000 * 50)) / 255
+    np.testing.assert_allclose(out, want, atol=3 / 255)

@@ -27,6 +27,57 @@ def test_committed_notebook_has_no_outputs(path):
     assert dirty == [], f"{path.name}: strip outputs of cells {dirty}"
 
 
+# What JupyterLab 4 writes when a notebook is opened and saved (measured: issue 37's
+# "git status is dirty after a class"): the kernelspec of ipykernel and the kernel's
+# language_info. Only its "version" follows the Python of the kernel that saved it.
+KERNELSPEC = {"display_name": "Python 3 (ipykernel)", "language": "python", "name": "python3"}
+LANGUAGE_INFO = {
+    "codemirror_mode": {"name": "ipython", "version": 3},
+    "file_extension": ".py",
+    "mimetype": "text/x-python",
+    "name": "python",
+    "nbconvert_exporter": "python",
+    "pygments_lexer": "ipython3",
+}
+# Cells whose keys are out of nbformat's order (JupyterLab's save sorts them), left until
+# the cell edits of other branches have landed: re-serialise it then (issue 37).
+UNSORTED = {"02_flicker.ipynb"}
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
+def test_committed_notebook_is_in_the_form_jupyterlab_saves(path):
+    """Opening and saving a lesson in JupyterLab leaves ``git status`` clean."""
+    nb = nbformat.read(path, as_version=4)
+    assert nb.metadata.kernelspec == KERNELSPEC, path.name
+    info = dict(nb.metadata.language_info)
+    version = info.pop("version", None)
+    assert info == LANGUAGE_INFO, path.name
+    assert isinstance(version, str), path.name
+    assert version.startswith("3."), path.name
+    # The same Python for all.
+    others = {nbformat.read(p, as_version=4).metadata.language_info.version for p in NOTEBOOKS}
+    assert others == {version}
+
+
+@pytest.mark.parametrize(
+    "path",
+    [
+        pytest.param(
+            p,
+            marks=pytest.mark.xfail(
+                p.name in UNSORTED, reason="cell keys out of order: re-serialise it", strict=True
+            ),
+        )
+        for p in NOTEBOOKS
+    ],
+    ids=lambda p: p.name,
+)
+def test_committed_notebook_is_the_text_jupyterlabs_server_writes(path):
+    nb = nbformat.read(path, as_version=4)
+    text = path.read_text(encoding="utf-8")
+    assert text == nbformat.writes(nb) + "\n", f"{path.name}: not as nbformat writes it"
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
 def test_notebook_runs_headless_in_quick_mode(path, tmp_path, monkeypatch):

@@ -16,6 +16,9 @@ def test_wheel_installs_and_imports_library_and_widgets(tmp_path):
     names = set(zipfile.ZipFile(wheel).namelist())
     assert "fluidnb/widgets/__init__.py" in names
     assert "fluidnb/data/sources.json" in names
+    # Enables the server extension with which /voila/render/ typesets math offline.
+    config = ".data/data/etc/jupyter/jupyter_server_config.d/fluidnb.json"
+    assert any(n.startswith("fluidnb-") and n.endswith(config) for n in names)
     assert not any(n.startswith(("tests/", "widgets/", "notebooks/")) for n in names)
 
     py = make_venv(tmp_path / "venv")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from ._common import add_fps_option, add_output_option, add_params_options, add_seed_option
 from ._paths import add_input
+from ._photo import Photo, add_max_side_option
 
 _STARTERS = ("water", "smoke", "fire")
 
@@ -85,6 +86,7 @@ def register(sub):
         metavar="IMAGE",
         help="what a moving outline uncovers (--tau > 0; default: the photo inpainted)",
     )
+    add_max_side_option(p)
     add_fps_option(p, 24.0, "frame rate of the output (24)")
     group = add_params_options(p, AnimateParams)
     group.add_argument(
@@ -103,20 +105,28 @@ def _is_folder_name(db):
 def _animate(args):
     import numpy as np
 
-    from .._image import as_image
     from .._progress import TextProgress
     from ..sketch import load_strokes
     from ..videodb import AnimateParams, animate, open_database, starter_database
 
-    image, alpha = as_image(args.photo, mode="rgb", name="photo", return_alpha=True)
+    picture = Photo(args.photo, "photo", args.max_side)
+    image, alpha = picture.read(mode="rgb", return_alpha=True)
     shape = image.shape[:2]
-    matte = None if args.matte is None else as_image(args.matte, mode="grey", name="matte")
-    strokes = None if args.strokes is None else load_strokes(args.strokes, shape)[0]
+    matte = None if args.matte is None else picture.companion(args.matte, "matte", mode="grey")
+    strokes = None
+    if args.strokes is not None:
+        strokes = picture.points(load_strokes(args.strokes, picture.original)[0])
     speed = None
     if args.speed is not None:
         if not args.max_speed > 0:
             raise ValueError(f"--max-speed must be > 0 px/frame, got {args.max_speed:g}")
-        speed = as_image(args.speed, mode="grey", name="speed") * np.float32(args.max_speed)
+        # px/frame of the photo, so px/frame of the image worked on once scaled with it
+        white = np.float32(args.max_speed * picture.speed_scale)
+        speed = picture.companion(args.speed, "speed", mode="grey") * white
+    background = None
+    if args.background is not None:
+        background = picture.companion(args.background, "background", mode="rgb")
+    picture.note(args.prog)
     report = TextProgress()
     if args.db in _STARTERS:
         db = starter_database(args.db, quick=args.quick or None, progress=report)
@@ -125,7 +135,8 @@ def _animate(args):
     # The kind's defaults (a moving outline for fire and smoke), then what was given.
     given = {k: getattr(args, k) for k in AnimateParams.specs() if getattr(args, k) is not None}
     params = AnimateParams.for_kind(db.kind, **given)
-    photo = args.photo if alpha is not None and matte is None else image
+    # An RGBA photo's alpha is its matte unless one is given (animate reads it there).
+    photo = np.dstack([image, alpha]) if alpha is not None and matte is None else image
     result = animate(
         photo,
         matte,
@@ -133,12 +144,12 @@ def _animate(args):
         params,
         direction=strokes,
         speed=speed,
-        background=args.background,
+        background=background,
         fps=args.fps,
         seed=args.seed,
         progress=report,
     )
-    out = result.clip.save(args.output)
+    out = result.clip.with_metadata(**picture.metadata()).save(args.output)
     a = result.assignment
     t = result.timings
     print(

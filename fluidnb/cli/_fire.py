@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from ._common import add_output_option, add_params_options, add_seed_option, params_from_args
 from ._paths import add_input, add_output
+from ._photo import Photo, add_max_side_option
 
 
 def register(sub):
@@ -70,25 +71,28 @@ def register(sub):
         ),
     )
     add_params_options(p, FireParams)
+    add_max_side_option(p)
     add_seed_option(p)
     add_output_option(p)
     p.set_defaults(func=_fire)
 
 
 def _fire(args):
-    from .._image import as_image
     from .._progress import TextProgress
     from .._validation import check_int
     from ..fire import FireParams, fire
 
     params = params_from_args(FireParams, args)
     if args.paper:  # the paper's set-up, then what was given on top
-        given = {k: getattr(args, k) for k in FireParams.specs() if getattr(args, k) is not None}
-        params = FireParams.paper().replace(**given)
-    photo, alpha = as_image(args.photo, mode="rgb", name="PHOTO", return_alpha=True)
+        changed = {k: getattr(args, k) for k in FireParams.specs() if getattr(args, k) is not None}
+        params = FireParams.paper().replace(**changed)
+    given = Photo(args.photo, "PHOTO", args.max_side)
+    photo, alpha = given.read(mode="rgb", return_alpha=True)
     # Without --matte, an RGBA photo's own alpha channel is its matte (fire composites
     # the colour onto black with it, so a cut-out's clear pixels never show).
-    matte = alpha if args.matte is None else as_image(args.matte, mode="grey", name="--matte")
+    matte = alpha
+    if args.matte is not None:
+        matte = given.companion(args.matte, "--matte", mode="grey")
     if matte is not None and not matte.any():
         where = (
             f"--matte {args.matte!r}"
@@ -104,6 +108,7 @@ def _fire(args):
             raise ValueError(
                 f"--frames must be <= the simulation's {len(simulation[0])} frames, got {frames}"
             )
+    given.note(args.prog)
     result = fire(
         photo,
         simulation,
@@ -113,7 +118,7 @@ def _fire(args):
         seed=args.seed,
         progress=TextProgress(),
     )
-    clip = result.clip
+    clip = result.clip.with_metadata(**given.metadata())
     out = clip.save(args.output)
     print(f"wrote {out} ({len(clip)} frames, {clip.fps:g} fps, seed {clip.metadata['seed']})")
     if args.temperature_output is not None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from ._common import add_output_option, add_params_options, add_seed_option, params_from_args
 from ._paths import add_input
+from ._photo import Photo, add_max_side_option
 
 
 def register(sub):
@@ -42,24 +43,29 @@ def register(sub):
         "whose length is the distance travelled in one loop",
     )
     add_params_options(p, FlickerParams)
+    add_max_side_option(p)
     add_seed_option(p)
     add_output_option(p)
     p.set_defaults(func=_flicker)
 
 
 def _flicker(args):
-    from .._image import as_image, as_mask
+    from .._image import as_mask
     from .._progress import TextProgress
     from ..flicker import FlickerParams, flicker
 
     params = params_from_args(FlickerParams, args)
-    image = as_image(args.image, name="IMAGE")
-    mask = None if args.mask is None else as_mask(args.mask, image.shape[:2], name="--mask")
-    flow = _flow(args.flow, image.shape[:2])
+    photo = Photo(args.image, "IMAGE", args.max_side)
+    image = photo.read()
+    mask = None
+    if args.mask is not None:
+        mask = as_mask(photo.companion(args.mask, "--mask", mode="grey"), name="--mask")
+    flow = _flow(args.flow, photo)
     if flow is not None and params.mapping != "flow":
         params = params.replace(mapping="flow")  # --flow alone means the flow mapping
+    photo.note(args.prog)
     clip = flicker(image, mask, params, flow=flow, seed=args.seed, progress=TextProgress())
-    out = clip.save(args.output)
+    out = clip.with_metadata(**photo.metadata()).save(args.output)
     print(f"wrote {out} ({len(clip)} frames, {clip.fps:g} fps, seed {clip.metadata['seed']})")
     return 0
 
@@ -68,15 +74,15 @@ def _is_strokes_file(text):
     return text.lower().endswith(".json")
 
 
-def _flow(text, shape):
-    """``--flow``: "DY,DX" in pixels per frame, or a strokes file."""
+def _flow(text, photo):
+    """``--flow``: "DY,DX" in pixels per frame, or a strokes file (scaled with the photo)."""
     if text is None:
         return None
     if _is_strokes_file(text):
         from ..sketch import load_strokes
 
-        strokes, _ = load_strokes(text, shape)
-        return strokes
+        strokes, _ = load_strokes(text, photo.original)
+        return photo.points(strokes)
     try:
         dy, dx = (float(x) for x in text.split(","))
     except ValueError:
@@ -84,4 +90,4 @@ def _flow(text, shape):
             f"--flow must be DY,DX in pixels per frame (e.g. 0,0.5) or a strokes .json file, "
             f"got {text!r}"
         ) from None
-    return (dy, dx)
+    return photo.velocity((dy, dx))

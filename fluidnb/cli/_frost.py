@@ -7,6 +7,7 @@ from pathlib import Path
 
 from ._common import add_output_option, add_params_options, add_seed_option, params_from_args
 from ._paths import add_input, add_output
+from ._photo import Photo, add_max_side_option
 
 
 def _start_point(text):
@@ -88,6 +89,7 @@ def register(sub):
     )
     p.add_argument("--every", type=int, default=1, help="draw every k-th step (default 1)")
     p.add_argument("--size", type=int, default=None, help="longest side of the output in pixels")
+    add_max_side_option(p)
     add_output(
         p,
         "--freeze-times",
@@ -103,7 +105,7 @@ def register(sub):
 def _frost(args):
     import numpy as np
 
-    from .._image import as_image, as_mask
+    from .._image import as_mask
     from .._media import write_atomically
     from .._progress import TextProgress
     from .._random import resolve_seed
@@ -121,22 +123,26 @@ def _frost(args):
     params = params_from_args(FrostParams, args)
     if args.freeze_times is not None and not args.freeze_times.endswith(".npz"):
         raise ValueError(f"--freeze-times must end in .npz, got {args.freeze_times!r}")
-    image = as_image(args.image, name="IMAGE", mode="rgb")
+    photo = Photo(args.image, "IMAGE", args.max_side)
+    image = photo.read(mode="rgb")
     check_image_size(image.shape, f"IMAGE {args.image!r}")
     if args.region is None:
         region = np.ones(image.shape[:2], bool)
     else:
-        region = as_mask(args.region, image.shape[:2], name="--region")
+        region = as_mask(photo.companion(args.region, "--region", mode="grey"), name="--region")
+    photo.note(args.prog)
     lattice = HexLattice.from_mask(region, params.spacing)
-    for row, col in args.starts:
+    given = np.array(args.starts, float)  # (row, col) in the photo's pixels
+    points = photo.points([given])[0]  # in the image worked on
+    for (row, col), (row0, col0) in zip(points, given):
         try:
             lattice.snap([row, col])
         except ValueError:
             raise ValueError(
-                f"--start {col:g},{row:g} (X,Y = column,row) is outside the region; "
+                f"--start {col0:g},{row0:g} (X,Y = column,row) is outside the region; "
                 "place start points on the white part of --region"
             ) from None
-    starts = lattice.snap(np.array(args.starts, float))
+    starts = lattice.snap(points)
     # One seed for the optimiser and the clip (common random numbers), printed so the
     # clip can be made again.
     seed = resolve_seed(args.seed)
@@ -173,7 +179,7 @@ def _frost(args):
     grown = grow(lattice, starts, params, seed=seed, progress=TextProgress())
     print(f"beta = {params.beta:.6g}: {grown.message}")
     clip = render(image, lattice, grown, every=args.every, size=args.size, progress=TextProgress())
-    extra = {"seed": seed, "n_cells": lattice.n_cells}
+    extra = {"seed": seed, "n_cells": lattice.n_cells, **photo.metadata()}
     if optimise is not None:
         extra["optimise"] = optimise
     clip = clip.with_metadata(**extra)

@@ -69,10 +69,15 @@ def _sample(args):
         return 0
     if args.output is None:
         raise ValueError("--output is required to write a sample")
+    from pathlib import Path
+
     from PIL import Image
 
+    from .._media import write_atomically
+
     image = data.sample(args.name, size=args.size)
-    Image.fromarray(to_uint8(image)).save(args.output)
+    # Through a temporary name (it keeps the extension, which picks the format).
+    write_atomically(Path(args.output), Image.fromarray(to_uint8(image)).save)
     print(f"wrote {args.output} ({image.shape[1]}x{image.shape[0]})")
     return 0
 

@@ -64,7 +64,17 @@ def main(argv=None):
     A user error (bad input, a file that cannot be read or written, an output aimed at
     an input) is one line ``fluidnb CMD: error: ...`` and exit status 2, never a
     traceback; ``--debug`` (or ``FLUIDNB_DEBUG=1``) shows the traceback instead.
+    Ctrl-C is one line ``... cancelled`` and exit status 130, at any moment: while
+    numpy, scipy or numba load as much as while a command runs.
     """
+    try:
+        return _run(argv)
+    except KeyboardInterrupt:  # before the command started: building the parser
+        print("fluidnb: cancelled", file=sys.stderr)
+        return 130
+
+
+def _run(argv):
     parser = build_parser()
     args = parser.parse_args(argv)
     if getattr(args, "func", None) is None:

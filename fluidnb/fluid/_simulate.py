@@ -15,7 +15,7 @@ from .._media import write_atomically
 from .._progress import Progress
 from .._random import resolve_seed
 from .._random import rng as _as_rng
-from .._validation import check_choice, check_int, check_range
+from .._validation import check_choice, check_int, check_range, parse_json
 from ._colour import temperature_to_rgb
 from ._forces import _check_params
 from ._grid import _centres
@@ -214,7 +214,9 @@ class Simulation:
         path = os.fspath(path)
         try:
             with np.load(path, allow_pickle=False) as z:
-                meta = json.loads(str(z["metadata"]))
+                meta = parse_json(str(z["metadata"]), "its metadata")
+                if not isinstance(meta, dict):
+                    raise ValueError("its metadata is not a JSON object")
                 arrays = {k: np.array(z[k]) for k in ("velocity", "temperature", "density")}
         except (OSError, KeyError, ValueError) as exc:
             raise ValueError(f"path {path!r} is not a saved Simulation: {exc}") from None

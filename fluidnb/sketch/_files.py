@@ -20,9 +20,8 @@ import json
 import os
 from pathlib import Path
 
-import numpy as np
-
-from .._validation import check_int
+from .._media import write_atomically
+from .._validation import check_input_file, check_int, parse_json
 from ._direction import check_strokes
 
 __all__ = ["load_strokes", "save_strokes"]
@@ -63,7 +62,9 @@ def save_strokes(path, strokes, shape):
     out = [[[float(r), float(c)] for r, c in s] for s in check_strokes(strokes, (h, w))]
     data = {"format": _FORMAT, "version": _VERSION, "shape": [h, w], "strokes": out}
     path = Path(os.fspath(path))
-    path.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+    text = json.dumps(data, indent=1) + "\n"
+    # Through a temporary file and a rename: a full disk keeps the strokes saved before.
+    write_atomically(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
     return path
 
 
@@ -90,14 +91,15 @@ def load_strokes(path, shape=None):
         at all, or a point far outside the image (:func:`check_strokes`).
     """
     path = Path(os.fspath(path))
-    if path.is_dir():
-        raise ValueError(f"strokes: {str(path)!r} is a folder, not a strokes file (.json)")
+    check_input_file(path, "strokes", "a strokes file (.json)")
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ValueError(f"strokes: no such file {str(path)!r}") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"strokes: cannot read {str(path)!r} as JSON ({exc})") from None
+    try:
+        data = parse_json(text, repr(str(path)))
+    except ValueError as exc:
+        raise ValueError(f"strokes: {exc}") from None
     if not isinstance(data, dict) or data.get("format") != _FORMAT:
         raise ValueError(f"strokes: {str(path)!r} is not a fluidnb strokes file")
     if data.get("version") != _VERSION:
@@ -107,7 +109,9 @@ def load_strokes(path, shape=None):
         )
     try:
         size = (int(data["shape"][0]), int(data["shape"][1]))
-        strokes = [np.asarray(s, dtype=np.float64).reshape(-1, 2) for s in data["strokes"]]
+        strokes = data["strokes"]
+        if not isinstance(strokes, list):
+            raise TypeError(f"'strokes' is a {type(strokes).__name__}, not a list")
     except (KeyError, TypeError, ValueError, IndexError) as exc:
         raise ValueError(f"strokes: {str(path)!r} is damaged ({exc})") from None
     if shape is not None and tuple(shape)[:2] != size:

@@ -2,16 +2,17 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
-import tempfile
+import threading
 from dataclasses import dataclass
 
 import numpy as np
 
 from .._cache import cache_dir
 from .._progress import Progress
-from .._validation import check_array, check_int, check_npz_file, check_range
+from .._validation import check_array, check_int, check_npz_file, check_range, parse_json
 
 __all__ = ["PAPER_SHAPES", "Flow", "cache_dir", "sample_flows"]
 
@@ -144,7 +145,7 @@ class Flow:
         check_npz_file(path, f"path {path!r} is not a saved Flow or Simulation")
         try:
             with np.load(path, allow_pickle=False) as z:
-                meta = json.loads(str(z["metadata"]))
+                meta = _metadata(z)
                 fmt = meta.get("format")
                 if fmt == _FORMAT:
                     arrays = (np.array(z["velocity"]), np.array(z["density"]), meta["dx"])
@@ -249,7 +250,7 @@ def _simulate_pair(n_frames, scale, progress):
 def _read_pair(file):
     try:
         with np.load(file, allow_pickle=False) as z:
-            meta = json.loads(str(z["metadata"]))
+            meta = _metadata(z)
             return tuple(
                 Flow(z[f"{k}_velocity"], z[f"{k}_density"], meta[f"{k}_dx"])
                 for k in ("target", "source")
@@ -265,14 +266,24 @@ def _write_pair(file, pair):
         arrays[f"{k}_velocity"] = flow.velocity
         arrays[f"{k}_density"] = flow.density
         meta[f"{k}_dx"] = flow.dx
-    tmp = None
+    # A name of this process and thread, opened as every file we write is (mode 0666
+    # less the umask): mkstemp's 0600 kept the cache from the other users of a shared
+    # cache folder (issue 37).
+    tmp = file.with_name(f".{file.stem}.partial-{os.getpid()}-{threading.get_ident()}.npz")
     try:
         file.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(suffix=".npz", dir=file.parent)
-        os.close(fd)
-        np.savez_compressed(tmp, metadata=np.array(json.dumps(meta)), **arrays)
+        with open(tmp, "xb") as f:
+            np.savez_compressed(f, metadata=np.array(json.dumps(meta)), **arrays)
         os.replace(tmp, file)
     except OSError:
         # A read-only home: the memory cache still serves this session.
-        if tmp is not None and os.path.exists(tmp):
-            os.remove(tmp)
+        with contextlib.suppress(OSError):
+            tmp.unlink(missing_ok=True)
+
+
+def _metadata(archive):
+    """The JSON object in an archive's ``metadata`` (ValueError if it is not one)."""
+    meta = parse_json(str(archive["metadata"]), "its metadata")
+    if not isinstance(meta, dict):
+        raise ValueError("its metadata is not a JSON object")
+    return meta

@@ -5,8 +5,10 @@ are lost; DrawingCanvas redraws in ``on_client_ready``. This checks that the
 preloaded mask and stroke are really painted on the canvas the user sees.
 """
 
+import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import nbformat
 import pytest
@@ -39,17 +41,12 @@ c
 
 @pytest.fixture
 def voila(tmp_path, request):
-    """Serve a notebook with Voila; yields a function ``serve(source) -> url``."""
+    """Serve notebooks with Voila: ``serve(source, markdown=None) -> url`` for a notebook
+    of one code cell (and a Markdown cell), ``serve.file(path) -> url`` for a copy of a
+    notebook file."""
     procs = []
 
-    def serve(source, markdown=None):
-        nb = nbformat.v4.new_notebook()
-        nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3"}
-        nb.cells = [nbformat.v4.new_code_cell(source)]
-        if markdown is not None:
-            nb.cells.insert(0, nbformat.v4.new_markdown_cell(markdown))
-        path = tmp_path / f"{node_slug(request)}.ipynb"
-        nbformat.write(nb, path)
+    def start(path):
         port = free_port()
         log = tmp_path / "voila.log"
         cmd = [
@@ -70,6 +67,22 @@ def voila(tmp_path, request):
         wait_http(url + "favicon.ico", proc, log, any_status=True)
         return url
 
+    def serve(source, markdown=None):
+        nb = nbformat.v4.new_notebook()
+        nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3"}
+        nb.cells = [nbformat.v4.new_code_cell(source)]
+        if markdown is not None:
+            nb.cells.insert(0, nbformat.v4.new_markdown_cell(markdown))
+        path = tmp_path / f"{node_slug(request)}.ipynb"
+        nbformat.write(nb, path)
+        return start(path)
+
+    def serve_file(source):
+        path = tmp_path / Path(source).name
+        shutil.copy(source, path)
+        return start(path)
+
+    serve.file = serve_file
     yield serve
     for proc in procs:
         stop(proc)
@@ -123,10 +136,8 @@ $$f(\beta) = \big(T - T_{sim}(\beta)\big)^2$$
 """
 
 
-def test_voila_offline_shows_no_raw_latex(voila, page, shot):
-    # Issue 22, point 9: a lecture hall's laptop often has no network; Voila showed
-    # "sigma $\sigma$" on the sliders. Block every request that leaves this machine.
-    url = voila(APP, markdown=LESSON_TEXT)
+def _offline(page):
+    """Abort every request that leaves this machine; returns the list of those blocked."""
     blocked = []
 
     def route(r):
@@ -137,6 +148,14 @@ def test_voila_offline_shows_no_raw_latex(voila, page, shot):
         return r.abort()
 
     page.route("**/*", route)
+    return blocked
+
+
+def test_voila_offline_shows_no_raw_latex(voila, page, shot):
+    # Issue 22, point 9: a lecture hall's laptop often has no network; Voila showed
+    # "sigma $\sigma$" on the sliders. Block every request that leaves this machine.
+    url = voila(APP, markdown=LESSON_TEXT)
+    _offline(page)
     page.set_default_timeout(120_000)
     page.goto(url)
     page.locator(".fluidnb-param-beta").wait_for()
@@ -158,3 +177,56 @@ def test_voila_offline_shows_no_raw_latex(voila, page, shot):
         assert any(label.startswith("rth") or label.startswith("r") for label in labels)
     finally:
         shot(page, "offline")
+
+
+# ---------------------------------------------------------------- the frost lesson, offline
+
+LESSON = Path(__file__).resolve().parents[2] / "notebooks" / "03_frost.ipynb"
+
+
+def _lesson_math_is_typeset(page, shot, suffix):
+    """Wait until every Markdown cell is shown, typeset, with no raw ``$`` left."""
+    n_markdown = sum(c.cell_type == "markdown" for c in nbformat.read(LESSON, as_version=4).cells)
+    markdown = page.locator(".jp-MarkdownOutput")
+
+    def typeset():
+        texts = markdown.all_inner_texts()
+        raw = [t for t in texts if "$" in t]
+        if len(texts) < n_markdown or raw:
+            return None
+        return page.locator("mjx-container").count() or None
+
+    try:
+        poll("the frost lesson's math, typeset offline", typeset, timeout=240, interval=0.5)
+        text = page.evaluate("() => document.body.innerText")
+        assert "Math input error" not in text
+        assert "$\\" not in text, [line for line in text.splitlines() if "$" in line][:5]
+    finally:
+        shot(page, suffix)
+
+
+def test_the_frost_lesson_in_jupyterlabs_voila_route_typesets_math_offline(lab_server, page, shot):
+    # Issue 37, point 6: /voila/render/ in a running JupyterLab (and on Binder) asked a
+    # CDN for MathJax and showed 133 raw LaTeX snippets offline; standalone Voila did not.
+    from tests.browser.conftest import TOKEN
+
+    folder = lab_server.root / "voila-route"
+    folder.mkdir()
+    shutil.copy(LESSON, folder / LESSON.name)
+    blocked = _offline(page)
+    page.set_default_timeout(240_000)
+    page.goto(f"{lab_server.url}/voila/render/voila-route/{LESSON.name}?token={TOKEN}")
+    try:
+        _lesson_math_is_typeset(page, shot, "render-route")
+        assert not [u for u in blocked if "mathjax" in u.lower()], blocked
+    finally:
+        lab_server.delete_sessions("voila-route")
+
+
+def test_the_frost_lesson_in_standalone_voila_typesets_math_offline(voila, page, shot):
+    url = voila.file(LESSON)
+    blocked = _offline(page)
+    page.set_default_timeout(240_000)
+    page.goto(url)
+    _lesson_math_is_typeset(page, shot, "standalone")
+    assert not [u for u in blocked if "mathjax" in u.lower()], blocked

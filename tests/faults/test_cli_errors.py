@@ -8,6 +8,7 @@ or left behind. A few of them run through ``python -m fluidnb`` in a subprocess 
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -15,12 +16,36 @@ from pathlib import Path
 import pytest
 
 from fluidnb.cli import build_parser, main
-from tests.support.cli_inputs import RECIPES, make_inputs
+from tests.support.cli_inputs import RECIPES, make_hostile_inputs, make_inputs
+
+# Inputs the fault probe of issue 37 made, by the extension of the input they replace:
+# (what, file name in the inputs folder) -- see make_hostile_inputs.
+HOSTILE = {
+    ".png": [
+        ("a decompression bomb (30000 x 30000 in 74 bytes)", "bomb.png"),
+        ("8000 x 8000 black pixels", "black-8000.png"),
+    ],
+    ".json": [
+        ("nested 200,000 arrays deep", "deep.json"),
+        ("points of three coordinates", "three-coordinates.json"),
+        ("booleans as coordinates", "booleans.json"),
+    ],
+}
+# What the one line must say for them (a FIFO: what it is, not "no such file").
+EXPECTED = {
+    "a FIFO": "named pipe (FIFO)",
+    "a decompression bomb": "declares 900 MP, more than the 50 MP",
+    "8000 x 8000": "declares 8000 x 8000 pixels (64 MP)",
+    "nested 200,000": "nested too deeply",
+    "three coordinates": "point 0 is [24, 50, 0]: it has 3 coordinates",
+    "booleans": "point 1 is [24, True]: coordinates must be numbers",
+}
 
 
 @pytest.fixture(scope="module")
 def inputs(tmp_path_factory):
     d = make_inputs(tmp_path_factory.mktemp("inputs"))
+    make_hostile_inputs(d)
     (d / "a-folder").mkdir()
     return d
 
@@ -70,6 +95,14 @@ def _breaks(names, d, unwritable):
                     damaged = d / f"damaged{ext}"
                     damaged.write_bytes(b"not what the name says")
                     breaks.append((f"{opt.label} damaged", swap(damaged)))
+                    # Issue 37: what the fault probe still found (see _hostile_inputs).
+                    if names[0] != "videodb":  # videodb's sources: after its split
+                        fifo = d / f"fifo{ext}"
+                        if not fifo.exists():
+                            os.mkfifo(fifo)
+                        breaks.append((f"{opt.label} a FIFO", swap(fifo)))
+                    for what, name in HOSTILE.get(ext, ()):
+                        breaks.append((f"{opt.label} {what}", swap(d / name)))
             else:
                 breaks.append((f"{opt.label} under a file", swap(d / "photo.png" / f"x{ext}")))
                 breaks.append((f"{opt.label} unwritable", swap(unwritable / f"fluidnb-x{ext}")))
@@ -107,6 +140,9 @@ def test_every_failure_is_one_line_and_exit_status_2(names, inputs, tmp_path, ca
         assert "Traceback" not in err, f"{what}: {err}"
         assert line.startswith(f"{prog}: error: "), f"{what}: {err!r}"
         assert ".partial" not in err, f"{what}: {line}"
+        for key, words in EXPECTED.items():
+            if key in what:
+                assert words in line, f"{what}: {line}"
     leftovers = [p for p in (*inputs.rglob("*partial*"), *out.rglob("*partial*"))]
     assert not leftovers
 

@@ -67,3 +67,47 @@ def test_bad_strokes():
         direction_field([np.array([[0.0, np.nan], [4, 4]])], (10, 10))
     with pytest.raises(ValueError, match="kernel must be one of"):
         direction_field([np.array([[0, 0], [0, 9]])], (10, 10), kernel="nope")
+
+
+def _wiggly_strokes(seed, count=60):
+    gen = np.random.default_rng(seed)
+    strokes = []
+    for i in range(count):
+        pts = np.cumsum(gen.normal(0, 6, (gen.integers(1, 12), 2)), axis=0) + 50
+        if i % 7 == 0 and len(pts) > 2:
+            pts[1] = pts[0]  # a repeated vertex
+        if i % 11 == 0:
+            pts = np.repeat(pts[:1], 3, axis=0)  # a dot: no direction
+        strokes.append(pts)
+    strokes.append(np.array([[3.0, 3.0], [3.2, 3.1]]))  # shorter than a pixel
+    return strokes
+
+
+@pytest.mark.parametrize("spacing", [0.7, 2.0, 8.0, 50.0])
+def test_all_strokes_at_once_sample_as_the_loop_over_strokes(spacing):
+    from fluidnb.sketch import _reference
+
+    strokes = _wiggly_strokes(1)
+    points, tangents = stroke_tangents(strokes, spacing)
+    want_points, want_tangents = _reference.stroke_tangents(strokes, spacing)
+    assert points.shape == want_points.shape
+    np.testing.assert_allclose(points, want_points, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(tangents, want_tangents, rtol=0, atol=1e-9)
+
+
+def test_many_short_strokes_are_merged_into_at_most_max_samples():
+    # 20,000 strokes of two points: rightwards in the top half, leftwards below.
+    gen = np.random.default_rng(2)
+    starts = gen.uniform([0, 0], [100, 150], (20_000, 2))
+    sign = np.where(starts[:, 0] < 50, 1.0, -1.0)
+    strokes = list(np.stack([starts, starts + np.column_stack([0 * sign, 3 * sign])], axis=1))
+    from fluidnb.sketch._direction import _merge_samples, _tangents
+
+    points, tangents = _tangents(strokes, 5.0)
+    assert len(points) == 40_000  # two samples a stroke: what the RBF could not take
+    merged, directions = _merge_samples(points, tangents, 400)
+    assert 300 <= len(merged) <= 400
+    assert np.allclose(np.linalg.norm(directions, axis=1)[np.abs(merged[:, 0] - 50) > 10], 1)
+    field = direction_field(strokes, (100, 150))
+    assert np.all(field[10:40, :, 1] > 0.95)  # right, well inside the top half
+    assert np.all(field[60:90, :, 1] < -0.95)  # left below

@@ -59,6 +59,40 @@ def make_inputs(d):
     return d
 
 
+def make_hostile_inputs(d):
+    """Write the inputs of issue 37's fault probe into ``d`` (beside make_inputs' ones).
+
+    A 74-byte PNG that declares 30000 x 30000 pixels (a decompression bomb), a valid
+    PNG of 8000 x 8000 black pixels (62 KB), a strokes file nested 200,000 arrays deep,
+    one whose points have three coordinates and one with booleans as coordinates.
+    """
+    import json
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        body = kind + data
+        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
+
+    header = struct.pack(">IIBBBBB", 30000, 30000, 8, 0, 0, 0, 0)
+    (d / "bomb.png").write_bytes(
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", header)
+        + chunk(b"IDAT", zlib.compress(b"\0" * 1000))
+        + chunk(b"IEND", b"")
+    )
+    Image.new("L", (8000, 8000)).save(d / "black-8000.png")
+    head = json.dumps({"format": "fluidnb.strokes", "version": 1, "shape": [H, W]})[:-1]
+    (d / "deep.json").write_text(head + ', "strokes": ' + "[" * 200_000 + "]" * 200_000 + "}")
+    for name, stroke in (
+        ("three-coordinates.json", [[24, 50, 0], [24, 12, 0]]),
+        ("booleans.json", [[24, 50], [24, True]]),
+    ):
+        data = {"format": "fluidnb.strokes", "version": 1, "shape": [H, W], "strokes": [stroke]}
+        (d / name).write_text(json.dumps(data))
+    return d
+
+
 SMALL_DB = ["--N", "8", "--augment", "flip", "--words", "16", "--codebook-samples", "5000"]
 
 # A valid run of every command that reads and writes files: ``recipe(d, o)`` with the
