@@ -12,8 +12,7 @@ import urllib.request
 
 import pytest
 
-from fluidnb.videodb import STARTER_KINDS
-from fluidnb.videodb._starter import _VERSION
+from fluidnb.videodb import STARTER_KINDS, starter_path
 from tests.support.envs import ROOT
 
 pytestmark = pytest.mark.slow
@@ -39,12 +38,13 @@ def _alive(pid):
     return True
 
 
-def test_lab_command_serves_the_notebooks(tmp_path):
+def test_lab_command_serves_the_notebooks(tmp_path, monkeypatch):
     port, token = _free_port(), "fluidnb-test"
     env = dict(os.environ)
     # The quick starter databases (seconds), into this test's own cache.
     cache = tmp_path / "cache"
     env.update(FLUIDNB_CACHE_DIR=str(cache), FLUIDNB_QUICK="1")
+    monkeypatch.setenv("FLUIDNB_CACHE_DIR", str(cache))  # where starter_path looks
     env.pop("FLUIDNB_PREBUILD", None)
     for var in ("CONFIG", "RUNTIME", "DATA"):
         env[f"JUPYTER_{var}_DIR"] = str(tmp_path / var.lower())
@@ -83,7 +83,7 @@ def test_lab_command_serves_the_notebooks(tmp_path):
         assert b"JupyterLab" in page
         # Meanwhile the starter databases are built in the background, into the cache.
         pid = int((cache / "videodb" / "prebuild.pid").read_text())
-        built = [cache / "videodb" / f"{kind}-v{_VERSION}-quick" for kind in STARTER_KINDS]
+        built = [starter_path(kind, quick=True) for kind in STARTER_KINDS]
         deadline = time.monotonic() + 300
         while not all((p / "manifest.json").is_file() for p in built):
             assert time.monotonic() < deadline, (cache / "videodb" / "prebuild.log").read_text()

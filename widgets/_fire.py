@@ -22,9 +22,9 @@ __all__ = ["FireApp", "FireAppParams"]
 
 #: The panel's groups: the flame and the synthesis's main settings open, the rest folded.
 GROUPS = (
-    ("flame and synthesis", ("kappa_b", "epsilon", "C_r", "interval", "weight", "fps")),
+    ("flame and synthesis", ("kappa_b", "epsilon", "C_r", "interval", "weight")),
     ("the flame's source", ("source_radius", "source_T")),
-    ("synthesis details", ("overlap", "coherence", "cutoff", "output_size")),
+    ("synthesis details", ("overlap", "coherence", "cutoff", "output_size", "fps")),
 )
 #: The sample photos the photo menu offers ("upload" joins them after an upload).
 SAMPLES = ("fire", "flame")

@@ -899,8 +899,10 @@ def _make_fire(recipe, size, seed, report):
         C_r=recipe.get("cooling", 0.05),
     )
     # Keyframes every 16 frames, each advected for 24 and cross-dissolved over 8
-    # (Furukawa et al.'s N and m): fewer syntheses, the slow part.
-    fire_params = FireParams(
+    # (Furukawa et al.'s N and m): fewer syntheses, the slow part. The paper's set-up
+    # (keyframes on the simulation's grid, one frame per simulation frame): the clip
+    # is scaled and timed below, as every starter clip is.
+    fire_params = FireParams.paper(
         interval=24,
         overlap=8,
         input_size=round(grid_h * recipe.get("photo", 1.1)),
