@@ -9,7 +9,7 @@ import ipywidgets as W
 import numpy as np
 
 from fluidnb import Clip, Params, as_image
-from fluidnb.fire import FireParams, colour_temperature, fire
+from fluidnb.fire import FireParams, colour_temperature, fire, keyframe_preview
 from fluidnb.fluid import FluidParams, flame_preset, simulate
 
 from ._app import App
@@ -26,6 +26,8 @@ GROUPS = (
     ("the flame's source", ("source_radius", "source_T")),
     ("synthesis details", ("overlap", "coherence", "cutoff")),
 )
+#: Side of the live preview's keyframe (fluidnb.fire.keyframe_preview: ~30 ms).
+_PREVIEW_SIZE = 48
 #: The sample photos the photo menu offers ("upload" joins them after an upload).
 SAMPLES = ("fire", "flame")
 
@@ -164,6 +166,7 @@ class FireApp(App):
         super().__init__(
             panel=panel,
             run=self._run,
+            preview=self._preview,
             canvas=self._make_canvas(),
             seed=seed,
             title="Fire from a photograph — Furukawa, Dobashi & Yamamoto",
@@ -259,6 +262,18 @@ class FireApp(App):
         return self.photo_matte
 
     # ------------------------------------------------------------------ library calls
+    def _preview(self, params):
+        """One keyframe on a small flame while a slider moves (the clip comes at rest)."""
+        clip = keyframe_preview(
+            self.photo,
+            params.fire(),
+            fluid_params=params.fluid(flame_preset().params),
+            size=_PREVIEW_SIZE,
+            matte=self.matte(),
+            seed=self.seed,
+        )
+        return clip.with_metadata(note=f"one keyframe at {_PREVIEW_SIZE} x {_PREVIEW_SIZE}")
+
     def _run(self, params, progress):
         from fluidnb import Progress
 

@@ -10,6 +10,7 @@ import ipywidgets as W
 import numpy as np
 
 from fluidnb import Progress, as_image, as_mask
+from fluidnb.fields import resize
 from fluidnb.frost import (
     FrostParams,
     HexLattice,
@@ -34,11 +35,13 @@ GROUPS = (
 )
 
 # The live preview runs on a lattice at most this many points across the region, a
-# few hundred frames at most, drawn this small: cheap enough to follow a slider.
-_PREVIEW_CELLS = 36
-_PREVIEW_FRAMES = 600
-_PREVIEW_SIZE = 240
-_PREVIEW_CLIP_FRAMES = 24
+# few hundred frames at most, on the picture and region shrunk to this size (drawing
+# the ice at the photo's size took most of a preview's time), a few frames of it:
+# ~40 ms on a quiet core, cheap enough to follow a slider.
+_PREVIEW_CELLS = 28
+_PREVIEW_FRAMES = 400
+_PREVIEW_SIZE = 160
+_PREVIEW_CLIP_FRAMES = 10
 # A full run's clip plays every frame at the panel's fps (the clip lasts as long as
 # the frost grows). It is drawn smaller for long runs so it stays under this many
 # bytes (480 x 360 RGB float32 costs 2 MB a frame), down to _RUN_MIN_SIZE pixels;
@@ -156,6 +159,7 @@ class FrostApp(App):
         self._gamma_button.add_class("fluidnb-fit-gamma")
         self._gamma_button.on_click(lambda _: self.fit_gamma())
         self.estimate = None  #: The last EndFrameEstimate (full lattice), or None.
+        self._small_image = None  # (picture, scale) of the live preview
         self.gamma_fit = None  #: The last GammaFit.
         super().__init__(
             panel=panel,
@@ -214,24 +218,36 @@ class FrostApp(App):
         return lattice, lattice.snap(self.starts())
 
     # ------------------------------------------------------------------ library calls
+    def _small(self):
+        """(the picture shrunk to the preview's size, the scale factor), made once."""
+        if self._small_image is None:
+            f = min(1.0, _PREVIEW_SIZE / max(self.image.shape[:2]))
+            h, w = self.image.shape[:2]
+            shape = (max(8, round(h * f)), max(8, round(w * f)))
+            self._small_image = (resize(self.image, shape), shape[0] / h)
+        return self._small_image
+
     def _preview(self, params):
-        region = self.region()
+        region, starts = self.region(), self.starts()
+        self._show_length(params)
+        small, f = self._small()
+        region = resize(region.astype(np.float32), small.shape[:2]) > 0.5
+        if not region.any():
+            raise ValueError("region is too small for the preview: paint a larger one")
         rows, cols = np.nonzero(region)
         extent = max(rows.max() - rows.min(), cols.max() - cols.min()) + 1
-        spacing = max(params.spacing, extent / _PREVIEW_CELLS)
+        spacing = max(params.spacing * f, extent / _PREVIEW_CELLS)
         lattice = HexLattice.from_mask(region, spacing)
-        cells = lattice.snap(self.starts())
+        cells = lattice.snap(starts * f)
         coarse = params.replace(
             spacing=spacing,
             max_frames=min(params.max_frames, _PREVIEW_FRAMES),
             target=min(params.target, _PREVIEW_FRAMES),
         )
-        self._show_length(params)
         result = grow(lattice, cells, coarse, seed=self.seed)
         every = max(1, math.ceil(result.n_frames / _PREVIEW_CLIP_FRAMES))
-        size = min(_PREVIEW_SIZE, max(self.image.shape[:2]))
         # Played at a fixed 8 fps: the coarse lattice shows the pattern, not the timing.
-        clip = render(self.image, lattice, result, every=every, fps=8.0 * every, size=size)
+        clip = render(small, lattice, result, every=every, fps=8.0 * every)
         return clip.with_metadata(
             preview=True,
             preview_spacing=spacing,

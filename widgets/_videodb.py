@@ -25,7 +25,7 @@ from ipycanvas import MultiCanvas, hold_canvas
 from PIL import Image
 from traitlets import Any, Int
 
-from fluidnb import Cancelled, Progress, as_image, to_uint8
+from fluidnb import Cancelled, Clip, Progress, as_image, to_uint8
 from fluidnb.fields import resize
 from fluidnb.sketch import (
     direction_field,
@@ -54,9 +54,9 @@ from fluidnb.videodb import (
     starter_path,
 )
 
-from ._app import App, LatestWins, _in_kernel, _quick_mode
+from ._app import App, _in_kernel, _quick_mode
 from ._canvas import DrawingCanvas
-from ._common import Choice, hint, jpeg, output_dir, plural, row, shown_path
+from ._common import Choice, hint, output_dir, plural, row, shown_path
 from ._panel import ParamPanel
 from ._player import FramePlayer
 
@@ -395,37 +395,11 @@ class VideoDBApp(App):
         self._field = None
         self._loop = _kernel_loop()
         self._main_thread = threading.get_ident()
-        # Re-solves (and their previews) run on the app shell's latest-wins worker, as
-        # previews do.
-        self._resolves = LatestWins(
-            self._resolve_once,
-            say=self.say,
-            interval=lambda: self.resolve_interval,
-            name="re-solve",
-        )
-        #: Least seconds between two live re-solves.
-        self.resolve_interval = 0.02
         #: Whether new assignments show a preview frame (one frame at half size).
         self.live_preview = True
-        #: Seconds after which a drag's re-solve shows a preview even with a newer
-        #: value waiting (otherwise only maps are drawn until the slider pauses).
-        self.preview_every = 0.3
-        self._preview_shown = 0.0  # time.monotonic() of the last preview
-        #: Seconds σ, λ, ρ (or a rendering setting) must rest before the clip is
-        #: rendered: the kernel hears no "mouse released", only values.
-        self.settle = 0.2
-        #: Seconds the values must rest before a re-solve's fragments are prefetched.
-        self.prefetch_after = 0.08
         self.quiver_segments = 0  #: Arrows of the direction field on the canvas now.
         self.previews = 0  #: Preview frames shown.
         self._preview_cache = (None, {})  # (database, fragment id -> D_t)
-        self._previewed = None  # the assignment whose preview frame was shown last
-        self._previewing = False  # a preview, not the clip, is in the player's picture
-        self._was_playing = False  # the player played when the first preview came
-        self._settle_timer = None
-        self._settle_lock = threading.Lock()
-        self._live_render = False  # the running task is a render on release
-        self._superseded = False  # ... that newer values made obsolete
 
         name = photo if isinstance(photo, str) and photo in PHOTOS else None
         self.photo, self.photo_alpha = self._load_photo(photo, matte)
@@ -579,6 +553,7 @@ class VideoDBApp(App):
         super().__init__(
             panel=panel,
             run=self._run_task,
+            preview=self._preview,
             canvas=canvas,
             player=FramePlayer(display_width=_MAP_WIDTH),
             title="Fluid animation from one image — Okabe, Anjyo & Onai (video database)",
@@ -617,6 +592,7 @@ class VideoDBApp(App):
         )
         self.views_width = f"{_MAP_WIDTH + 8}px"
         self.add_class("fluidnb-vdb-app")
+        self.settle = 0.2  # the map and preview frame show the values; the clip at rest
 
         # ---------------------------------------------------------------- wiring
         self._photo_pick.on_pick(self._photo_picked)
@@ -751,8 +727,7 @@ class VideoDBApp(App):
         self.set_photo(image)
 
     def _forget_result(self):
-        self._supersede_render()
-        self._previewing = False
+        self._supersede()
         self.assignment = None
         self._base = None
         self._run_version = None
@@ -1034,10 +1009,12 @@ class VideoDBApp(App):
         def task(params, progress):
             return self._run_task(params, progress, inputs, image, version)
 
-        self._superseded = False
         return self.start_task(
             task, self._ran, message="retrieving candidates…", busy=self._busy_widgets
         )
+
+    def _rest_busy(self):
+        return self._busy_widgets
 
     def _run_task(self, params, progress, inputs=None, image=None, version=None):
         matte, strokes, speed = self._inputs() if inputs is None else inputs
@@ -1059,14 +1036,13 @@ class VideoDBApp(App):
 
     def _ran(self, clip, seconds):
         self._show_clip(clip, seconds)
-        self._previewing = False
         self._on_main(self._show_assignment)
         self._render_button.disabled = False
         self._use_speed_button.disabled = False
         a = self.assignment
-        # A slider moved during the run gets its re-solve; otherwise the worker fills
-        # the preview's cache, so the first drag shows its preview at once.
-        self.request_resolve()
+        # A slider moved during the run gets its re-solve; otherwise the preview worker
+        # fills the preview's cache, so the first drag shows its preview at once.
+        self.request_preview()
         return (
             f"done in {seconds:.1f} s: {plural(len(a.target), 'fragment')}, K = "
             f"{a.candidates.shape[1]}, E = {a.solution.energy:.4g} after "
@@ -1081,22 +1057,16 @@ class VideoDBApp(App):
         if self.assignment is None:
             self.say("nothing to render yet: press Run first", "error")
             return False
-        self._superseded = False
         return self.start_task(
             self._render_task, self._rendered, message="rendering…", busy=self._busy_widgets
         )
 
     def _render_task(self, params, progress):
-        self.wait_resolve()
+        self.wait_preview()  # the re-solve of the latest values
         a = self.assignment
         # The assignment's own sigma, lambda, rho (they made it); the panel's rendering
         # settings.
         params = params.replace(**{k: getattr(a.params, k) for k in _SOLVE_FIELDS})
-        if self.live_preview and self._previewed is not a and not self._clip_is_current():
-            # One frame first (a few percent of the clip's time): the new assignment is
-            # on screen at once, its clip follows. A drag has shown it already.
-            progress(0.0, "a first frame")
-            self._show_preview(a, params)
         animation = self._render_streamed(a, params, progress)
         self.animation = animation
         return animation.clip
@@ -1120,19 +1090,10 @@ class VideoDBApp(App):
         first = self.player.clip is not clip  # the first frames: they replace the preview
         self.player.stream(clip, done)
         if first:
-            self._previewing = False
-            if self._was_playing:  # the previews stopped the player: play the new clip
-                self._was_playing = False
-                self.player.play(True)
+            self.player.play(True)
 
     def _rendered(self, clip, seconds):
-        if clip is None:  # a render on release that newer values made obsolete
-            return self.status
         self._show_clip(clip, seconds)
-        self._previewing = False
-        if self._was_playing:  # the previews stopped it: play the new clip
-            self._was_playing = False
-            self.player.play(True)
         self._render_button.disabled = False
         self._use_speed_button.disabled = False
         p = clip.metadata["params"]
@@ -1149,92 +1110,89 @@ class VideoDBApp(App):
 
     # ------------------------------------------------------------------ live: σ, λ, ρ
     def _panel_changed(self, change):
-        new, old, base = change["new"], change["old"], self._base
-        if base is None:
-            return
-        if any(getattr(new, k) != getattr(base.params, k) for k in _RETRIEVAL_FIELDS):
+        base = self._base
+        if base is not None and any(
+            getattr(change["new"], k) != getattr(base.params, k) for k in _RETRIEVAL_FIELDS
+        ):
             self.say("candidates changed: press Run for a new retrieval")
-        solve = any(getattr(new, k) != getattr(self.assignment.params, k) for k in _SOLVE_FIELDS)
-        look = any(getattr(new, k, None) != getattr(old, k, None) for k in _RENDER_FIELDS)
-        if solve or look:
-            self._supersede_render()
-        if solve:
-            self.request_resolve()  # its preview, then the clip once the slider rests
-        elif look:
-            self._schedule_render()
 
     def request_resolve(self):
         """Re-solve for the panel's sigma, lambda, rho in the background (latest wins).
 
-        Each re-solve redraws the assignment map and shows a preview frame in the
-        player (:func:`fluidnb.videodb.preview_frame`: one frame at half size); once
-        the values rest for :attr:`settle` seconds the clip is rendered.
+        The app shell's live preview (:meth:`App.request_preview`): the assignment map
+        and a preview frame follow; the clip once the values rest.
         """
-        if not self._closed:
-            self._resolves.request()
+        self.request_preview()
 
-    def _resolve_once(self):
-        base, current, params = self._base, self.assignment, self.panel.params
+    def wait_resolve(self, timeout=30):
+        """Block until every re-solve asked for so far, and its preview, is done (tests)."""
+        self.wait_preview(timeout)
+
+    def _preview(self, params):
+        """Re-solve for the values from the kept tables: the map, then one preview frame.
+
+        :meth:`~fluidnb.videodb.Assignment.resolve` (no new retrieval), the map
+        redrawn, and :func:`fluidnb.videodb.preview_frame` (one frame at half size)
+        for the player; None when σ, λ, ρ are those of the assignment shown (a
+        rendering setting changed: its clip comes at rest).
+        """
+        base, current = self._base, self.assignment
         if base is None or current is None:
-            return
+            return None
         wanted = {k: getattr(params, k) for k in _SOLVE_FIELDS}
         if all(getattr(current.params, k) == v for k, v in wanted.items()):
-            if self.live_preview:
-                # After a run: ready for the first drag, and the candidates' mean images
-                # read (0.3-0.5 s once; a re-solve's preview then reads one frame per
-                # new fragment). A value arriving meanwhile stops it between clips.
-                cache = self._preview_cache_for(current)
-                with contextlib.suppress(Cancelled):
-                    prefetch_preview(current, cache, progress=self._stop_when_moved(current))
-            return
+            if self.live_preview and not self._clip_is_current():
+                return self._preview_clip(current, params, "a rendering setting changed")
+            return None
         started = time.perf_counter()
         new = base.resolve(**wanted)
         if self._base is not base:  # a run replaced the tables meanwhile
-            return
+            return None
         solved = time.perf_counter() - started
         changed = int((new.labels != current.labels).sum())
         self.assignment = new
         self.resolves += 1
-        self._on_main(self._show_assignment)
-        # The map first; the preview when no newer value waits, or when the last one is
-        # older than preview_every (a drag faster than re-solve and preview together
-        # shows every map it can, a preview now and then, and the last one). The
-        # preview is made here while the kernel's thread draws the map (its kernels
-        # release the GIL).
-        stale = time.monotonic() - self._preview_shown > self.preview_every
-        if self.live_preview and (stale or not self._values_changed()):
-            self._show_preview(new, params)
-        if not self.running or self._live_render:
-            # One line (a second would move the app under the mouse while it drags).
-            # (σ, λ, ρ are on their sliders and under the energy plot.)
-            self.say(
-                f"re-solved from the kept tables in {solved:.2f} s: {changed} of "
-                f"{plural(len(new.labels), 'fragment')} changed"
-            )
-        self._schedule_render()
-        self._prefetch(new)
+        self._on_main(self._show_assignment)  # the map first (the kernel's thread draws it)
+        note = (
+            f"re-solved from the kept tables in {solved:.2f} s: {changed} of "
+            f"{plural(len(new.labels), 'fragment')} changed"
+        )
+        if not self.live_preview:
+            self.say(note)
+            return None
+        return self._preview_clip(new, params, note)
 
-    def _prefetch(self, a):
-        """While the values rest, rebuild the fragments ``a``'s clip needs (its render waits).
+    def _preview_clip(self, a, params, note):
+        """One frame of ``a``'s clip at half size (:func:`fluidnb.videodb.preview_frame`)."""
+        cache = self._preview_cache_for(a)
+        picture = preview_frame(
+            a, params, factor=_PREVIEW_FACTOR, levels=_PREVIEW_LEVELS, cache=cache
+        )
+        self.previews += 1
+        caption = (
+            f"preview: σ = {a.params.sigma:.3g}, λ = {a.params.lam:.3g}, ρ = {a.params.rho:.3g}"
+        )
+        meta = {"method": "videodb", "preview": True, "note": note, "caption": caption}
+        return Clip(picture[None], fps=24.0, metadata=meta)
 
-        :func:`fluidnb.videodb.prefetch` on this worker, after the map and the preview:
-        the render on rest (or a press of Render) waits for the re-solves, so it starts
-        with them. A newer value stops it between source clips.
+    def warm(self, params):
+        """While the values rest: the fragments the render will need, rebuilt ahead.
+
+        After a run, the candidates' mean images for the first drag's preview
+        (:func:`fluidnb.videodb.prefetch_preview`, 0.3-0.5 s once; a re-solve's
+        preview then reads one frame per new fragment); after a re-solve, the new
+        fragments' frames (:func:`fluidnb.videodb.prefetch`), so the render at rest
+        starts with them. A value arriving meanwhile stops either between clips.
         """
-        # Only once the values rest (prefetch_after seconds without a new one): a drag
-        # sends a value every ~30 ms, and a prefetch for each would hold this worker
-        # (30-90 ms measured in Chromium) while the next value waits for its map. A
-        # render that started meanwhile rebuilds what it needs itself.
-        deadline = time.monotonic() + self.prefetch_after
-        while True:
-            if self._closed or self.running or self._values_changed():
-                return
-            if time.monotonic() >= deadline:
-                break
-            time.sleep(0.005)
+        a = self.assignment
+        if a is None or not self.live_preview:
+            return
+        stop = self._stop_when_moved(a)
         # Stopped by a newer value, or settings the render will refuse (and say so).
         with contextlib.suppress(Cancelled, ValueError):
-            prefetch(a, self.panel.params, progress=self._stop_when_moved(a))
+            prefetch_preview(a, self._preview_cache_for(a), progress=stop)
+            if a is not self._base:
+                prefetch(a, params, progress=stop)
 
     def _stop_when_moved(self, a):
         """A progress callback that stops background work for ``a`` once it is stale.
@@ -1248,10 +1206,6 @@ class VideoDBApp(App):
                 raise Cancelled
 
         return moved
-
-    def wait_resolve(self, timeout=30):
-        """Block until every re-solve asked for so far, and its preview, is done (tests)."""
-        self._resolves.wait(timeout)
 
     def _preview_cache_for(self, a):
         """The difference frames kept for previews of ``a``'s database (filled for ``a``)."""
@@ -1270,44 +1224,6 @@ class VideoDBApp(App):
             getattr(params, k) != getattr(a.params, k) for k in _SOLVE_FIELDS
         )
 
-    def _show_preview(self, a, params):
-        """One frame of ``a`` at half size in the player, until its clip comes."""
-        cache = self._preview_cache_for(a)
-        picture = preview_frame(
-            a, params, factor=_PREVIEW_FACTOR, levels=_PREVIEW_LEVELS, cache=cache
-        )
-        data = jpeg(picture)  # the player's format
-        if self.assignment is not a:
-            return  # a newer one is on its way
-        # One line under the picture (a longer one would push the map down); the rest
-        # in its tooltip.
-        follows = "rendering the clip" if self.running else "the clip follows when the values rest"
-        note = f"preview: σ = {a.params.sigma:.3g}, λ = {a.params.lam:.3g}, ρ = {a.params.rho:.3g}"
-        title = (
-            f"one frame at half size, made in a moment (fluidnb.videodb.preview_frame); {follows}"
-        )
-
-        def show():
-            if self.assignment is not a or self._clip_is_current():
-                return
-            self._previewed = a
-            if not self._previewing:
-                self._was_playing = self.player.playing
-            self._previewing = True
-            self._preview_shown = time.monotonic()
-            self.player.play(False)
-            # The caption first: each widget sends its own message, and the picture
-            # should never show under the caption of the one before.
-            self.player.info.value = (
-                f"<span class='fluidnb-vdb-preview' title='{html.escape(title)}' "
-                f"style='opacity:0.85;white-space:nowrap'>{html.escape(note)}</span>"
-            )
-            self.player.image.value = data
-            self.player.image.layout.display = None
-            self.previews += 1
-
-        self._on_main(show)
-
     def _clip_is_current(self):
         """Whether the player's clip is the current assignment with the panel's rendering."""
         a, animation = self.assignment, self.animation
@@ -1316,67 +1232,14 @@ class VideoDBApp(App):
         made, wanted = animation.clip.metadata["params"], self.panel.params.to_dict()
         return all(made.get(k) == wanted[k] for k in _RENDER_FIELDS if k in wanted)
 
-    def _schedule_render(self):
-        """Render the clip once the values have rested for :attr:`settle` seconds.
-
-        The kernel is told each value of a dragged slider but not that the mouse was
-        released: a pause stands for the release. Every new value restarts the wait.
-        """
-        with self._settle_lock:
-            if self._settle_timer is not None:
-                self._settle_timer.cancel()
-            if self._closed:
-                return
-            self._settle_timer = threading.Timer(self.settle, self._settled)
-            self._settle_timer.daemon = True
-            self._settle_timer.start()
-
-    def _settled(self):
-        if self._closed or self.running or self.assignment is None:
-            return
-        if self._values_changed():
-            return  # a re-solve is on its way; it schedules the render again
-        if self._clip_is_current():
-            return
-        self._live_render, self._superseded = True, False
-        if not self.start_task(
-            self._live_render_task,
-            self._rendered,
-            message="rendering the clip…",
-            busy=self._busy_widgets,
-        ):
-            self._live_render = False
-
-    def _live_render_task(self, params, progress):
-        try:
-            return self._render_task(params, progress)
-        except Cancelled:
-            if self._superseded:  # newer values: their render comes when they rest
-                return None
-            raise  # the user's Cancel
-        finally:
-            self._live_render = False
-
-    def _supersede_render(self):
-        """Stop a render on release that newer values made obsolete."""
-        token = self._token
-        if self._live_render and self.running and token is not None:
-            self._superseded = True
-            token.cancel()
-
-    def wait_live(self, timeout=60):
-        """Block until re-solves, previews and the render on release are done (tests)."""
-        deadline = time.monotonic() + timeout
-        while True:
-            self.wait_resolve(max(0.1, deadline - time.monotonic()))
-            timer = self._settle_timer
-            if timer is not None:
-                timer.join(max(0.1, deadline - time.monotonic()))
-            self.wait(max(0.1, deadline - time.monotonic()))
-            if timer is self._settle_timer and not self.running:
-                return  # no newer value came meanwhile
-            if time.monotonic() > deadline:
-                raise TimeoutError("the live re-solve and render did not finish in time")
+    def rest_task(self):
+        """Once σ, λ, ρ or a rendering setting rest: render the clip of the assignment."""
+        if self._base is None or self.assignment is None:
+            return None  # before the first Run there is nothing to render
+        self.wait_preview()
+        if self._clip_is_current() or self._values_changed():
+            return None
+        return self._render_task, self._rendered, "rendering the clip…"
 
     # ------------------------------------------------------------------ results
     def use_result_speed(self):
@@ -1539,13 +1402,6 @@ class VideoDBApp(App):
     def close(self):
         """Stop the workers and close the widgets."""
         self._closed = True
-        resolves = getattr(self, "_resolves", None)
-        if resolves is not None:
-            resolves.close()
-        with getattr(self, "_settle_lock", threading.Lock()):
-            timer = getattr(self, "_settle_timer", None)
-            if timer is not None:
-                timer.cancel()
         if hasattr(self, "map"):
             self.map.close()
         super().close()

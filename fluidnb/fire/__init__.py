@@ -5,11 +5,14 @@ the photo; ``fire(photo, simulation)`` uses your own simulation. The other names
 the steps it is made of, for lessons and experiments: :func:`synthesize` (one
 keyframe), :func:`dissolve_weights` (the cross-dissolve), :func:`alpha_from_photo`,
 :func:`neighbourhoods` and :func:`neighbourhood_error` (the search), and
-:func:`synthesize_reference`, the same keyframe scan written out in plain numpy.
+:func:`synthesize_reference`, the same keyframe scan written out in plain numpy, and
+:func:`keyframe_preview`, one keyframe on a small flame (what an app shows while a
+slider moves).
 """
 
 from ._params import FireParams
 from ._pipeline import FireResult, colour_temperature, dissolve_weights, fire, temperature_target
+from ._preview import keyframe_preview
 from ._reference import synthesize_reference
 from ._synthesis import alpha_from_photo, neighbourhood_error, neighbourhoods, synthesize
 
@@ -20,6 +23,7 @@ __all__ = [
     "colour_temperature",
     "dissolve_weights",
     "fire",
+    "keyframe_preview",
     "neighbourhood_error",
     "neighbourhoods",
     "synthesize",
