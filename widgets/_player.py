@@ -87,11 +87,12 @@ class _Sender:
                 self._wants.append(max(0, int(have)))
                 self._start()
 
-    def encode(self, i):
-        """Frame ``i``'s JPEG (encoded now if the thread has not yet)."""
+    def encode(self, i, clip=None):
+        """Frame ``i``'s JPEG of the current clip (or of ``clip``), encoded once."""
         with self._cond:
-            clip, encoded = self.clip, self.encoded
-            if i in encoded:
+            clip = self.clip if clip is None else clip
+            encoded = self.encoded
+            if clip is self.clip and i in encoded:
                 return encoded[i]
         data = jpeg(clip.frames[i])
         with self._cond:
@@ -125,7 +126,9 @@ class _Sender:
                 self._send(cid, have, [self.encoded[i] for i in range(have, start)])
             batch, size, i = [], 0, start
             while i < ready and (not batch or (size < _BATCH_BYTES and start > 0)):
-                data = self.encode(i)
+                if clip is not self.clip:
+                    break  # a new clip: its frames come next
+                data = self.encode(i, clip)
                 batch.append(data)
                 size += len(data)
                 i += 1

@@ -131,7 +131,6 @@ class TurbulenceApp(App):
         self._preview_pair = None  # (key, one frame of the target, of the source)
         self._check_error = ""  # what the live check of the settings found
 
-        panel = ParamPanel(TurbulenceParams, groups=GROUPS)
         self._size = W.Dropdown(
             options=[(label, key) for key, label in sizes.items()],
             value=size,
@@ -139,6 +138,9 @@ class TurbulenceApp(App):
             style={"description_width": "50px"},
             layout=W.Layout(width="260px"),
         )
+        # The sliders offer only settings these grids accept (B divides the source
+        # grid, b > B dX/dx...): the library's own check, as a Run would do it.
+        panel = ParamPanel(TurbulenceParams, groups=GROUPS, check=self._grid_check)
         self._frames = W.BoundedIntText(
             value=self._default_frames(size) if n_frames is None else n_frames,
             min=2,
@@ -238,6 +240,7 @@ class TurbulenceApp(App):
         self._flows_changed()
 
     def _flows_changed(self):
+        self.panel.follow()  # the sliders offer what this size's grids accept
         self._check_settings()
         self.request_preview()
 
@@ -263,6 +266,11 @@ class TurbulenceApp(App):
         th, tw = (s // scale for s in PAPER_SHAPES["target"])
         sh, sw = (s // scale for s in PAPER_SHAPES["source"])
         return (th, tw), (sh, sw), sw / tw
+
+    def _grid_check(self, params):
+        """Raise the library's ValueError for settings this size's grids refuse."""
+        target_shape, source_shape, ratio = self._grids(self._size.value)
+        check_settings(params, target_shape, source_shape, ratio=ratio)
 
     def check(self, params=None, size=None):
         """What is wrong with these settings for this size's grids ("" when nothing).

@@ -446,7 +446,9 @@ class VideoDBApp(App):
         canvas = self._make_canvas()
         if params is None:
             params = AnimateParams.for_kind(self._kind_of_choice(choice))
-        panel = ParamPanel(params, exclude=_HIDDEN, groups=GROUPS)
+        self._fragments = None  # the chosen database's fragment count, once known
+        # The candidate slider ends at the database's size (more are refused).
+        panel = ParamPanel(params, exclude=_HIDDEN, groups=GROUPS, check=self._db_check)
 
         self._speed = W.FloatSlider(
             value=2.0,
@@ -800,10 +802,21 @@ class VideoDBApp(App):
             or starter_path(key[1], quick=self.quick).exists()
         )
 
+    def _db_check(self, params):
+        n = self._fragments
+        if n is not None and params.candidates > n:
+            raise ValueError(
+                f"candidates must be <= the database's {n} fragments, got {params.candidates}"
+            )
+
     def _show_n(self, db=None):
         key = self._db_key()
         if db is None:
             db = self._given_db if key[0] == "given" else self._databases.get(key)
+        fragments = None if db is None else db.n_fragments
+        if fragments != self._fragments and hasattr(self, "panel"):
+            self._fragments = fragments
+            self.panel.follow()
         style = "font-size:12px;opacity:0.85;line-height:1.4;display:inline-block"
         if db is not None:
             text = (

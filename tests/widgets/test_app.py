@@ -255,9 +255,7 @@ def test_the_full_result_waits_for_the_slider_to_be_let_go_and_rest():
         previews.append(params.level)
         return level_clip(params)
 
-    app = App(
-        panel=ParamPanel(Demo), run=run, preview=preview, min_interval=0.0, run_on_rest=True
-    )
+    app = App(panel=ParamPanel(Demo), run=run, preview=preview, min_interval=0.0, run_on_rest=True)
     try:
         app.settle = 0.05
         app.wait_preview()
