@@ -297,6 +297,7 @@ class App(W.VBox):
         self._live = _LiveChannel()
         self._live.observe(self._held_changed, "held")
         self.player = FramePlayer() if player is None else player
+        self.player.add_class("fluidnb-app-player")  # the one Run and the preview fill
         self.result = None  #: The last full run's Clip.
         self._token = None
         self._thread = None
