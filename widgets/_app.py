@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import html
 import os
 import threading
@@ -41,6 +42,21 @@ def _in_kernel():
         return False
     shell = get_ipython()
     return shell is not None and getattr(shell, "kernel", None) is not None
+
+
+def _kernel_loop():
+    """The kernel's running event loop, or None outside a kernel (scripts, tests).
+
+    Only a kernel's loop serves callbacks while a worker thread waits on it: in a
+    plain process another library may leave a loop "running" in the main thread
+    that never runs what is queued on it (Playwright's sync API does).
+    """
+    if not _in_kernel():
+        return None
+    try:
+        return asyncio.get_running_loop()
+    except RuntimeError:
+        return None
 
 
 class LatestWins:
@@ -306,6 +322,9 @@ class App(W.VBox):
             self._preview_once, say=self.say, interval=lambda: self.min_interval, name="preview"
         )
         self._closed = False
+        # ipycanvas drawing from a worker goes through the kernel's loop (on_main).
+        self._loop = _kernel_loop()
+        self._main_thread = threading.get_ident()
         self._tasks_started = 0  # a preview begun before a task started is stale
         self._watched = set()  # ids of the players whose exports the status line reports
 
@@ -781,6 +800,25 @@ class App(W.VBox):
         if block is None:
             block = _quick_mode() or not _in_kernel()
         return self.wait(timeout) if block else None
+
+    # ------------------------------------------------------------------ plumbing
+    def on_main(self, fn):
+        """Run ``fn`` on the kernel's main thread (ipycanvas drawing is not thread-safe).
+
+        Without a running event loop (a script, the tests), run it here.
+        """
+        loop = self._loop
+        if loop is None or not loop.is_running() or threading.get_ident() == self._main_thread:
+            fn()
+            return
+
+        def call():
+            try:
+                fn()
+            except Exception:
+                traceback.print_exc()
+
+        loop.call_soon_threadsafe(call)
 
     def close(self):
         """Stop the preview worker and close the widgets."""

@@ -195,6 +195,25 @@ class ParamPanel(W.VBox):
         finally:
             self._quiet = False
 
+    def toggle(self, name, button_width="64px"):
+        """A field's choices as toggle buttons to place elsewhere (its control hides).
+
+        The buttons and the panel's control stay bound: :attr:`params` follows either.
+        """
+        control = self.controls[name]
+        if not isinstance(control, W.Dropdown):
+            raise ValueError(f"{name} is not a choice; only choices become toggle buttons")
+        buttons = W.ToggleButtons(
+            options=list(control.options),
+            value=control.value,
+            tooltip=control.tooltip,
+            style={"button_width": button_width},
+            layout=W.Layout(width="auto"),
+        )
+        W.link((buttons, "value"), (control, "value"))
+        control.layout.display = "none"
+        return buttons
+
     def show_group(self, title):
         """Unfold the group ``title`` (as a click on its heading does)."""
         titles = list(self.groups)

@@ -60,7 +60,7 @@ def test_slider_run_frames_appear_and_differ(notebook, page, shot):
     frame = page.locator(".fluidnb-app .fluidnb-player .fluidnb-frame").first
     frame.scroll_into_view_if_needed()
     poll("the first frame to show", lambda: img_rgba(frame) is not None)
-    pause(page, ".fluidnb-app .fluidnb-player")
+    pause(page, ".fluidnb-app .fluidnb-app-player")
     src0 = shown_frame(frame)
     scrub = page.locator(".fluidnb-app .fluidnb-frame-slider").first
     page.mouse.click(*at(scrub.bounding_box(), 0.9 if "0" in src0.split(":")[1] else 0.1, 0.5))

@@ -11,6 +11,7 @@ from tests.browser.helpers import (
     playback_while_kernel_busy,
     poll,
     read_json,
+    run_in_kernel,
     watch_frames,
 )
 
@@ -79,7 +80,8 @@ def test_play_in_the_page_at_the_clips_fps_then_pause(notebook, page, shot):
     assert before == after, "still playing after pause"
     assert abs(shown_level(page) - after) < 0.1
     # One message: the kernel knows the frame the page paused on.
-    assert nb.state("frames.json", lambda s: s[-1] == after)[-1] == after
+    run_in_kernel(page, 'dump("paused.json", p.frame)')
+    assert nb.state("paused.json") == after
     shot(page.locator(".fluidnb-player"))
 
 

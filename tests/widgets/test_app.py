@@ -158,7 +158,9 @@ def test_unexpected_exceptions_are_shown_not_raised(capsys):
 
 def test_invalid_parameters_disable_run_and_explain():
     app, _ = make_app(canvas=False)
-    app.panel.controls["lo"].value = 9  # lo >= n = 4: invalid combination
+    assert app.panel.controls["lo"].max == 3  # the slider offers lo < n = 4 only
+    with pytest.raises(ValueError, match="lo must be < n"):
+        app.panel.set("lo", 9)  # from code: lo >= n = 4, an invalid combination
     assert app._run_button.disabled
     assert "lo must be < n" in app.status
     assert not app.start()

@@ -21,6 +21,7 @@ from fluidnb.videodb import AnimateParams, starter_database
 from fluidnb.widgets import VideoDBApp
 from fluidnb.widgets import _canvas as canvas_module
 from fluidnb.widgets import _videodb as module
+from fluidnb.widgets import _videodb_database as dbchoice
 from tests.support.frontend import canvas_event, client_ready, mouse_drag
 
 ROW = 62  # a band across the stream photo at 160 px (125 x 160)
@@ -238,6 +239,7 @@ def test_moving_sigma_resolves_from_the_kept_tables(app, monkeypatch):
     calls = []
     real = module.assign
     monkeypatch.setattr(module, "assign", lambda *a, **k: calls.append(1) or real(*a, **k))
+    app.run_on_rest = False  # Render is pressed below (the render at rest: further down)
     draw_scene(app)
     app.run(timeout=120)
     first = app.assignment
@@ -511,6 +513,11 @@ def test_an_upload_after_another_photo_shows_the_upload_and_keeps_the_database()
         assert app.canvas.image.shape == (96, 120, 3)
         assert app._db_pick.value == "smoke"  # an upload keeps the chosen database
         assert app.status.startswith("photo: your upload, 120 x 96 pixels")
+        # ... and says so, with a first guess from the photo's colours (issue 36: a lake
+        # photo silently kept the smoke database picked for the clouds).
+        assert "using the smoke starter database" in app.status
+        assert "it looks like water" in app.status
+        assert "choose the water database" in app.status
         # The same through the upload button, after picking the fire photo.
         app._photo_pick.value = "fire"
         assert (app.photo_name, app._db_pick.value) == ("fire", "fire")
@@ -522,6 +529,7 @@ def test_an_upload_after_another_photo_shows_the_upload_and_keeps_the_database()
         assert app.photo.shape == (64, 80, 3)
         assert app.photo[..., 2].min() > 0.75
         assert app._db_pick.value == "fire"
+        assert "using the fire starter database: it looks like water" in app.status
         # A photo is one pick away again, and "upload" leaves the menu with it.
         app._photo_pick.value = "lake"
         assert app.photo_name == "lake"
@@ -734,8 +742,8 @@ def test_a_starter_database_built_on_first_use_fills_most_of_the_bar(db, monkeyp
             seen.append(app.progress.value)
         return db
 
-    monkeypatch.setattr(module, "starter_database", building)
-    monkeypatch.setattr(module, "starter_path", lambda kind, quick=None: tmp_path / "none")
+    monkeypatch.setattr(dbchoice, "starter_database", building)
+    monkeypatch.setattr(dbchoice, "starter_path", lambda kind, quick=None: tmp_path / "none")
     app = VideoDBApp("stream", size=160, db="water", quick=True)
     try:
         app.panel.set("candidates", 20)
@@ -744,8 +752,8 @@ def test_a_starter_database_built_on_first_use_fills_most_of_the_bar(db, monkeyp
         assert seen == pytest.approx([0.0, 0.4, 0.8])
         # Once built (cached), the database is quick to open: a thin slice of the bar.
         seen.clear()
-        monkeypatch.setattr(module, "starter_path", lambda kind, quick=None: tmp_path)
-        app._databases.clear()
+        monkeypatch.setattr(dbchoice, "starter_path", lambda kind, quick=None: tmp_path)
+        app.databases._opened.clear()
         app.run(timeout=120)
         assert seen == pytest.approx([0.0, 0.075, 0.15])
     finally:
