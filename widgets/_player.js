@@ -142,6 +142,9 @@ function render(s, model, root) {
   fpsLabel.append(fps, document.createTextNode("fps"));
   bar.append(play, slider, readout, loopLabel, fpsLabel);
   root.append(canvas, bar);
+  // Keys typed in the player (arrows on the frame slider, digits in the fps box) are
+  // the player's: JupyterLab's notebook shortcuts would take them otherwise.
+  bar.addEventListener("keydown", (e) => e.stopPropagation());
 
   let shown = -1; // index on the canvas
   let shownClip = -1;

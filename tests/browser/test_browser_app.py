@@ -37,7 +37,8 @@ canvas = DrawingCanvas(
 )
 canvas.draw_stroke([[20, 20], [60, 90]])
 panel = ParamPanel(Probe)
-app = App(panel=panel, run=run, preview=preview, canvas=canvas, title="Probe app")
+app = App(panel=panel, run=run, preview=preview, canvas=canvas, title="Probe app",
+          run_on_rest=False)  # the preview alone here (the runs at rest: test_browser_live)
 panel.observe(lambda ch: dump("params.json", {"level": ch["new"].level}), "params")
 app.player.observe(
     lambda ch: dump("player.json", {"level": float(ch["new"].frames[0, 0, 0])}), "clip"
