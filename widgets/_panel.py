@@ -130,7 +130,12 @@ class ParamPanel(W.VBox):
             #: The folded groups (None when every control is in the first).
             self.accordion = W.Accordion(children=boxes[1:], titles=tuple(self.groups)[1:])
             self.accordion.selected_index = None
-            self.accordion.layout.width = f"calc({width} + 24px)"
+            # As wide as the panel (it stuck out by its padding and was cut off at the
+            # right edge of a page 1400 px wide): its controls are narrower instead.
+            self.accordion.layout.width = width
+            for names in list(self.groups.values())[1:]:
+                for n in names:
+                    self.controls[n].layout.width = f"calc({width} - 30px)"
             self.accordion.add_class("fluidnb-param-groups")
             folded = [self.accordion]
         else:
