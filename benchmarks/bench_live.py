@@ -40,6 +40,8 @@ from _lab import close_notebook, lab, open_notebook
 
 PLAYER = ".fluidnb-app .fluidnb-app-player"
 CANVAS = f"{PLAYER} canvas.fluidnb-frame"
+#: Where the previews show (turbulence's: its vorticity player).
+PREVIEW = ".fluidnb-app .fluidnb-preview-player canvas.fluidnb-frame"
 
 _REGION = """\
 h, w = app.image.shape[:2]
@@ -67,11 +69,13 @@ APPS = {
 
 # In the page: the pointer's moves, the status line's changes and every frame drawn.
 WATCH = """() => {
-  const log = window.__live = {moves: [], status: [], frames: []};
+  const log = window.__live = {moves: [], status: [], frames: [], previews: []};
   document.addEventListener('pointermove', e => log.moves.push(e.timeStamp), true);
   document.addEventListener('fluidnb-frame', e => {
     if (e.target.closest('.fluidnb-app-player'))
       log.frames.push([e.detail.t, e.detail.clip, e.detail.frame]);
+    if (e.target.closest('.fluidnb-preview-player'))
+      log.previews.push([e.detail.t, e.detail.clip, e.detail.frame]);
   });
   const status = document.querySelector('.fluidnb-app .fluidnb-status');
   new MutationObserver(() => log.status.push([performance.now(), status.textContent]))
@@ -89,8 +93,8 @@ def log(page):
     return page.evaluate("() => window.__live")
 
 
-def shown_clip(page):
-    return page.locator(CANVAS).get_attribute("data-clip")
+def shown_clip(page, canvas=CANVAS):
+    return page.locator(canvas).get_attribute("data-clip")
 
 
 def measure_previews(page, name, moves):
@@ -108,7 +112,7 @@ def measure_previews(page, name, moves):
     try:
         for k in range(moves):
             page.wait_for_timeout(350)  # everything at rest before the move
-            before = shown_clip(page)
+            before = shown_clip(page, PREVIEW)
             t0 = now(page)
             x += direction * step * (1 if k % 3 != 2 else -1)
             page.mouse.move(x, y)
@@ -116,7 +120,7 @@ def measure_previews(page, name, moves):
             while time.monotonic() < deadline:
                 got = log(page)
                 move = [t for t in got["moves"] if t >= t0]
-                new = [f for f in got["frames"] if f[0] >= t0 and str(f[1]) != before]
+                new = [f for f in got["previews"] if f[0] >= t0 and str(f[1]) != before]
                 if move and new:
                     lags.append(new[0][0] - move[0])
                     break
@@ -167,7 +171,7 @@ def bench_app(page, url, root, app, args):
         page.locator(".fluidnb-app .fluidnb-status", has_text=ready).wait_for(timeout=900_000)
     page.wait_for_function(
         "sel => document.querySelector(sel) && document.querySelector(sel).dataset.drawn",
-        arg=CANVAS,
+        arg=PREVIEW,
         timeout=300_000,
     )
     page.wait_for_timeout(1500)  # the first preview and its warm-up

@@ -313,7 +313,10 @@ class App(W.VBox):
         self._live = _LiveChannel()
         self._live.observe(self._held_changed, "held")
         self.player = FramePlayer() if player is None else player
-        self.player.add_class("fluidnb-app-player")  # the one Run and the preview fill
+        self.player.add_class("fluidnb-app-player")  # the one Run fills
+        #: The player the live previews go to (the app's player unless the app says).
+        self.preview_player = self.player
+        self.player.add_class("fluidnb-preview-player")
         self.result = None  #: The last full run's Clip.
         self._token = None
         self._thread = None
@@ -540,7 +543,7 @@ class App(W.VBox):
         The Run button's task by default; an app whose full result is another task
         (the video-database app renders its assignment again) says so here.
         """
-        return self._run_fn, self._show_clip, "the full result…"
+        return self._run_fn, self._show_clip, "making the full clip…"
 
     def _rest_busy(self):
         """Widgets a rest task disables (as its Run would)."""
@@ -600,7 +603,7 @@ class App(W.VBox):
         # preview rather than cover the run's result with it -- unless that run is a
         # rest run this very change stopped.
         if (not self.running or self._superseded) and generation == self._tasks_started:
-            self.player.clip = clip
+            self.preview_player.clip = clip
             note = clip.metadata.get("note")
             note = f": {note}" if note else ""
             self.say(f"preview ({time.monotonic() - started:.2f} s){note}")

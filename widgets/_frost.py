@@ -251,6 +251,7 @@ class FrostApp(App):
         return clip.with_metadata(
             preview=True,
             preview_spacing=spacing,
+            smooth=True,
             note=f"a coarse lattice, {every * 8 / params.fps:.3g}× faster than the run",
         )
 

@@ -170,6 +170,10 @@ function render(s, model, root) {
       shown = -1;
     }
     canvas.style.width = `${model.get("display_width")}px`;
+    // Enlarged 2x or more, a simulation grid keeps its cells crisp; a photo (or any
+    // picture drawn smaller) is smoothed.
+    const enlarged = w > 0 && model.get("display_width") >= 2 * w;
+    canvas.style.imageRendering = enlarged && !model.get("smooth") ? "pixelated" : "auto";
     root.style.maxWidth = `${Math.max(model.get("display_width"), 300)}px`;
     slider.style.width = model.get("slider_width") || "";
     for (const c of [play, slider, loop, fps]) c.disabled = !has;
@@ -345,6 +349,7 @@ function render(s, model, root) {
   model.on("change:fps", onFps);
   model.on("change:ready change:n_frames", view.arrived);
   model.on("change:width change:height change:display_width change:loop change:slider_width", layout);
+  model.on("change:smooth", layout);
   model.on("change:group", joinGroup);
   joinGroup();
   layout();
@@ -360,6 +365,7 @@ function render(s, model, root) {
     model.off("change:fps", onFps);
     model.off("change:ready change:n_frames", view.arrived);
     model.off("change:width change:height change:display_width change:loop change:slider_width", layout);
+    model.off("change:smooth", layout);
     model.off("change:group", joinGroup);
   };
 }

@@ -46,6 +46,8 @@ class _PlayerView(anywidget.AnyWidget):
     frame = Int(0).tag(sync=True)  #: The frame shown while paused (the page's while playing).
     #: Players of one group show the same frame (the one playing leads).
     group = Unicode("").tag(sync=True)
+    #: Draw an enlarged clip smoothly (photos) rather than pixelated (simulation grids).
+    smooth = Bool(False).tag(sync=True)
 
 
 class _Sender:
@@ -262,6 +264,7 @@ class FramePlayer(W.VBox):
                 h, w = clip.shape
                 self.view.fps = min(max(float(clip.fps), 0.5), 60)
                 self.view.width, self.view.height = w, h
+                self.view.smooth = bool(clip.metadata.get("smooth", False))
                 self.frame = min(self.frame, max(self._ready - 1, 0))
             else:
                 self.view.playing = False

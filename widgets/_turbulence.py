@@ -218,6 +218,10 @@ class TurbulenceApp(App):
             player=dye,
         )
         self.add_class("fluidnb-turbulence")
+        # The preview (one frame's vorticity) goes to the vorticity player.
+        self.player.remove_class("fluidnb-preview-player")
+        self.preview_player = self.vorticity
+        self.vorticity.add_class("fluidnb-preview-player")
         panel.observe(lambda _: self._check_settings(), "params")
         self._render_table()
         self._check_settings()

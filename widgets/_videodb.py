@@ -802,6 +802,7 @@ class VideoDBApp(App):
             f"preview: σ = {a.params.sigma:.3g}, λ = {a.params.lam:.3g}, ρ = {a.params.rho:.3g}"
         )
         meta = {"method": "videodb", "preview": True, "note": note, "caption": caption}
+        meta["smooth"] = True  # half size, enlarged on screen: a photo, smoothed
         return Clip(picture[None], fps=24.0, metadata=meta)
 
     def warm(self, params):

@@ -21,6 +21,7 @@ pytestmark = pytest.mark.browser
 
 VIEWPORT = {"width": 1400, "height": 900}
 PLAYER = ".fluidnb-app .fluidnb-app-player"
+PREVIEWS = ".fluidnb-app .fluidnb-preview-player canvas.fluidnb-frame"
 
 APPS = {
     "flicker": (
@@ -89,12 +90,14 @@ def test_preview_follows_a_held_slider_then_the_clip_plays_at_its_fps(name, note
     # The first picture (a preview, or the run's clip).
     poll(
         "a first picture in the player",
-        lambda: page.locator(f"{PLAYER} canvas.fluidnb-frame").first.get_attribute("data-drawn"),
+        lambda: page.locator(PREVIEWS).first.get_attribute("data-drawn"),
         timeout=120,
     )
     watch_frames(page)
     page.locator(slider).scroll_into_view_if_needed()
-    lags = preview_follows_held_slider(page, slider, PLAYER, [0.3, 0.6, 0.85], timeout=30)
+    lags = preview_follows_held_slider(
+        page, slider, ".fluidnb-app .fluidnb-preview-player", [0.3, 0.6, 0.85], timeout=30
+    )
     assert len(lags) == 3
     shot(app, "preview")
     # Let go: the full result comes by itself, and plays at its fps in the page.
