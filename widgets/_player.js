@@ -344,13 +344,16 @@ function render(s, model, root) {
     start(Math.max(shown, 0));
     layout();
   };
-  model.on("change:playing", onPlaying);
-  model.on("change:frame", onFrame);
-  model.on("change:fps", onFps);
-  model.on("change:ready change:n_frames", view.arrived);
-  model.on("change:width change:height change:display_width change:loop change:slider_width", layout);
-  model.on("change:smooth", layout);
-  model.on("change:group", joinGroup);
+  const handlers = [
+    ["change:playing", onPlaying],
+    ["change:frame", onFrame],
+    ["change:fps", onFps],
+    ["change:ready change:n_frames", view.arrived],
+    ["change:width change:height change:display_width change:loop change:slider_width", layout],
+    ["change:smooth", layout],
+    ["change:group", joinGroup],
+  ];
+  for (const [events, fn] of handlers) model.on(events, fn);
   joinGroup();
   layout();
   view.arrived();
@@ -360,13 +363,7 @@ function render(s, model, root) {
     cancelAnimationFrame(raf);
     s.views.delete(view);
     if (group) group.delete(view);
-    model.off("change:playing", onPlaying);
-    model.off("change:frame", onFrame);
-    model.off("change:fps", onFps);
-    model.off("change:ready change:n_frames", view.arrived);
-    model.off("change:width change:height change:display_width change:loop change:slider_width", layout);
-    model.off("change:smooth", layout);
-    model.off("change:group", joinGroup);
+    for (const [events, fn] of handlers) model.off(events, fn);
   };
 }
 
