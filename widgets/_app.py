@@ -114,7 +114,7 @@ class LatestWins:
     def skip_pending(self):
         """Count every request so far as served (their runs are obsolete)."""
         with self._lock:
-            self._done = self._requested
+            self._serving = self._done = self._requested
             self._lock.notify_all()
 
     def wait(self, timeout=30):
