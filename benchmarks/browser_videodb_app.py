@@ -31,20 +31,16 @@ from __future__ import annotations
 import argparse
 import os
 import re
-import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
-import nbformat
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from tests.browser.conftest import _KERNEL_IDLE, CHROMIUM_FLAGS, TOKEN  # noqa: E402
-from tests.browser.helpers import free_port, isolated_env, stop, wait_http  # noqa: E402
+from _lab import lab, open_notebook  # noqa: E402
 
 APP = """\
 import numpy as np
@@ -84,16 +80,16 @@ WATCH = """() => {
     if (t - last > 2) log.push({t, kind: 'map', params: params()});  // one per redraw
     last = t;
   };
-  const player = app.querySelector('.fluidnb-player');
-  // The picture's element may be replaced: watch the player for a new picture.
-  let src = null;
-  new MutationObserver(() => {
-    const img = player.querySelector('img.fluidnb-frame');
-    if (img && img.src !== src) {
-      src = img.src;
-      log.push({t: now(), kind: 'frame', caption: player.textContent});
+  const player = app.querySelector('.fluidnb-app-player');
+  // Every new clip's first frame drawn by the player (its fluidnb-frame events).
+  let shownClip = null;
+  document.addEventListener('fluidnb-frame', e => {
+    if (!e.target.closest('.fluidnb-app-player')) return;
+    if (e.detail.clip !== shownClip || e.detail.playing) {
+      shownClip = e.detail.clip;
+      log.push({t: e.detail.t, kind: 'frame', caption: player.textContent});
     }
-  }).observe(player, {subtree: true, childList: true, attributes: true, characterData: true});
+  });
   // The player's caption ("k of n frames so far" while a clip streams in).
   let caption = null;
   new MutationObserver(() => {
@@ -192,62 +188,21 @@ def main():
     parser.add_argument("--rounds", type=int, default=3, help="drags and steps per slider")
     parser.add_argument("--shots", type=Path, help="save screenshots into this folder")
     args = parser.parse_args()
-    from playwright.sync_api import sync_playwright
-
-    base = Path(tempfile.mkdtemp(prefix="fluidnb-bench-app-"))
-    root = base / "root"
-    root.mkdir()
-    nb = nbformat.v4.new_notebook()
-    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3"}
     head = 'import os\nos.environ["FLUIDNB_QUICK"] = "1"\n' if args.quick else "import os\n"
-    nb.cells = [nbformat.v4.new_code_cell(head), nbformat.v4.new_code_cell(APP)]
-    nbformat.write(nb, root / "app.ipynb")
-    port = free_port()
-    cmd = [
-        sys.executable, "-m", "jupyter", "lab", "--no-browser", "--ServerApp.ip=127.0.0.1",
-        f"--ServerApp.port={port}", "--ServerApp.port_retries=0",
-        f"--IdentityProvider.token={TOKEN}", f"--ServerApp.root_dir={root}",
-        "--LabApp.expose_app_in_browser=True",
-    ]  # fmt: skip
-    if hasattr(os, "geteuid") and os.geteuid() == 0:
-        cmd.append("--allow-root")
-    log_file = base / "server.log"
-    with log_file.open("w") as out:
-        proc = subprocess.Popen(cmd, env=isolated_env(base), cwd=root, stdout=out, stderr=out)
-    url = f"http://127.0.0.1:{port}"
-    try:
-        wait_http(f"{url}/api/status?token={TOKEN}", proc, log_file)
-        chromium = os.environ.get("FLUIDNB_CHROMIUM") or "/usr/bin/chromium"
-        with sync_playwright() as pw:
-            browser = pw.chromium.launch(executable_path=chromium, args=CHROMIUM_FLAGS)
-            page = browser.new_page(viewport={"width": 1400, "height": 900})
-            page.goto(f"{url}/lab/tree/app.ipynb?reset&token={TOKEN}")
-            page.wait_for_function(_KERNEL_IDLE, timeout=120_000, polling=100)
-            page.evaluate("() => window.jupyterapp.shell.collapseLeft()")
-            for _ in range(4):  # a Run All while the kernel starts is dropped
-                page.evaluate("() => window.jupyterapp.commands.execute('notebook:run-all-cells')")
-                try:
-                    page.locator(".fluidnb-app .fluidnb-run").wait_for(timeout=20_000)
-                    break
-                except Exception:  # try the Run All again
-                    continue
-            page.locator(".fluidnb-app").evaluate("el => el.scrollIntoView({block: 'start'})")
-            started = time.monotonic()
-            page.locator(".fluidnb-app .fluidnb-run").click()
-            page.locator(".fluidnb-app .fluidnb-status", has_text="done in").wait_for(
-                timeout=600_000
-            )
-            print(f"Run (retrieval, MRF, render): {time.monotonic() - started:.1f} s")
-            settle(page)
-            page.locator(".fluidnb-app").evaluate("el => el.scrollIntoView({block: 'start'})")
-            page.evaluate(WATCH)
-            report(page, args)
-            if args.shots:
-                args.shots.mkdir(parents=True, exist_ok=True)
-                page.screenshot(path=str(args.shots / "bench-app.png"))
-            browser.close()
-    finally:
-        stop(proc)
+    with lab() as (page, url, root):
+        open_notebook(page, url, root, "app", [head, APP], timeout=120)
+        page.locator(".fluidnb-app").evaluate("el => el.scrollIntoView({block: 'start'})")
+        started = time.monotonic()
+        page.locator(".fluidnb-app .fluidnb-run").click()
+        page.locator(".fluidnb-app .fluidnb-status", has_text="done in").wait_for(timeout=600_000)
+        print(f"Run (retrieval, MRF, render): {time.monotonic() - started:.1f} s")
+        settle(page)
+        page.locator(".fluidnb-app").evaluate("el => el.scrollIntoView({block: 'start'})")
+        page.evaluate(WATCH)
+        report(page, args)
+        if args.shots:
+            args.shots.mkdir(parents=True, exist_ok=True)
+            page.screenshot(path=str(args.shots / "bench-app.png"))
     print("load average after:", os.getloadavg())
 
 
@@ -306,7 +261,7 @@ def report(page, args):
     # frames shown per second while it plays. Last, Render while the clip plays: the
     # frames shown per second while the new clip streams in.
     render_first, render_whole, play_first, play_rate, stream_rate = [], [], [], [], []
-    play = page.locator(".fluidnb-app .fluidnb-player .widget-play button").first
+    play = page.locator(".fluidnb-app .fluidnb-app-player button.fluidnb-play").first
     render = page.locator(".fluidnb-app .fluidnb-vdb-render")
     for _ in range(args.rounds):
         page.evaluate("() => { window.__log.length = 0; }")

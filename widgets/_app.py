@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
+import asyncio
 import html
 import os
 import threading
 import time
 import traceback
+from pathlib import Path
 
+import anywidget
 import ipywidgets as W
 from ipywidgets.widgets.trait_types import TypedTuple
-from traitlets import Instance, Int, Unicode, observe
+from traitlets import Bool, Instance, Int, Unicode, observe
 
 from fluidnb import Cancelled, CancelToken, Clip
 
@@ -39,6 +42,21 @@ def _in_kernel():
         return False
     shell = get_ipython()
     return shell is not None and getattr(shell, "kernel", None) is not None
+
+
+def _kernel_loop():
+    """The kernel's running event loop, or None outside a kernel (scripts, tests).
+
+    Only a kernel's loop serves callbacks while a worker thread waits on it: in a
+    plain process another library may leave a loop "running" in the main thread
+    that never runs what is queued on it (Playwright's sync API does).
+    """
+    if not _in_kernel():
+        return None
+    try:
+        return asyncio.get_running_loop()
+    except RuntimeError:
+        return None
 
 
 class LatestWins:
@@ -70,6 +88,7 @@ class LatestWins:
         self.name = name
         self._lock = threading.Condition()
         self._requested = 0
+        self._serving = 0  # requests the run going on serves
         self._done = 0
         self._thread = None
         self._closed = False
@@ -87,10 +106,15 @@ class LatestWins:
                 )
                 self._thread.start()
 
+    def pending(self):
+        """Whether a request waits that no run has started serving yet."""
+        with self._lock:
+            return self._requested > self._serving
+
     def skip_pending(self):
         """Count every request so far as served (their runs are obsolete)."""
         with self._lock:
-            self._done = self._requested
+            self._serving = self._done = self._requested
             self._lock.notify_all()
 
     def wait(self, timeout=30):
@@ -119,7 +143,7 @@ class LatestWins:
                     return
                 # Everything requested so far is served by this one run, which reads
                 # the latest parameters and drawing: the latest state wins.
-                target = self._requested
+                target = self._serving = self._requested
             started = time.monotonic()
             try:
                 self._work()
@@ -132,6 +156,19 @@ class LatestWins:
                 self._done = max(self._done, target)
                 self._lock.notify_all()
             time.sleep(max(0.0, self._interval() - (time.monotonic() - started)))
+
+
+class _LiveChannel(anywidget.AnyWidget):
+    """Hidden in every app: :attr:`held` is True while a slider of the app is held.
+
+    The kernel is told a dragged slider's values but not the mouse; this tells it
+    (``_live.js``: one message on the press, one on the release), so a render waits
+    for the hand to let go.
+    """
+
+    _esm = (Path(__file__).resolve().parent / "_live.js").read_text(encoding="utf-8")
+    #: Whether the user holds a slider of the app (pressed, not yet released).
+    held = Bool(False).tag(sync=True)
 
 
 def _players(widgets):
@@ -181,8 +218,17 @@ class App(W.VBox):
         library's progress callable, which raises :class:`fluidnb.Cancelled` after
         Cancel.
     preview : callable, optional
-        ``preview(params) -> Clip``: a cheap version recomputed live (throttled, the
-        latest state wins) whenever a parameter or the drawing changes.
+        ``preview(params) -> Clip``: a cheap version recomputed live (the latest state
+        wins) whenever a parameter or the drawing changes, also while a slider is
+        held; ``None`` means nothing to show for this change.
+    run_on_rest : bool, optional
+        Whether a parameter change starts the full run by itself once the sliders
+        rest: released (the page tells the kernel, see :class:`_LiveChannel`) and
+        unchanged for :attr:`settle` seconds -- "a cheap preview while the slider
+        moves, the full result when it rests". A newer change stops that run (quietly)
+        and previews again. :meth:`rest_task` says what runs (the Run button's task
+        by default). Default: on in a notebook kernel, off in scripts and tests (which
+        press Run themselves).
     canvas : DrawingCanvas, optional
         Where the user draws (slot :attr:`canvas`); its changes trigger the preview.
     title : str
@@ -196,7 +242,8 @@ class App(W.VBox):
         The player the Run button's clip goes to (:attr:`player`), for a player of
         another size or export folder; default ``FramePlayer()``.
     min_interval : float
-        Least seconds between two previews.
+        Least seconds between two previews (0: as fast as they are made; the latest
+        state wins anyway).
     seed : int, optional
         Give the app a random seed: the trait :attr:`seed`, shown in
         :attr:`seed_box` (which the app places in a slot); a new seed asks for a
@@ -240,14 +287,36 @@ class App(W.VBox):
         aside=(),
         views=None,
         player=None,
-        min_interval=0.15,
+        min_interval=0.0,
         seed=None,
+        run_on_rest=None,
     ):
         self.panel = panel
         self._run_fn = run
         self._preview_fn = preview
         self.min_interval = float(min_interval)
+        #: Whether the full result follows by itself when the values rest.
+        self.run_on_rest = _in_kernel() if run_on_rest is None else bool(run_on_rest)
+        #: Seconds the values must rest, the sliders released, before the full result.
+        self.settle = 0.25
+        self._settle_timer = None
+        self._settle_lock = threading.Lock()
+        self._rest_wanted = False  # a change waits for its full result
+        self._rest_running = False  # the running task was started by a rest
+        self._superseded = False  # ... and newer values made it obsolete
+        self._preview_refused = False  # the last preview was refused (inputs not ready)
+        #: Seconds without a newer value after a preview before :meth:`warm` runs.
+        self.warm_after = 0.08
+        self._warm_only = False  # the next preview run only warms
+        self._warm_pending = False  # a warm-up waits for the run going on
+        self._task_active = False  # a task's worker has not finished yet
+        self._live = _LiveChannel()
+        self._live.observe(self._held_changed, "held")
         self.player = FramePlayer() if player is None else player
+        self.player.add_class("fluidnb-app-player")  # the one Run fills
+        #: The player the live previews go to (the app's player unless the app says).
+        self.preview_player = self.player
+        self.player.add_class("fluidnb-preview-player")
         self.result = None  #: The last full run's Clip.
         self._token = None
         self._thread = None
@@ -256,6 +325,9 @@ class App(W.VBox):
             self._preview_once, say=self.say, interval=lambda: self.min_interval, name="preview"
         )
         self._closed = False
+        # ipycanvas drawing from a worker goes through the kernel's loop (on_main).
+        self._loop = _kernel_loop()
+        self._main_thread = threading.get_ident()
         self._tasks_started = 0  # a preview begun before a task started is stale
         self._watched = set()  # ids of the players whose exports the status line reports
 
@@ -311,7 +383,7 @@ class App(W.VBox):
         heading = []
         if title:
             heading.append(W.HTML(f"<h3 style='margin:0.1em 0 0.3em 0'>{html.escape(title)}</h3>"))
-        super().__init__([*heading, header, self._columns, self._aside_row])
+        super().__init__([*heading, header, self._columns, self._aside_row, self._live])
         self.add_class("fluidnb-app")
         if seed is not None:
             self.seed = int(seed)
@@ -326,7 +398,7 @@ class App(W.VBox):
             )
             self.seed_box.add_class("fluidnb-seed")
             W.link((self.seed_box, "value"), (self, "seed"))
-            self.observe(lambda _: self.request_preview(), "seed")
+            self.observe(lambda _: self._changed(), "seed")
         else:
             self.seed_box = None
         self._layout()
@@ -413,28 +485,160 @@ class App(W.VBox):
             self.say("")
 
     def _params_changed(self, change):
+        self._changed()
+
+    # ------------------------------------------------------------------ live
+    def _changed(self):
+        """A parameter (or the seed) changed: preview now, the full result at rest."""
+        self._supersede()
         self.request_preview()
+        if self.run_on_rest:
+            self._rest_wanted = True
+            self._schedule_rest()
+
+    @property
+    def held(self):
+        """Whether the user holds one of the app's sliders (the page says so)."""
+        return self._live.held
+
+    def _held_changed(self, change):
+        if not change["new"] and self._rest_wanted:
+            self._schedule_rest()  # let go: the full result once the values rest
+
+    def _schedule_rest(self):
+        """Start :meth:`rest_task` once the values rest for :attr:`settle` seconds.
+
+        Every new value restarts the wait; while a slider is held nothing starts
+        (its release schedules it again).
+        """
+        with self._settle_lock:
+            if self._settle_timer is not None:
+                self._settle_timer.cancel()
+            if self._closed:
+                return
+            self._settle_timer = threading.Timer(self.settle, self._rested)
+            self._settle_timer.daemon = True
+            self._settle_timer.start()
+
+    def _rested(self):
+        if self._closed or self.held or not self._rest_wanted:
+            return
+        if self.running:
+            return  # the task going on schedules it again when it ends
+        if not self.panel.valid or self._preview_refused:
+            self._rest_wanted = False  # the panel or the preview says what is wrong
+            return
+        rest = self.rest_task()
+        self._rest_wanted = False
+        if rest is None:
+            return
+        task, done, message = rest
+        self._rest_running, self._superseded = True, False
+        if not self.start_task(task, done, message=message, busy=self._rest_busy()):
+            self._rest_running = False
+
+    def rest_task(self):
+        """What runs when the values rest: ``(task, done, message)``, or None.
+
+        The Run button's task by default; an app whose full result is another task
+        (the video-database app renders its assignment again) says so here.
+        """
+        return self._run_fn, self._show_clip, "making the full clip…"
+
+    def _rest_busy(self):
+        """Widgets a rest task disables (as its Run would)."""
+        return ()
+
+    def _supersede(self):
+        """Stop a run the values started that newer values made obsolete."""
+        token = self._token
+        if self._rest_running and self.running and token is not None:
+            self._superseded = True
+            token.cancel()
+
+    def wait_live(self, timeout=60):
+        """Block until previews, the wait for rest and the full result are done (tests)."""
+        deadline = time.monotonic() + timeout
+        while True:
+            self.wait_preview(max(0.1, deadline - time.monotonic()))
+            timer = self._settle_timer
+            if timer is not None:
+                timer.join(max(0.1, deadline - time.monotonic()))
+            self.wait(max(0.1, deadline - time.monotonic()))
+            if timer is self._settle_timer and not self.running and not self._rest_pending():
+                return  # no newer value came meanwhile
+            if time.monotonic() > deadline:
+                raise TimeoutError("the live preview and full result did not finish in time")
+
+    def _rest_pending(self):
+        return self._rest_wanted and not self.held and self.panel.valid
 
     # ------------------------------------------------------------------ preview
     def request_preview(self):
         """Ask for a fresh preview; returns at once (a worker computes it)."""
         if self._preview_fn is None or self._closed:
             return
+        self._warm_only = False
         self._previews.request()
 
     def _preview_once(self):
+        if self._warm_only:
+            self._warm_only = False
+            self._warm_up()
+            return
         started = time.monotonic()
         generation = self._tasks_started
-        clip = self._preview_fn(self.panel.params)
+        try:
+            clip = self.preview(self.panel.params)
+        except ValueError:
+            self._preview_refused = True
+            raise
+        self._preview_refused = False
+        if clip is None:
+            self._warm_up()
+            return
         if not isinstance(clip, Clip):
             raise TypeError(f"preview must return a fluidnb.Clip, got {type(clip).__name__}")
         # A run that started (or finished) meanwhile owns the player now: drop this
-        # preview rather than cover the run's result with it.
-        if not self.running and generation == self._tasks_started:
-            self.player.clip = clip
+        # preview rather than cover the run's result with it -- unless that run is a
+        # rest run this very change stopped.
+        if (not self.running or self._superseded) and generation == self._tasks_started:
+            self.preview_player.clip = clip
             note = clip.metadata.get("note")
             note = f": {note}" if note else ""
             self.say(f"preview ({time.monotonic() - started:.2f} s){note}")
+        self._warm_up()
+
+    def _warm_up(self):
+        """:meth:`warm` on the preview's worker, once no newer value came for a moment."""
+        deadline = time.monotonic() + self.warm_after
+        while time.monotonic() < deadline:
+            if self._closed or self._previews.pending():
+                return  # a newer value waits for its preview: that comes first
+            with self._settle_lock:
+                if self._task_active:
+                    self._warm_pending = True  # after the task (it may be waiting on us)
+                    return
+            time.sleep(0.005)
+        self.warm(self.panel.params)
+
+    def _request_warm(self):
+        """:meth:`warm` on the preview's worker, with no preview before it."""
+        if self._closed or self._previews.pending():
+            return
+        self._warm_only = True
+        self._previews.request()
+
+    def warm(self, params):
+        """Get ready for the full result while the values rest (after a preview).
+
+        Runs on the preview's worker; a newer value waits for it, so it should stop
+        soon when the values move again. Nothing by default.
+        """
+
+    def preview(self, params):
+        """The live preview for ``params`` (a Clip, or None): the ``preview`` callable's."""
+        return self._preview_fn(params)
 
     def wait_preview(self, timeout=30):
         """Block until every preview requested so far has been shown (for scripts/tests)."""
@@ -494,6 +698,8 @@ class App(W.VBox):
         self.progress.bar_style = ""
         self.say(message)
         self._tasks_started += 1
+        self._task_active = True
+        self._rest_wanted = False  # this task uses the values as they are now
         # Previews asked for before this run are obsolete: its result will show.
         self._previews.skip_pending()
         self._thread = threading.Thread(
@@ -510,6 +716,7 @@ class App(W.VBox):
             raise TypeError(f"run must return a fluidnb.Clip, got {type(clip).__name__}")
         self.result = clip
         self.player.clip = clip
+        self.player.play(True)  # it plays at once, in the page
         return f"done in {seconds:.1f} s: {len(clip)} frames"
 
     def _report(self, fraction, message=""):
@@ -526,8 +733,11 @@ class App(W.VBox):
             self.progress.bar_style = "success"
             self.say(text, "ok")
         except Cancelled:
-            self.progress.bar_style = "warning"
-            self.say("cancelled; your drawing and settings are unchanged")
+            if self._superseded:  # newer values stopped it: their preview shows
+                self.progress.value = 0
+            else:
+                self.progress.bar_style = "warning"
+                self.say("cancelled; your drawing and settings are unchanged")
         except ValueError as exc:
             self.progress.bar_style = "danger"
             self.say(str(exc), "error")
@@ -541,10 +751,19 @@ class App(W.VBox):
                 widget.disabled = False
             self._cancel_button.disabled = True
             self._progress_text.value = ""
+            self._rest_running = self._superseded = False
+            if self._rest_wanted and not self._closed:
+                self._schedule_rest()  # values changed while it ran
+            with self._settle_lock:
+                self._task_active = False
+                warm, self._warm_pending = self._warm_pending, False
+            if warm:
+                self._request_warm()
 
     def cancel(self):
         """Ask the running computation to stop at its next progress report."""
         if self._token is not None and self.running:
+            self._rest_wanted = False  # the user's Cancel: no full result by itself
             self._token.cancel()
             self.say("cancelling…")
 
@@ -585,6 +804,25 @@ class App(W.VBox):
             block = _quick_mode() or not _in_kernel()
         return self.wait(timeout) if block else None
 
+    # ------------------------------------------------------------------ plumbing
+    def on_main(self, fn):
+        """Run ``fn`` on the kernel's main thread (ipycanvas drawing is not thread-safe).
+
+        Without a running event loop (a script, the tests), run it here.
+        """
+        loop = self._loop
+        if loop is None or not loop.is_running() or threading.get_ident() == self._main_thread:
+            fn()
+            return
+
+        def call():
+            try:
+                fn()
+            except Exception:
+                traceback.print_exc()
+
+        loop.call_soon_threadsafe(call)
+
     def close(self):
         """Stop the preview worker and close the widgets."""
         self._closed = True
@@ -593,6 +831,10 @@ class App(W.VBox):
         previews = getattr(self, "_previews", None)
         if previews is not None:
             previews.close()
+        with getattr(self, "_settle_lock", threading.Lock()):
+            timer = getattr(self, "_settle_timer", None)
+            if timer is not None:
+                timer.cancel()
         token = getattr(self, "_token", None)
         if token is not None:
             token.cancel()

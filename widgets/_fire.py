@@ -3,19 +3,19 @@
 from __future__ import annotations
 
 import dataclasses
-import io
 
 import ipywidgets as W
 import numpy as np
 
-from fluidnb import Clip, Params, as_image
-from fluidnb.fire import FireParams, colour_temperature, fire
+from fluidnb import Clip, Params
+from fluidnb.fire import FireParams, colour_temperature, fire, keyframe_preview
 from fluidnb.fluid import FluidParams, flame_preset, simulate
 
 from ._app import App
 from ._canvas import DrawingCanvas
-from ._common import Choice, hint, row
+from ._common import hint, row
 from ._panel import ParamPanel
+from ._photo import PhotoInput, load_photo
 from ._player import FramePlayer
 
 __all__ = ["FireApp", "FireAppParams"]
@@ -26,6 +26,8 @@ GROUPS = (
     ("the flame's source", ("source_radius", "source_T")),
     ("synthesis details", ("overlap", "coherence", "cutoff", "output_size", "fps")),
 )
+#: Side of the live preview's keyframe (fluidnb.fire.keyframe_preview: ~30 ms).
+_PREVIEW_SIZE = 48
 #: The sample photos the photo menu offers ("upload" joins them after an upload).
 SAMPLES = ("fire", "flame")
 #: Longest side of a sample photo: as large as the default keyframes (256 px).
@@ -136,13 +138,9 @@ class FireApp(App):
     def __init__(
         self, photo=None, *, matte=None, quick=False, n_frames=None, seed=0, display_size=320
     ):
-        from fluidnb import data
-
         self.quick = bool(quick)
         name = "fire" if photo is None else photo if _is_sample(photo) else "upload"
-        if name != "upload":
-            photo, matte = data.sample(name, size=SAMPLE_SIZE, return_alpha=True)
-        self.photo, self.photo_matte = self._load(photo, matte)
+        self.photo, self.photo_matte = self._load(name if name != "upload" else photo, matte)
         self.photo_name = name  #: The photo shown: a sample's name or "upload".
         self.shape = (64, 64) if quick else (128, 128)
         self.fire_result = None  #: The last run's FireResult.
@@ -157,21 +155,9 @@ class FireApp(App):
             style={"description_width": "50px"},
             layout=W.Layout(width="150px"),
         )
-        self._sample = Choice(
-            options=_photo_options(name),
-            value=name,
-            description="photo",
-            layout=W.Layout(width="200px"),
-        )
-        self._sample.on_pick(self._picked)
-        self._upload = W.FileUpload(accept="image/*", multiple=False, description="Upload")
-        self._upload.observe(self._uploaded, "value")
-        for wid, cls in [
-            (self._frames, "fluidnb-frames"),
-            (self._sample, "fluidnb-photo"),
-            (self._upload, "fluidnb-upload"),
-        ]:
-            wid.add_class(cls)
+        self._photo = PhotoInput(SAMPLES, name, on_photo=self.set_photo, say=self.say)
+        self._sample, self._upload = self._photo.menu, self._photo.upload
+        self._frames.add_class("fluidnb-frames")
         # Both players show their clips at their own size (a clip is drawn as it is,
         # never enlarged: _show sets the width from the clip).
         self.compare = FramePlayer(display_width=3 * self.shape[1], label="compare")
@@ -182,10 +168,11 @@ class FireApp(App):
             panel=panel,
             player=FramePlayer(display_width=FireParams().output_size),
             run=self._run,
+            preview=self._preview,
             canvas=self._make_canvas(),
             seed=seed,
             title="Fire from a photograph — Furukawa, Dobashi & Yamamoto",
-            inputs=[row(self._sample, self._upload)],
+            inputs=[self._photo],
         )
         if self.quick:
             panel.set("output_size", 128)
@@ -227,14 +214,8 @@ class FireApp(App):
 
     @staticmethod
     def _load(photo, matte):
-        image, alpha = as_image(photo, mode="rgb", name="photo", return_alpha=True)
-        if matte is not None:
-            alpha = as_image(matte, mode="grey", name="matte")
-            if alpha.shape != image.shape[:2]:
-                raise ValueError(
-                    f"matte must have the photo's size {image.shape[:2]}, got {alpha.shape}"
-                )
-        return image, alpha
+        # A sample at SAMPLE_SIZE pixels with its own matte; an upload as it is.
+        return load_photo(photo, matte, samples=SAMPLES, sample_size=SAMPLE_SIZE)
 
     def set_photo(self, photo, matte=None):
         """Use another photo: a sample name (``"fire"``, ``"flame"``) or an image.
@@ -243,11 +224,7 @@ class FireApp(App):
         False (and says why in the status line) if the photo is refused; the old one
         stays.
         """
-        from fluidnb import data
-
         name = photo if _is_sample(photo) else "upload"
-        if name != "upload":
-            photo, matte = data.sample(photo, size=SAMPLE_SIZE, return_alpha=True)
         try:
             self.photo, self.photo_matte = self._load(photo, matte)
         except ValueError as exc:
@@ -259,32 +236,12 @@ class FireApp(App):
         old = self.canvas
         self.canvas = self._make_canvas()
         old.close()
-        # "upload" is offered only while an uploaded photo is shown; options and value
-        # change together (a plain Dropdown would pick its first photo on the way).
-        self._sample.set_options(_photo_options(name), name)
+        # "upload" is offered only while an uploaded photo is shown.
+        self._photo.shown(name)
         h, w = self.photo.shape[:2]
         shown = "your upload" if name == "upload" else f"the {name} sample"
         self.say(f"photo: {shown}, {w} x {h} pixels")
         return True
-
-    def _picked(self, name):
-        if name != self.photo_name and name in SAMPLES:
-            self.set_photo(name)
-
-    def _uploaded(self, change):
-        files = change["new"]
-        if not files:
-            return
-        from PIL import Image
-
-        content = files[0]["content"]
-        try:
-            image = Image.open(io.BytesIO(bytes(content)))
-            image.load()
-        except Exception as exc:  # a broken or foreign file: say so, keep the old photo
-            self.say(f"could not read the upload: {exc}", "error")
-            return
-        self.set_photo(image)
 
     def matte(self):
         """The matte used: the painted one, else the photo's own (None: luminance)."""
@@ -294,6 +251,18 @@ class FireApp(App):
         return self.photo_matte
 
     # ------------------------------------------------------------------ library calls
+    def _preview(self, params):
+        """One keyframe on a small flame while a slider moves (the clip comes at rest)."""
+        clip = keyframe_preview(
+            self.photo,
+            params.fire(),
+            fluid_params=params.fluid(flame_preset().params),
+            size=_PREVIEW_SIZE,
+            matte=self.matte(),
+            seed=self.seed,
+        )
+        return clip.with_metadata(note=f"one keyframe at {_PREVIEW_SIZE} x {_PREVIEW_SIZE}")
+
     def _run(self, params, progress):
         from fluidnb import Progress
 
@@ -323,11 +292,6 @@ class FireApp(App):
 
 def _is_sample(photo):
     return isinstance(photo, str) and photo in SAMPLES
-
-
-def _photo_options(name):
-    """The photo menu: the samples, and "upload" while an uploaded photo is shown."""
-    return [*SAMPLES, *(["upload"] if name == "upload" else [])]
 
 
 def comparison_clip(result):

@@ -166,9 +166,10 @@ class FlickerApp(App):
     # ------------------------------------------------------------------ library calls
     def _preview(self, params):
         flow = self.flow(params)
-        return preview(
+        clip = preview(
             self.image, self.region(), params, flow=flow, size=self.preview_size, seed=self.seed
         )
+        return clip.with_metadata(smooth=True)  # a photo, enlarged: smoothed on screen
 
     def _run(self, params, progress):
         flow = self.flow(params)

@@ -9,7 +9,8 @@ import threading
 import ipywidgets as W
 import numpy as np
 
-from fluidnb import Progress, as_image, as_mask
+from fluidnb import Cancelled, Progress, as_image, as_mask
+from fluidnb.fields import resize
 from fluidnb.frost import (
     FrostParams,
     HexLattice,
@@ -34,11 +35,13 @@ GROUPS = (
 )
 
 # The live preview runs on a lattice at most this many points across the region, a
-# few hundred frames at most, drawn this small: cheap enough to follow a slider.
-_PREVIEW_CELLS = 36
-_PREVIEW_FRAMES = 600
-_PREVIEW_SIZE = 240
-_PREVIEW_CLIP_FRAMES = 24
+# few hundred frames at most, on the picture and region shrunk to this size (drawing
+# the ice at the photo's size took most of a preview's time), a few frames of it:
+# ~40 ms on a quiet core, cheap enough to follow a slider.
+_PREVIEW_CELLS = 28
+_PREVIEW_FRAMES = 400
+_PREVIEW_SIZE = 160
+_PREVIEW_CLIP_FRAMES = 10
 # A full run's clip plays every frame at the panel's fps (the clip lasts as long as
 # the frost grows). It is drawn smaller for long runs so it stays under this many
 # bytes (480 x 360 RGB float32 costs 2 MB a frame), down to _RUN_MIN_SIZE pixels;
@@ -156,6 +159,7 @@ class FrostApp(App):
         self._gamma_button.add_class("fluidnb-fit-gamma")
         self._gamma_button.on_click(lambda _: self.fit_gamma())
         self.estimate = None  #: The last EndFrameEstimate (full lattice), or None.
+        self._small_image = None  # (picture, scale) of the live preview
         self.gamma_fit = None  #: The last GammaFit.
         super().__init__(
             panel=panel,
@@ -214,27 +218,40 @@ class FrostApp(App):
         return lattice, lattice.snap(self.starts())
 
     # ------------------------------------------------------------------ library calls
+    def _small(self):
+        """(the picture shrunk to the preview's size, the scale factor), made once."""
+        if self._small_image is None:
+            f = min(1.0, _PREVIEW_SIZE / max(self.image.shape[:2]))
+            h, w = self.image.shape[:2]
+            shape = (max(8, round(h * f)), max(8, round(w * f)))
+            self._small_image = (resize(self.image, shape), shape[0] / h)
+        return self._small_image
+
     def _preview(self, params):
-        region = self.region()
+        region, starts = self.region(), self.starts()
+        self._show_length(params)
+        small, f = self._small()
+        region = resize(region.astype(np.float32), small.shape[:2]) > 0.5
+        if not region.any():
+            raise ValueError("region is too small for the preview: paint a larger one")
         rows, cols = np.nonzero(region)
         extent = max(rows.max() - rows.min(), cols.max() - cols.min()) + 1
-        spacing = max(params.spacing, extent / _PREVIEW_CELLS)
+        spacing = max(params.spacing * f, extent / _PREVIEW_CELLS)
         lattice = HexLattice.from_mask(region, spacing)
-        cells = lattice.snap(self.starts())
+        cells = lattice.snap(starts * f)
         coarse = params.replace(
             spacing=spacing,
             max_frames=min(params.max_frames, _PREVIEW_FRAMES),
             target=min(params.target, _PREVIEW_FRAMES),
         )
-        self._show_length(params)
         result = grow(lattice, cells, coarse, seed=self.seed)
         every = max(1, math.ceil(result.n_frames / _PREVIEW_CLIP_FRAMES))
-        size = min(_PREVIEW_SIZE, max(self.image.shape[:2]))
         # Played at a fixed 8 fps: the coarse lattice shows the pattern, not the timing.
-        clip = render(self.image, lattice, result, every=every, fps=8.0 * every, size=size)
+        clip = render(small, lattice, result, every=every, fps=8.0 * every)
         return clip.with_metadata(
             preview=True,
             preview_spacing=spacing,
+            smooth=True,
             note=f"a coarse lattice, {every * 8 / params.fps:.3g}× faster than the run",
         )
 
@@ -268,37 +285,74 @@ class FrostApp(App):
         return f"{ended}: {played}; done in {seconds:.1f} s"
 
     # ------------------------------------------------------------------ length
-    def _show_length(self, params):
-        """Say up front how long the run will take (mass balance) and what gamma fits."""
+    def _show_length(self, params, dry_run=None):
+        """Say up front how long the run will take (and how surely), and what gamma fits.
+
+        The likely end frame and the band 90 % of measured runs fell in
+        (:class:`fluidnb.frost.EndFrameEstimate`); once the values rest, the end
+        frame of the run itself (``dry_run``: the automaton without drawing, see
+        :meth:`warm`).
+        """
         try:
             lattice, cells = self._lattice(params.spacing)
             est = estimate_end_frame(lattice, cells, params)
-            gamma = est.gamma_for(params.target)
+            gamma = est.likely_gamma_for(params.target)
         except ValueError as exc:
             self.estimate = None
             self.length.value = f"<span style='color:#b00020'>{html.escape(str(exc))}</span>"
             return
         self.estimate = est
+        fps = params.fps
         if math.isinf(est.frames):
             text = "At these settings the frost never covers the region."
+            likely = math.inf
+        elif dry_run is not None:
+            likely = dry_run
+            text = (
+                f"Length: this run ends at frame <b>{dry_run:,}</b> ({dry_run / fps:,.1f} s at "
+                f"{fps:g} fps; the automaton run without drawing, seed {self.seed})"
+            )
         else:
-            seconds = est.likely / params.fps
+            likely = est.likely
             text = (
                 f"Length: at γ = {params.gamma:g} this region ends near frame "
-                f"<b>{est.likely:,.0f}</b> ({seconds:,.0f} s at {params.fps:g} fps; mass "
-                f"balance: at most {est.frames:,.0f}, {est.rings:.0f} rings of cells × "
-                f"{est.ring_frames:.0f} frames)"
+                f"<b>{est.likely:,.0f}</b> ({est.likely / fps:,.0f} s at {fps:g} fps; likely "
+                f"{est.low:,.0f}–{est.high:,.0f}: 90 % of measured runs; at most "
+                f"{est.frames:,.0f} by the mass balance); the exact frame follows when the "
+                "sliders rest"
             )
-            if est.likely > params.max_frames:
-                text += f", beyond the frame limit {params.max_frames}: a run would stop first"
+        if likely > params.max_frames and not math.isinf(likely):
+            text += f", beyond the frame limit {params.max_frames}: a run would stop first"
         if not math.isnan(gamma):
-            gamma *= est.likely / est.frames  # the likelier length, as gamma_for_target starts
-            long = est.likely > 1.5 * params.target
+            long = likely > 1.5 * params.target
             colour = "#b00020" if long else "inherit"
             text = f"<span style='color:{colour}'>{text}.</span> "
             text += f"γ ≈ {gamma:.3g} ends near the target {params.target}."
             self._gamma_button.description = f"Use γ for {params.target} frames (≈ {gamma:.3g})"
         self.length.value = text
+
+    def warm(self, params):
+        """While the values rest: the run's own end frame, by the automaton without drawing.
+
+        :func:`fluidnb.frost.grow` with the run's lattice, parameters and seed (the
+        run is the same, then drawn): the Length line says the exact frame. Stopped
+        by a newer value (a preview waits for it).
+        """
+        try:
+            lattice, cells = self._lattice(params.spacing)
+        except ValueError:
+            return
+
+        def stop(fraction, message):
+            if self._closed or self._previews.pending() or self.panel.params != params:
+                raise Cancelled
+
+        try:
+            result = grow(lattice, cells, params, seed=self.seed, progress=stop)
+        except (Cancelled, ValueError):
+            return
+        if result.end_frame is not None and self.panel.params == params:
+            self._show_length(params, dry_run=result.end_frame)
 
     def fit_gamma(self):
         """Set gamma so the run ends near the target (what the **Use γ** button does).

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import html
 import math
 import re
@@ -21,9 +22,14 @@ class ParamPanel(W.VBox):
 
     Sliders start at the paper's defaults, span the field's range (log scale where
     the field asks for it: sigma, lambda, rho), and carry a tooltip with the paper's
-    symbol and equation. Each label shows the field's name and the paper's symbol in
-    plain HTML (σ, r_th as r with a subscript): it reads the same in JupyterLab and in Voila with
-    no network for MathJax. :attr:`params` always holds a valid parameter object; an
+    symbol and equation. They offer only values the method accepts: their ends are
+    exact (no -5.55e-17 from float arithmetic); an integer whose accepted values
+    are not a run (powers of two, divisors of a grid) gets a slider over those
+    values alone; and the range of an integer that another field bounds
+    (``f0 < T / 2``, ``overlap < interval``) follows that field as it moves. Each
+    label shows the field's name and the paper's symbol in plain HTML (σ, r_th as r
+    with a subscript): it reads the same in JupyterLab and in Voila with no network
+    for MathJax. :attr:`params` always holds a valid parameter object; an
     invalid combination is shown in the panel (and :attr:`valid` turns False) instead
     of raising.
 
@@ -45,6 +51,10 @@ class ParamPanel(W.VBox):
         every field in one group.
     width : str
         CSS width of each control.
+    check : callable, optional
+        ``check(params)``, raising ValueError for settings the app refuses beyond the
+        parameter class's own rules (a patch size that must divide the app's grid,
+        say); the sliders offer only values it accepts (see :meth:`follow`).
 
     Examples
     --------
@@ -66,17 +76,38 @@ class ParamPanel(W.VBox):
     #: What is wrong with the controls, in plain words ("" when valid).
     message = Unicode("")
 
-    def __init__(self, params, *, exclude=(), continuous_update=True, groups=None, width="330px"):
+    def __init__(
+        self,
+        params,
+        *,
+        exclude=(),
+        continuous_update=True,
+        groups=None,
+        width="330px",
+        check=None,
+    ):
         if isinstance(params, type) and issubclass(params, Params):
             params = params()
         if not isinstance(params, Params):
             raise ValueError(f"params must be a fluidnb.Params class or object, got {params!r}")
         self._cls = type(params)
+        self._check = check
         self._specs = {n: s for n, s in self._cls.specs().items() if n not in set(exclude)}
         self.controls = {
             name: _control(spec, getattr(params, name), continuous_update, width)
             for name, spec in self._specs.items()
         }
+        # An integer whose accepted values around the default are not a run becomes a
+        # slider over those values alone (powers of two, divisors).
+        self._grids = {}  # name -> every value the slider's range offers
+        for name, control in list(self.controls.items()):
+            if isinstance(control, W.IntSlider):
+                grid = list(range(control.min, control.max + 1, control.step))
+                self._grids[name] = grid
+                if len(grid) <= _PROBE_ALL:
+                    ok = [v for v in grid if self._accepts(params, name, v)]
+                    if ok and ok != grid[grid.index(ok[0]) : grid.index(ok[-1]) + 1]:
+                        self.controls[name] = _selection(control, ok, params, name)
         #: The groups as shown: ``{title: [field names]}``, the first one open.
         self.groups = _groups(groups, list(self.controls))
         self._quiet = False
@@ -99,7 +130,12 @@ class ParamPanel(W.VBox):
             #: The folded groups (None when every control is in the first).
             self.accordion = W.Accordion(children=boxes[1:], titles=tuple(self.groups)[1:])
             self.accordion.selected_index = None
-            self.accordion.layout.width = f"calc({width} + 24px)"
+            # As wide as the panel (it stuck out by its padding and was cut off at the
+            # right edge of a page 1400 px wide): its controls are narrower instead.
+            self.accordion.layout.width = width
+            for names in list(self.groups.values())[1:]:
+                for n in names:
+                    self.controls[n].layout.width = f"calc({width} - 30px)"
             self.accordion.add_class("fluidnb-param-groups")
             folded = [self.accordion]
         else:
@@ -107,6 +143,81 @@ class ParamPanel(W.VBox):
         super().__init__([*boxes[:1], *folded, self._reset, self._msg])
         self.add_class("fluidnb-panel")
         self.params = params
+        self.follow()
+
+    # ------------------------------------------------------------------ ranges
+    def _accepts(self, params, name, value):
+        """Whether ``params`` with ``name`` = ``value`` is accepted (class and app)."""
+        try:
+            new = params.replace(**{name: value})
+            if self._check is not None:
+                self._check(new)
+        except ValueError:
+            return False
+        return True
+
+    def set_check(self, check):
+        """Replace the app's extra check (the app's grid changed, say), then :meth:`follow`."""
+        self._check = check
+        self.follow()
+
+    def follow(self):
+        """Narrow each integer slider to the values accepted with the others as they are.
+
+        A slider whose range runs into another field's bound (``T`` above ``2 f0``,
+        ``overlap`` below ``interval``) ends where that bound is; a slider over
+        chosen values offers those accepted now. The current value always stays.
+        """
+        params = self.params
+        if params is None or not self.valid:
+            return
+        self._quiet = True
+        try:
+            for name, grid in self._grids.items():
+                control = self.controls[name]
+                value = getattr(params, name)
+                if isinstance(control, W.SelectionSlider):
+                    ok = [v for v in grid if v == value or self._accepts(params, name, v)]
+                    if list(control.options) != ok:
+                        # (Not under hold_trait_notifications: it validates the value
+                        # against the old options.)
+                        control.options = ok
+                        control.value = value
+                    continue
+                if value not in grid:
+                    continue
+                i = grid.index(value)
+                accepts = functools.partial(self._accepts, params, name)
+                lo = _edge(grid, i, 0, accepts)
+                hi = _edge(grid, i, len(grid) - 1, accepts)
+                with control.hold_trait_notifications():
+                    if lo > control.max:
+                        control.max = hi
+                        control.min = lo
+                    else:
+                        control.min = lo
+                        control.max = hi
+        finally:
+            self._quiet = False
+
+    def toggle(self, name, button_width="64px"):
+        """A field's choices as toggle buttons to place elsewhere (its control hides).
+
+        The buttons and the panel's control stay bound: :attr:`params` follows either.
+        """
+        control = self.controls[name]
+        if not isinstance(control, W.Dropdown):
+            raise ValueError(f"{name} is not a choice; only choices become toggle buttons")
+        buttons = W.ToggleButtons(
+            options=list(control.options),
+            value=control.value,
+            tooltip=control.tooltip,
+            style={"button_width": button_width},
+            layout=W.Layout(width="auto"),
+        )
+        W.link((buttons, "value"), (control, "value"))
+        control.layout.display = "none"
+        return buttons
 
     def show_group(self, title):
         """Unfold the group ``title`` (as a click on its heading does)."""
@@ -142,6 +253,7 @@ class ParamPanel(W.VBox):
         self._msg.value = ""
         if new != self.params:
             self.params = new
+            self.follow()
         return True
 
     def set(self, name, value):
@@ -162,7 +274,20 @@ class ParamPanel(W.VBox):
             )
             self.message = str(exc)
             raise
-        self.controls[name].value = value
+        control = self.controls[name]
+        if name in self._grids and value in self._grids[name]:
+            # Beyond the values the other fields allow now: widen the slider (quietly),
+            # so the panel says why the value is refused.
+            self._quiet = True
+            try:
+                if isinstance(control, W.IntSlider):
+                    control.min, control.max = min(control.min, value), max(control.max, value)
+                elif isinstance(control, W.SelectionSlider) and value not in control.options:
+                    control.options = self._grids[name]
+                    control.value = getattr(self.params, name)
+            finally:
+                self._quiet = False
+        control.value = value
         if not self.valid:
             raise ValueError(self.message)
 
@@ -173,10 +298,18 @@ class ParamPanel(W.VBox):
         self._quiet = True
         try:
             for name, control in self.controls.items():
-                control.value = getattr(params, name)
+                value = getattr(params, name)
+                grid = self._grids.get(name)
+                if grid is not None and isinstance(control, W.IntSlider) and value in grid:
+                    # The ranges followed the old values: open them for the new ones.
+                    control.min, control.max = min(grid[0], value), max(grid[-1], value)
+                elif isinstance(control, W.SelectionSlider) and value not in control.options:
+                    control.options = self._grids[name]
+                control.value = value
         finally:
             self._quiet = False
         self._apply(params.to_dict())
+        self.follow()
 
     def reset(self):
         """Back to the paper's defaults."""
@@ -297,7 +430,60 @@ def _on_grid(default, lo, hi, step):
     """
     below = math.floor((default - lo) / step + 1e-9)
     above = math.floor((hi - default) / step + 1e-9)
-    return default - below * step, default + above * step
+    return _exact(default - below * step, lo, step), _exact(default + above * step, hi, step)
+
+
+def _exact(end, bound, step):
+    """A slider end as the user reads it: ``bound`` itself when the grid lands on it.
+
+    Float arithmetic put beta's 0 at -5.55e-17, which the method refuses; an end off
+    the bound is rounded to the step's decimals.
+    """
+    if abs(end - bound) <= 1e-9 * max(abs(step), 1e-12):
+        return type(end)(bound) if isinstance(end, int) else float(bound)
+    if isinstance(end, int):
+        return end
+    digits = max(0, 12 - int(math.floor(math.log10(abs(step))))) if step else 12
+    return round(end, min(digits, 15))
+
+
+#: Integer sliders with at most this many values are probed value by value (to find
+#: non-run sets of accepted values); longer ones only at the ends of their run.
+_PROBE_ALL = 64
+
+
+def _selection(slider, options, params, name):
+    """A slider over ``options`` alone, with ``slider``'s label, tooltip and width."""
+    control = W.SelectionSlider(
+        options=options,
+        value=getattr(params, name),
+        description=slider.description,
+        description_allow_html=True,
+        tooltip=slider.tooltip,
+        style={"description_width": slider.style.description_width},
+        layout=W.Layout(width=slider.layout.width),
+        continuous_update=slider.continuous_update,
+    )
+    slider.close()
+    return control
+
+
+def _edge(grid, i, end, ok):
+    """The farthest index from ``i`` towards ``end`` whose value ``ok`` accepts.
+
+    The accepted values around ``grid[i]`` (accepted) are taken to be a run: a
+    bisection finds where it ends, so a long slider costs a few probes.
+    """
+    if ok(grid[end]):
+        return grid[end]
+    good, bad = i, end  # grid[good] accepted, grid[bad] refused
+    while abs(bad - good) > 1:
+        mid = (good + bad) // 2
+        if ok(grid[mid]):
+            good = mid
+        else:
+            bad = mid
+    return grid[good]
 
 
 def _nice_step(span):

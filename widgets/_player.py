@@ -3,26 +3,160 @@
 from __future__ import annotations
 
 import html
+import threading
 import time
 from pathlib import Path
 
+import anywidget
 import ipywidgets as W
-from traitlets import Any, Int, Unicode, observe
+from traitlets import Any, Bool, Float, Int, Unicode, link, observe
 
 from fluidnb import Clip
 
-from ._canvas import STYLE
 from ._common import jpeg, output_dir, shown_path
 
 __all__ = ["FramePlayer"]
 
+_HERE = Path(__file__).resolve().parent
+# Frames per message: the first alone (on screen at once), then batches of about this
+# many bytes (one message of a whole clip would hold every frame until the last).
+_BATCH_BYTES = 1 << 20
+
+
+class _PlayerView(anywidget.AnyWidget):
+    """The player's front end (``_player.js``): the clip's frames drawn in the browser.
+
+    The kernel sends each clip's frames once (:class:`_Sender`); playing, scrubbing and
+    looping run in the page at :attr:`fps`, with no message per frame.
+    """
+
+    _esm = (_HERE / "_player.js").read_text(encoding="utf-8")
+    _css = (_HERE / "_player.css").read_text(encoding="utf-8")
+    #: Which clip the front end shows (a new number for each clip; 0: none).
+    clip_id = Int(0).tag(sync=True)
+    n_frames = Int(0).tag(sync=True)  #: The clip's length.
+    ready = Int(0).tag(sync=True)  #: Frames made so far (all but while streaming).
+    width = Int(0).tag(sync=True)  #: The clip's picture size.
+    height = Int(0).tag(sync=True)  #: see :attr:`width`
+    display_width = Int(384).tag(sync=True)  #: Width on screen, CSS pixels.
+    slider_width = Unicode("").tag(sync=True)  #: CSS width of the frame slider.
+    fps = Float(8.0).tag(sync=True)  #: Playback rate.
+    playing = Bool(False).tag(sync=True)  #: Whether the page plays the clip.
+    loop = Bool(True).tag(sync=True)  #: Play over and over.
+    frame = Int(0).tag(sync=True)  #: The frame shown while paused (the page's while playing).
+    #: Players of one group show the same frame (the one playing leads).
+    group = Unicode("").tag(sync=True)
+    #: Draw an enlarged clip smoothly (photos) rather than pixelated (simulation grids).
+    smooth = Bool(False).tag(sync=True)
+
+
+class _Sender:
+    """Encodes a clip's frames to JPEG once and sends them to the page, in order.
+
+    A thread of its own, so that setting a clip (or streaming one) returns at once;
+    a new clip drops what is left of the old one. The page asks (``want``) for what
+    it misses after a reload.
+    """
+
+    def __init__(self, view):
+        self.view = view
+        self._cond = threading.Condition()
+        self.clip = None
+        self.clip_id = 0
+        self.ready = 0
+        self.encoded = {}  # frame index -> JPEG bytes, of the current clip
+        self._sent = 0
+        self._wants = []
+        self._closed = False
+        self._thread = None
+
+    def set(self, clip, clip_id, ready, encoded=None):
+        with self._cond:
+            self.clip, self.clip_id, self.ready = clip, clip_id, ready
+            self.encoded = {} if encoded is None else encoded
+            self._sent = 0
+            self._wants = []
+            self._start()
+
+    def more(self, ready):
+        with self._cond:
+            self.ready = max(self.ready, ready)
+            self._cond.notify_all()
+
+    def want(self, clip_id, have):
+        with self._cond:
+            if clip_id == self.clip_id:
+                self._wants.append(max(0, int(have)))
+                self._start()
+
+    def encode(self, i, clip=None):
+        """Frame ``i``'s JPEG of the current clip (or of ``clip``), encoded once."""
+        with self._cond:
+            clip = self.clip if clip is None else clip
+            encoded = self.encoded
+            if clip is self.clip and i in encoded:
+                return encoded[i]
+        data = jpeg(clip.frames[i])
+        with self._cond:
+            # The first one made is kept (the thread and a caller may both have made it).
+            return encoded.setdefault(i, data) if clip is self.clip else data
+
+    def close(self):
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+
+    def _start(self):
+        self._cond.notify_all()
+        if self._thread is None:
+            self._thread = threading.Thread(target=self._loop, name="fluidnb-player", daemon=True)
+            self._thread.start()
+
+    def _loop(self):
+        while True:
+            with self._cond:
+                while not self._closed and not self._wants and self._sent >= self.ready:
+                    self._cond.wait()
+                if self._closed:
+                    return
+                clip, cid, ready = self.clip, self.clip_id, self.ready
+                wants, self._wants = self._wants, []
+                start = self._sent
+            if clip is None:
+                continue
+            for have in wants:  # a page that missed frames: resend those encoded
+                self._send(cid, have, [self.encoded[i] for i in range(have, start)])
+            batch, size, i = [], 0, start
+            while i < ready and (not batch or (size < _BATCH_BYTES and start > 0)):
+                if clip is not self.clip:
+                    break  # a new clip: its frames come next
+                data = self.encode(i, clip)
+                batch.append(data)
+                size += len(data)
+                i += 1
+            with self._cond:
+                if cid != self.clip_id:
+                    continue  # a new clip came meanwhile
+                self._sent = i
+            if batch:
+                self._send(cid, start, batch)
+
+    def _send(self, cid, start, frames):
+        for k in range(0, len(frames), 16):
+            part = frames[k : k + 16]
+            if part:
+                self.view.send(
+                    {"type": "frames", "clip": cid, "start": start + k, "mime": "image/jpeg"},
+                    buffers=part,
+                )
+
 
 class FramePlayer(W.VBox):
-    """Play a clip inline, frame by frame, and export it as GIF or MP4.
+    """Play a clip inline at its fps, in the browser, and export it as GIF or MP4.
 
-    Each frame is encoded to JPEG the first time it is shown and kept, so playing
-    and scrubbing never re-encode the clip. The Play widget runs in the browser and
-    only asks the kernel for the frame to show.
+    The frames are encoded to JPEG once and sent to the page once; the page plays,
+    scrubs and loops them itself (the kernel only swaps the clip), so playback keeps
+    the clip's fps however busy the kernel is.
 
     Parameters
     ----------
@@ -38,6 +172,9 @@ class FramePlayer(W.VBox):
         The export files' name when the clip's metadata names no method.
     slider_width : str, optional
         CSS width of the frame slider (shorter ones let players sit side by side).
+    group : str, optional
+        Players of one group show the same frame in the page (the one playing leads):
+        two views of one simulation, say.
 
     Examples
     --------
@@ -51,42 +188,35 @@ class FramePlayer(W.VBox):
 
     #: The clip being played (a fluidnb.Clip or None).
     clip = Any(None, allow_none=True)
-    #: Index of the frame on screen.
+    #: Index of the frame on screen while paused (the page knows it while playing).
     frame = Int(0)
     #: Where the last export was written ("" before one, and again when the clip changes).
     exported = Unicode("")
 
     def __init__(
-        self, clip=None, *, display_width=384, export_dir=None, label="clip", slider_width=None
+        self,
+        clip=None,
+        *,
+        display_width=384,
+        export_dir=None,
+        label="clip",
+        slider_width=None,
+        group="",
     ):
-        self.display_width = int(display_width)
+        self._display_width = int(display_width)
         self.export_dir = None if export_dir is None else Path(export_dir)
         self.label = label
-        self._encoded = {}
         self._ready = 0  # frames of the clip that are made (all but while streaming)
         self._streaming = None  # the clip being streamed (stream), until it is set
-        self.image = W.Image(format="jpeg", layout=W.Layout(width=f"{self.display_width}px"))
-        self.image.add_class("fluidnb-frame")
-        self._play = W.Play(interval=125, step=1, repeat=True, show_repeat=True)
-        self._play.add_class("fluidnb-play")
-        self._slider = W.IntSlider(description="frame", readout=True, continuous_update=True)
-        # As wide as the picture with the play buttons: the player stays a column of
-        # the picture's width (apps put it beside the canvas).
-        self._slider.layout.width = slider_width or f"{max(self.display_width - 175, 160)}px"
-        self._slider.style.description_width = "40px"
-        self._slider.add_class("fluidnb-frame-slider")
-        # The slider follows Play in the browser (jslink): no kernel round trip per tick.
-        W.jslink((self._play, "value"), (self._slider, "value"))
-        self._fps = W.BoundedFloatText(
-            value=8.0,
-            min=0.5,
-            max=60,
-            step=0.5,
-            description="fps",
-            style={"description_width": "30px"},
-            layout=W.Layout(width="120px"),
+        self._clips = 0
+        #: The part the page runs: the picture, play/pause, frame slider, loop, fps.
+        self.view = _PlayerView(
+            display_width=self.display_width, slider_width=slider_width or "", group=group
         )
-        self._fps.add_class("fluidnb-fps")
+        self.view.add_class("fluidnb-player-canvas")
+        self.view.on_msg(self._message)
+        self._sender = _Sender(self.view)
+        link((self.view, "frame"), (self, "frame"))
         self._gif = W.Button(description="GIF", icon="download", layout=W.Layout(width="80px"))
         self._mp4 = W.Button(description="MP4", icon="download", layout=W.Layout(width="80px"))
         self._gif.add_class("fluidnb-export-gif")
@@ -94,19 +224,28 @@ class FramePlayer(W.VBox):
         self.link = W.HTML()
         self.link.add_class("fluidnb-export-link")
         self.info = W.HTML()
-        self._slider.observe(lambda c: setattr(self, "frame", c["new"]), "value")
-        self._fps.observe(self._fps_changed, "value")
+        self.info.add_class("fluidnb-player-info")
         self._gif.on_click(lambda _: self.export("gif"))
         self._mp4.on_click(lambda _: self.export("mp4"))
         wrap = W.Layout(flex_flow="row wrap", align_items="center")
-        controls = W.HBox([self._play, self._slider], layout=wrap)
-        exports = W.HBox([self._gif, self._mp4, self._fps, self.link], layout=wrap)
-        super().__init__([STYLE, self.image, controls, self.info, exports])
-        self.layout.max_width = f"{max(self.display_width, 300)}px"
+        exports = W.HBox([self._gif, self._mp4, self.link], layout=wrap)
+        super().__init__([self.view, self.info, exports])
+        self.display_width = self._display_width
         self.add_class("fluidnb-player")
         self.clip = clip
         if clip is None:  # no change event for the default: set the empty state now
             self._clip_changed({"new": None})
+
+    @property
+    def display_width(self):
+        """Width of the picture on screen, CSS pixels (an app sets it to a clip's own width)."""
+        return self._display_width
+
+    @display_width.setter
+    def display_width(self, width):
+        self._display_width = int(width)
+        self.view.display_width = self._display_width
+        self.layout.max_width = f"{max(self._display_width, 300)}px"
 
     @observe("clip")
     def _clip_changed(self, change):
@@ -116,11 +255,13 @@ class FramePlayer(W.VBox):
         if _same_pictures(old, clip):
             self._streaming = None
             # The finished clip of a stream (the same frames, now with their metadata):
-            # keep the encoded frames and whatever is playing.
+            # keep the frames sent and whatever is playing.
             self._ready = len(clip)
+            with self._sender._cond:
+                self._sender.clip = clip
             self._show_state(clip)
+            self._sender.more(self._ready)
             return
-        self._encoded = {}
         streamed = clip is not None and clip is self._streaming
         if not streamed:
             self._streaming = None
@@ -128,50 +269,48 @@ class FramePlayer(W.VBox):
         # An export link belongs to the clip it was written from.
         self.link.value = ""
         self.exported = ""
-        with self.hold_sync():
-            self._play.playing = False
+        self._clips += clip is not None
+        with self.view.hold_sync():
             if clip is not None:
-                self._fps.value = min(max(float(clip.fps), 0.5), 60)
-            self._show_state(clip)
-        if clip is None:
-            return
-        self.frame = min(self.frame, self._ready - 1)
-        self._show(self.frame)
+                h, w = clip.shape
+                self.view.fps = min(max(float(clip.fps), 0.5), 60)
+                self.view.width, self.view.height = w, h
+                self.view.smooth = bool(clip.metadata.get("smooth", False))
+                self.frame = min(self.frame, max(self._ready - 1, 0))
+            else:
+                self.view.playing = False
+                self.frame = 0
+            self.view.n_frames = 0 if clip is None else len(clip)
+            self.view.ready = self._ready
+            self.view.clip_id = self._clips if clip is not None else 0
+        self._sender.set(clip, self.view.clip_id, self._ready)
+        self._show_state(clip)
 
     def _show_state(self, clip):
-        """Slider range, buttons, size and the info line for ``clip`` (``_ready`` frames made)."""
+        """Buttons, the page's frame count and the info line for ``clip``."""
         n, ready = (0, 0) if clip is None else (len(clip), self._ready)
-        with self.hold_sync():
-            self._play.max = max(ready - 1, 0)
-            self._slider.max = max(ready - 1, 0)
-            for b in (self._play, self._slider):
-                b.disabled = clip is None
-            for b in (self._gif, self._mp4):  # a clip still being made is not exported
-                b.disabled = clip is None or ready < n
+        self.view.ready = ready
+        for b in (self._gif, self._mp4):  # a clip still being made is not exported
+            b.disabled = clip is None or ready < n
         if clip is None:
             self.info.value = "<i>no clip yet</i>"
-            self.image.value = b""
-            # An empty image shows as a broken-image icon: hide it until there is a clip.
-            self.image.layout.display = "none"
             return
         h, w = clip.shape
-        self.image.layout.display = None
-        self.image.layout.width = f"{self.display_width}px"
-        # Tiny grids are enlarged by the browser; keep their cells crisp.
-        self.image.layout.object_fit = "contain"
         count = f"{n} frames" if ready == n else f"{ready} of {n} frames so far"
         parts = [count, f"{w}x{h}", f"{clip.fps:g} fps"]
         if clip.metadata.get("method"):
             parts.append(html.escape(str(clip.metadata["method"])))
-        self.info.value = f"<span style='opacity:0.75'>{', '.join(parts)}</span>"
+        caption = clip.metadata.get("caption")
+        text = html.escape(str(caption)) if caption else ", ".join(parts)
+        self.info.value = f"<span style='opacity:0.75'>{text}</span>"
 
     def stream(self, clip, ready):
         """Show a clip that is still being made: its first ``ready`` frames are final.
 
-        Play and the frame slider run over those frames; each later call with the
-        same clip (more frames made) widens them without stopping playback, and
-        setting :attr:`clip` to the finished clip (the same frames) keeps the frames
-        already encoded and keeps playing. A new clip keeps the player playing if it
+        The page plays those frames and waits for the next; each later call with the
+        same clip (more frames made) sends the new ones without stopping playback,
+        and setting :attr:`clip` to the finished clip (the same frames) keeps the
+        frames sent and keeps playing. A new clip keeps the player playing if it
         was. GIF and MP4 wait for the whole clip.
 
         Parameters
@@ -186,35 +325,26 @@ class FramePlayer(W.VBox):
         if not 1 <= int(ready) <= len(clip):
             raise ValueError(f"ready must be in [1, {len(clip)}], got {ready}")
         if clip is not self.clip:
-            playing = self.playing
             self._ready = int(ready)
             self._streaming = clip
-            self.clip = clip  # shows its first frames (and stops playing)
-            if playing:
-                self.play(True)
+            self.clip = clip
             return
         self._ready = max(self._ready, int(ready))
         self._show_state(clip)
+        self._sender.more(self._ready)
 
-    @observe("frame")
-    def _frame_changed(self, change):
-        if self.clip is not None:
-            self._show(change["new"])
-
-    def _fps_changed(self, change):
-        self._play.interval = max(int(round(1000.0 / change["new"])), 10)
+    def _message(self, _view, content, _buffers):
+        if isinstance(content, dict) and content.get("type") == "want":
+            self._sender.want(int(content.get("clip", -1)), int(content.get("have", 0)))
 
     def _encode(self, i):
-        data = self._encoded.get(i)
-        if data is None:
-            data = self._encoded[i] = jpeg(self.clip.frames[i])
-        return data
+        """Frame ``i`` of the clip as the JPEG bytes the page gets (encoded once)."""
+        return self._sender.encode(i)
 
-    def _show(self, i):
-        i = int(min(max(i, 0), self._ready - 1))
-        self.image.value = self._encode(i)
-        if self._slider.value != i:
-            self._slider.value = i
+    @property
+    def _encoded(self):
+        """The JPEG frames encoded so far, by index (the page got or gets them)."""
+        return dict(self._sender.encoded)
 
     def show(self, i):
         """Show frame ``i`` (as the slider does)."""
@@ -228,20 +358,38 @@ class FramePlayer(W.VBox):
     @property
     def fps(self):
         """Playback rate (frames per second)."""
-        return self._fps.value
+        return self.view.fps
 
     @fps.setter
     def fps(self, value):
-        self._fps.value = value
+        self.view.fps = min(max(float(value), 0.5), 60)
+
+    @property
+    def loop(self):
+        """Whether the clip plays over and over."""
+        return self.view.loop
+
+    @loop.setter
+    def loop(self, on):
+        self.view.loop = bool(on)
 
     @property
     def playing(self):
-        """Whether the browser is playing the clip."""
-        return self._play.playing
+        """Whether the page is playing the clip."""
+        return self.view.playing
 
     def play(self, on=True):
         """Start (or stop) playing in the browser."""
-        self._play.playing = bool(on)
+        self.view.playing = bool(on) and self.clip is not None
+
+    def close(self):
+        """Stop the sender and close the widgets."""
+        sender = getattr(self, "_sender", None)
+        if sender is not None:
+            sender.close()
+        if hasattr(self, "view"):
+            self.view.close()
+        super().close()
 
     def export(self, fmt="gif"):
         """Write the clip as ``fmt`` ("gif" or "mp4") into :attr:`export_dir`.

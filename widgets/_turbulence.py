@@ -127,10 +127,10 @@ class TurbulenceApp(App):
         self._table_note = ""
         self._latest = None  # label of the row updated last
         self._flows_cache = {}  # (size, frames) -> (target, source)
-        self._prep_cache = None  # (key, Prepared)
+        self._prep_cache = {}  # "run" / "preview" -> (key, Prepared, target, source)
+        self._preview_pair = None  # (key, one frame of the target, of the source)
         self._check_error = ""  # what the live check of the settings found
 
-        panel = ParamPanel(TurbulenceParams, groups=GROUPS)
         self._size = W.Dropdown(
             options=[(label, key) for key, label in sizes.items()],
             value=size,
@@ -138,6 +138,9 @@ class TurbulenceApp(App):
             style={"description_width": "50px"},
             layout=W.Layout(width="260px"),
         )
+        # The sliders offer only settings these grids accept (B divides the source
+        # grid, b > B dX/dx...): the library's own check, as a Run would do it.
+        panel = ParamPanel(TurbulenceParams, groups=GROUPS, check=self._grid_check)
         self._frames = W.BoundedIntText(
             value=self._default_frames(size) if n_frames is None else n_frames,
             min=2,
@@ -155,19 +158,25 @@ class TurbulenceApp(App):
         self.table = W.HTML()
         # Two players side by side (a shorter frame slider each, to fit a laptop's
         # page), the vorticity following the dye's frame.
+        # The vorticity shows the dye's frame: one group in the page while they play,
+        # and the paused frame and play/pause linked here.
+        group = f"fluidnb-turbulence-{id(self):x}"
         dye = FramePlayer(
             display_width=display_width,
             export_dir=export_dir,
             label="turbulence",
             slider_width="200px",
+            group=group,
         )
         self.vorticity = FramePlayer(
             display_width=display_width,
             export_dir=export_dir,
             label="vorticity",
             slider_width="200px",
+            group=group,
         )
         W.link((dye, "frame"), (self.vorticity, "frame"))
+        W.link((dye.view, "playing"), (self.vorticity.view, "playing"))
         for wid, cls in [
             (self._size, "fluidnb-size"),
             (self._frames, "fluidnb-frames"),
@@ -178,7 +187,7 @@ class TurbulenceApp(App):
         ]:
             wid.add_class(cls)
         self._size.observe(self._size_changed, "value")
-        self._frames.observe(lambda _: self._check_settings(), "value")
+        self._frames.observe(lambda _: self._flows_changed(), "value")
         self._compare_button.on_click(lambda _: self.start_compare())
         note = hint(
             "Run synthesises with the chosen search and adds its row to the table; errors "
@@ -197,6 +206,7 @@ class TurbulenceApp(App):
         super().__init__(
             panel=panel,
             run=self._run_task,
+            preview=self._preview,
             title="Example-based turbulence with adaptive search — Watanabe et al.",
             inputs=[row(self._size, self._frames)],
             controls=[self._compare_button, note],
@@ -208,6 +218,10 @@ class TurbulenceApp(App):
             player=dye,
         )
         self.add_class("fluidnb-turbulence")
+        # The preview (one frame's vorticity) goes to the vorticity player.
+        self.player.remove_class("fluidnb-preview-player")
+        self.preview_player = self.vorticity
+        self.vorticity.add_class("fluidnb-preview-player")
         panel.observe(lambda _: self._check_settings(), "params")
         self._render_table()
         self._check_settings()
@@ -227,7 +241,12 @@ class TurbulenceApp(App):
         with self.hold_trait_notifications():
             self._frames.max = self._max_frames(size)
             self._frames.value = min(self._default_frames(size), self._frames.max)
+        self._flows_changed()
+
+    def _flows_changed(self):
+        self.panel.follow()  # the sliders offer what this size's grids accept
         self._check_settings()
+        self.request_preview()
 
     def flows(self, size=None, n_frames=None, progress=None):
         """The (target, source) pair a run uses (the sample pair is simulated once, cached)."""
@@ -251,6 +270,11 @@ class TurbulenceApp(App):
         th, tw = (s // scale for s in PAPER_SHAPES["target"])
         sh, sw = (s // scale for s in PAPER_SHAPES["source"])
         return (th, tw), (sh, sw), sw / tw
+
+    def _grid_check(self, params):
+        """Raise the library's ValueError for settings this size's grids refuse."""
+        target_shape, source_shape, ratio = self._grids(self._size.value)
+        check_settings(params, target_shape, source_shape, ratio=ratio)
 
     def check(self, params=None, size=None):
         """What is wrong with these settings for this size's grids ("" when nothing).
@@ -312,13 +336,50 @@ class TurbulenceApp(App):
             busy=(self._compare_button,),
         )
 
-    def _prepared(self, target, source, params):
+    def _prepared(self, target, source, params, slot="run"):
         """The preparation for these flows and (B, b, alpha, D_th), reused across runs."""
         key = (id(target), id(source), params.B, params.b, params.alpha, params.D_th)
-        if self._prep_cache is None or self._prep_cache[0] != key:
-            self._prep_cache = None  # free the old one first
-            self._prep_cache = (key, prepare(target, source, params), target, source)
-        return self._prep_cache[1]
+        kept = self._prep_cache.get(slot)
+        if kept is None or kept[0] != key:
+            self._prep_cache.pop(slot, None)  # free the old one first
+            kept = self._prep_cache[slot] = (key, prepare(target, source, params), target, source)
+        return kept[1]
+
+    def _preview(self, params):
+        """The last frame alone, synthesised without its history: the three vorticities.
+
+        What the sliders change, in ~50 ms (the clip and the table's row come when
+        they rest).
+        """
+        problem = self.check(params)
+        if problem:
+            raise ValueError(problem)
+        size, n = self._size.value, int(self._frames.value)
+        target, source = self.flows(size, n)
+        key = (id(target), id(source), n - 1)
+        if self._preview_pair is None or self._preview_pair[0] != key:
+            self._preview_pair = (key, target.frames(n - 1, n), source.frames(n - 1, n))
+        _, one_target, one_source = self._preview_pair
+        prep = self._prepared(one_target, one_source, params, slot="preview")
+        result = synthesize(one_target, one_source, params, prepared=prep)
+        top = float(np.percentile(np.abs(vorticity(result.velocity)), 99)) or 1.0
+        maps = [vorticity_clip(v, fps=12, vmax=top) for v in (prep.U_t, prep.U_s, result.velocity)]
+        meta = {"method": "turbulence", "preview": True, "what": "vorticity"}
+        return side_by_side(maps, meta).with_metadata(
+            note=f"vorticity of frame {n - 1} alone (target | source | synthesised)",
+            caption="preview: the last frame's vorticity — target | source | synthesised",
+        )
+
+    def rest_task(self):
+        """The run (its clip and its table row) once the sliders rest."""
+        if self.check():
+            return None
+        size, n = self._size.value, int(self._frames.value)
+        return (
+            (lambda p, progress: self._run_task(p, progress, size, n)),
+            self._ran,
+            "synthesising…",
+        )
 
     def _run_task(self, params, progress, size=None, n_frames=None):
         load, work, show = Progress(progress).split(0.1, 0.85)
@@ -359,11 +420,6 @@ class TurbulenceApp(App):
         self.rows = {}
         self._add_rows(rows, self._settings_key(params, size, n_frames))
         return clip
-
-    def _show_clip(self, clip, seconds):
-        text = super()._show_clip(clip, seconds)
-        self.player.show(len(clip) - 1)  # the plume grown, not its first puff
-        return text
 
     def _ran(self, clip, seconds):
         self._show_clip(clip, seconds)
@@ -428,7 +484,7 @@ class TurbulenceApp(App):
 
     def close(self):
         """Stop the workers, close the widgets and drop the flows held in memory."""
-        self._flows_cache, self._prep_cache = {}, None
+        self._flows_cache, self._prep_cache, self._preview_pair = {}, {}, None
         if hasattr(self, "vorticity"):  # not if the arguments were refused
             self.vorticity.close()
         super().close()

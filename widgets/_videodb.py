@@ -10,55 +10,39 @@ came back.
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
-import html
-import io
-import os
-import threading
 import time
-import traceback
 
 import ipywidgets as W
 import numpy as np
-from ipycanvas import MultiCanvas, hold_canvas
-from PIL import Image
 from traitlets import Any, Int
 
-from fluidnb import Cancelled, Progress, as_image, to_uint8
-from fluidnb.fields import resize
+from fluidnb import Cancelled, Clip, Progress
 from fluidnb.sketch import (
     direction_field,
-    load_strokes,
     quiver_segments,
-    save_strokes,
-    segment_heads,
 )
 from fluidnb.videodb import (
     FRAGMENT,
     STARTER_KINDS,
-    STRIDE,
     AnimateParams,
-    VideoDatabase,
     assign,
-    clip_colour,
-    clip_map_picture,
-    motion_arrows,
-    open_database,
     prefetch,
     prefetch_preview,
     preview_frame,
     render,
-    starter_database,
-    starter_params,
-    starter_path,
+    suggest_kind,
 )
 
-from ._app import App, LatestWins, _in_kernel, _quick_mode
+from ._app import App, _quick_mode
 from ._canvas import DrawingCanvas
-from ._common import Choice, hint, jpeg, output_dir, plural, row, shown_path
+from ._common import hint, plural, row
 from ._panel import ParamPanel
+from ._photo import PhotoInput, load_photo
 from ._player import FramePlayer
+from ._strokes_file import StrokesFile
+from ._videodb_database import DatabaseChoice
+from ._videodb_views import MAP_WIDTH, AssignmentMap, energy_html, stats_html
 
 __all__ = ["SPEED_MAX", "VideoDBApp"]
 
@@ -86,182 +70,11 @@ _RETRIEVAL_FIELDS = ("candidates", "max_angle", "max_speed_ratio")
 _RENDER_FIELDS = ("shutter", "denoise", "cell", "tau", "loop", "rendering", "travel", "detail")
 
 _QUIVER = "rgba(255, 214, 10, 0.95)"
-_MAP_WIDTH = 300  # the assignment map's width on screen, as the player's picture
-_TILE = 60  # pixels per tile of the fragment view
 # Live previews: one frame, FACTOR times smaller than the photo; their cache of
 # difference frames is dropped beyond this many fragments (~9 KB each).
 _PREVIEW_FACTOR = 2
 _PREVIEW_LEVELS = 1  # a plain weighted blend: a quarter faster, no seam shows at half size
 _PREVIEW_CACHE = 4096
-
-
-def _kernel_loop():
-    """The kernel's running event loop, or None outside a kernel (scripts, tests).
-
-    Only a kernel's loop serves callbacks while a worker thread waits on it: in a
-    plain process another library may leave a loop "running" in the main thread
-    that never runs what is queued on it (Playwright's sync API does).
-    """
-    if not _in_kernel():
-        return None
-    try:
-        return asyncio.get_running_loop()
-    except RuntimeError:
-        return None
-
-
-class _AssignmentMap(W.VBox):
-    """Which source clip each target fragment came from; a click shows that fragment.
-
-    Drawn by the library's rule for pictures of an assignment
-    (:func:`fluidnb.videodb.clip_map_picture`, :func:`fluidnb.videodb.motion_arrows`),
-    the one the lesson's figures use.
-    """
-
-    def __init__(self, width=_MAP_WIDTH):
-        self.width = int(width)
-        self.photo = None
-        self.assignment = None
-        self.selected = None  #: index of the picked target fragment, or None
-        self.on_pick = None  #: called with the picked index
-        self.canvas = MultiCanvas(2, width=self.width, height=int(0.75 * self.width))
-        self.canvas.layout.width = "100%"
-        self.canvas.layout.max_width = f"{self.width}px"
-        self.canvas.layout.height = "auto"
-        self.canvas.add_class("fluidnb-vdb-map")
-        self.canvas.on_mouse_down(self._clicked)
-        # Voila drops drawing sent while the notebook runs: redraw for every new view.
-        self.canvas.on_client_ready(self.redraw)
-        self.legend = W.HTML()
-        self.legend.add_class("fluidnb-vdb-legend")
-        self.caption = W.HTML(layout=W.Layout(max_width=f"{self.width}px"))
-        self.caption.add_class("fluidnb-vdb-fragment")
-        self.strip = W.Image(format="png", layout=W.Layout(display="none"))
-        self.strip.add_class("fluidnb-vdb-fragment-frames")
-        super().__init__([self.canvas, self.legend, self.caption, self.strip])
-        self.add_class("fluidnb-vdb-mapbox")
-
-    @property
-    def scale(self):
-        """Canvas pixels per image pixel."""
-        return self.canvas.width / self.photo.shape[1]
-
-    def set_photo(self, photo):
-        self.photo = photo
-        self.assignment = None
-        self.selected = None
-        h, w = photo.shape[:2]
-        self.canvas.width = self.width
-        self.canvas.height = ch = max(1, round(h * self.width / w))
-        # The photo at the canvas's size once (each re-solve only re-tints it), and the
-        # image pixel under each canvas pixel, as clip_map_picture samples the clips.
-        self._shown = resize(photo, (ch, self.width))
-        self._rows = np.minimum((np.arange(ch) * h / ch).astype(int), h - 1)
-        self._cols = np.minimum((np.arange(self.width) * w / self.width).astype(int), w - 1)
-        self.strip.layout.display = "none"
-        self.caption.value = ""
-        self.legend.value = (
-            "<span style='opacity:0.7'>Press Run: each fragment is coloured by the "
-            "source clip it came from; click one to see it.</span>"
-        )
-        self.redraw()
-
-    def set_assignment(self, assignment):
-        self.assignment = assignment
-        if self.selected is not None and self.selected >= len(assignment.target):
-            self.selected = None
-        self.legend.value = self._legend()
-        self.redraw()
-        if self.selected is not None and self.on_pick is not None:
-            self.on_pick(self.selected)
-
-    # ------------------------------------------------------------------ drawing
-    def picture(self):
-        """The map as RGB uint8 at canvas size: the photo tinted by source clip."""
-        a = self.assignment
-        clips = None if a is None else a.clip_map()[self._rows][:, self._cols]
-        return to_uint8(clip_map_picture(self._shown, clips))
-
-    def redraw(self, *_):
-        if self.photo is None:
-            return
-        with hold_canvas():
-            self.canvas[0].put_image_data(self.picture(), 0, 0)
-            self._draw_marks()
-
-    def _draw_marks(self):
-        layer = self.canvas[1]
-        layer.clear()
-        a = self.assignment
-        if a is None:
-            return
-        s = self.scale
-        pos = a.target.positions.astype(float)
-        # Cell outlines (each fragment owns the 24 x 24 cell at its centre), and the
-        # arrows with their heads, each in one batched command: a re-solve redraws
-        # them while a slider moves.
-        layer.stroke_style = "rgba(0, 0, 0, 0.35)"
-        layer.line_width = 1
-        corner = (pos[:, ::-1] + STRIDE / 2) * s  # (x, y)
-        layer.stroke_rects(corner[:, 0], corner[:, 1], STRIDE * s, STRIDE * s)
-        arrows = (self.motion_segments()[..., ::-1] + 0.5) * s  # (row, col) -> (x, y)
-        if len(arrows):
-            lines = np.concatenate([arrows, segment_heads(arrows, size=3.5)])
-            layer.stroke_style = "rgba(255, 255, 255, 0.95)"
-            layer.line_width = 1.5
-            layer.stroke_line_segments(lines.reshape(-1, 2), np.full(len(lines), 2))
-        if self.selected is not None:
-            r, c = pos[self.selected]
-            layer.stroke_style = "rgba(255, 214, 10, 1)"
-            layer.line_width = 2
-            layer.stroke_rect(c * s, r * s, FRAGMENT * s, FRAGMENT * s)
-
-    def motion_segments(self):
-        """The assigned fragments' mean motion as arrows (k, 2, 2) (row, col) in the image.
-
-        :func:`fluidnb.videodb.motion_arrows`: one per moving fragment, centred on it.
-        """
-        if self.assignment is None:
-            return np.empty((0, 2, 2))
-        return motion_arrows(self.assignment)[0]
-
-    def _legend(self):
-        a = self.assignment
-        clips = a.db.clip_of(a.fragments)
-        used, counts = np.unique(clips, return_counts=True)
-        items = []
-        for k, n in zip(used, counts):
-            r, g, b = (round(255 * v) for v in clip_colour(k))
-            name = html.escape(str(a.db.clips[int(k)]["name"]))
-            items.append(
-                f"<span class='fluidnb-vdb-clip' data-clip='{int(k)}' style='display:inline-flex;"
-                "align-items:center;margin-right:10px;white-space:nowrap'>"
-                f"<span style='display:inline-block;width:11px;height:11px;margin-right:4px;"
-                f"background:rgb({r},{g},{b});border:1px solid rgba(127,127,127,0.6)'></span>"
-                f"{name} ({n})</span>"
-            )
-        return (
-            f"<div style='font-size:12px;line-height:1.6;max-width:{self.width}px'>"
-            f"{''.join(items)}</div>"
-        )
-
-    # ------------------------------------------------------------------ picking
-    def fragment_at(self, row, col):
-        """The target fragment under image pixel (row, col), or None (see the library's)."""
-        return None if self.assignment is None else self.assignment.fragment_at(row, col)
-
-    def _clicked(self, x, y):
-        if self.photo is None:
-            return
-        s = self.scale
-        i = self.fragment_at(y / s - 0.5, x / s - 0.5)
-        if i is None:
-            return
-        self.selected = i
-        with hold_canvas():
-            self._draw_marks()
-        if self.on_pick is not None:
-            self.on_pick(i)
 
 
 class VideoDBApp(App):
@@ -282,29 +95,23 @@ class VideoDBApp(App):
       (:func:`fluidnb.sketch.save_strokes` JSON).
 
     The panel holds :math:`\sigma` (Eq. 2), :math:`\lambda` (Eq. 4), :math:`\rho`
-    (Eq. 6) on log scales over the decades the lessons sweep, at the paper's values,
-    and the candidate count; folded under them the rendering's settings (shutter,
-    :math:`\tau`, loop, and the flow rendering's travel and detail), the rendering
-    itself (flow or the paper's) being a toggle beside **Render**. ``N`` (frames per
-    fragment) belongs to the database and is shown beside it. **Run** retrieves
-    candidates, solves the MRF and renders the clip (:func:`fluidnb.videodb.assign`
-    then :func:`~fluidnb.videodb.render`, with progress and Cancel; a starter database
-    is built on the first Run). After a run, every value of a dragged :math:`\sigma`,
+    (Eq. 6) on log scales at the paper's values and the candidate count K (up to the
+    database's size); folded under them the rendering's settings, the rendering
+    itself (flow or the paper's) a toggle beside **Render**; ``N`` belongs to the
+    database and is shown beside it. **Run** retrieves candidates, solves the MRF and
+    renders (:func:`fluidnb.videodb.assign`, :func:`~fluidnb.videodb.render`; a
+    starter database is built on the first Run). Then, as the app shell's live
+    preview (:class:`App`), every value of a dragged :math:`\sigma`,
     :math:`\lambda` or :math:`\rho` is re-solved from the kept tables
-    (:meth:`~fluidnb.videodb.Assignment.resolve`: no new retrieval; the latest value
-    wins) and redraws the assignment map and the energy plot, and a preview frame
-    (:func:`fluidnb.videodb.preview_frame`, one frame at half size) shows in the
-    player; once the values rest for :attr:`settle` seconds (the kernel hears no
-    "mouse released") the clip is rendered. A rendering setting renders again the
-    same way; **Render** renders on demand. While the values rest, the re-solve's new
-    fragments are rebuilt ahead (:func:`fluidnb.videodb.prefetch`); every clip streams
-    into the player as it is made (``render(on_frames=...)``,
-    :meth:`FramePlayer.stream`), its first frames playing while the rest come.
+    (:meth:`~fluidnb.videodb.Assignment.resolve`), redraws the assignment map and
+    the energy plot and shows a preview frame (:func:`fluidnb.videodb.preview_frame`,
+    half size); when the slider is let go and the values rest, the clip is rendered
+    (so is a changed rendering setting), its fragments rebuilt ahead while they rest
+    (:meth:`warm`), its frames streaming into the player as they are made.
 
-    Views: the clip in the player (play, loop, GIF/MP4 export); the assignment map
-    (each fragment tinted by its source clip, with the assigned motion as arrows and
-    a legend; a click shows the database fragment it got: mean image and frames);
-    the energy of Eq. (4) per alpha-expansion sweep with ICM's as a reference line.
+    Views: the clip (play, loop, GIF/MP4); the assignment map (fragments tinted by
+    source clip, the assigned motion as arrows, a legend; a click shows the database
+    fragment it got); the energy of Eq. (4) per alpha-expansion sweep, ICM's dashed.
 
     Headless driving (what the tests and notebooks do)::
 
@@ -312,21 +119,13 @@ class VideoDBApp(App):
         app.paint_matte([[300, 40], [300, 300]], radius=30)  # (row, col) points
         app.draw_stroke([[300, 40], [300, 300]])  # along the flow
         app.paint_speed([[320, 100], [320, 200]], speed=3.0)  # px/frame
-        app.panel.set("candidates", 50)
         clip = app.run(timeout=300)  # press Run and wait -> fluidnb.Clip
-        app.panel.set("sigma", 1e3)  # re-solves from the kept tables (map, preview)...
-        app.wait_live()  # ...in the background, then renders the clip when it rests
+        app.panel.set("sigma", 1e3)  # re-solves from the kept tables (map, preview)
+        app.wait_preview()
         app.render_clip(timeout=120)  # press Render and wait -> Clip
         app.use_result_speed()  # the result's speed into the speed layer
         app.pick_fragment(300, 150)  # what a click on the map shows
         app.state()  # counters, energies, labels... as a dict
-
-    plus :meth:`select` (tool and layer), :meth:`matte`, :meth:`strokes`,
-    :meth:`speed_map`, :meth:`direction_field`, :meth:`set_photo`,
-    :meth:`set_database`, :meth:`save_strokes` / :meth:`load_strokes`,
-    :meth:`start` / :meth:`cancel` / :meth:`wait`, :meth:`wait_live` (re-solves,
-    previews and the render on rest), and the counters :attr:`retrievals`,
-    :attr:`resolves`, :attr:`renders`, :attr:`previews`.
 
     Parameters
     ----------
@@ -388,91 +187,32 @@ class VideoDBApp(App):
         self._display_size = int(display_size)
         self.animation = None  #: The last rendered :class:`fluidnb.videodb.Animation`.
         self._base = None  # the assignment of the last retrieval (its tables are reused)
-        self._databases = {}
-        self._given_db = None
         self._run_version = None  # canvas version the current assignment was made from
         self._field_key = None
         self._field = None
-        self._loop = _kernel_loop()
-        self._main_thread = threading.get_ident()
-        # Re-solves (and their previews) run on the app shell's latest-wins worker, as
-        # previews do.
-        self._resolves = LatestWins(
-            self._resolve_once,
-            say=self.say,
-            interval=lambda: self.resolve_interval,
-            name="re-solve",
-        )
-        #: Least seconds between two live re-solves.
-        self.resolve_interval = 0.02
         #: Whether new assignments show a preview frame (one frame at half size).
         self.live_preview = True
-        #: Seconds after which a drag's re-solve shows a preview even with a newer
-        #: value waiting (otherwise only maps are drawn until the slider pauses).
-        self.preview_every = 0.3
-        self._preview_shown = 0.0  # time.monotonic() of the last preview
-        #: Seconds σ, λ, ρ (or a rendering setting) must rest before the clip is
-        #: rendered: the kernel hears no "mouse released", only values.
-        self.settle = 0.2
-        #: Seconds the values must rest before a re-solve's fragments are prefetched.
-        self.prefetch_after = 0.08
         self.quiver_segments = 0  #: Arrows of the direction field on the canvas now.
         self.previews = 0  #: Preview frames shown.
         self._preview_cache = (None, {})  # (database, fragment id -> D_t)
-        self._previewed = None  # the assignment whose preview frame was shown last
-        self._previewing = False  # a preview, not the clip, is in the player's picture
-        self._was_playing = False  # the player played when the first preview came
-        self._settle_timer = None
-        self._settle_lock = threading.Lock()
-        self._live_render = False  # the running task is a render on release
-        self._superseded = False  # ... that newer values made obsolete
 
         name = photo if isinstance(photo, str) and photo in PHOTOS else None
         self.photo, self.photo_alpha = self._load_photo(photo, matte)
         self.photo_name = name or "upload"
 
         # ---------------------------------------------------------------- inputs
-        # Choice: adding "upload" to the options must not pick the first photo.
-        self._photo_pick = Choice(
-            options=[*PHOTOS, *([] if name else ["upload"])],
-            value=name or "upload",
-            description="photo",
-            style={"description_width": "44px"},
-            layout=W.Layout(width="170px"),
-        )
-        self._upload = W.FileUpload(
-            accept="image/*", multiple=False, description="Upload", layout=W.Layout(width="110px")
-        )
-        db_options = [(f"{k} (starter)", k) for k in STARTER_KINDS]
-        db_options.append(("a database folder…", "folder"))
-        if isinstance(db, VideoDatabase):
-            self._given_db = db
-            db_options.insert(0, (f"given: {db.kind}, {db.n_fragments} fragments", "given"))
-            choice, path = "given", ""
-        elif db is None:
-            choice, path = PHOTOS.get(name, "water"), ""
-        elif isinstance(db, str) and db in STARTER_KINDS:
-            choice, path = db, ""
-        else:
-            choice, path = "folder", os.fspath(db)
-        self._db_pick = Choice(
-            options=db_options,
-            value=choice,
-            description="database",
-            style={"description_width": "64px"},
-            layout=W.Layout(width="290px"),
-        )
-        self._db_path = W.Text(
-            value=path,
-            placeholder="path/to/database",
-            layout=W.Layout(width="290px", display="" if choice == "folder" else "none"),
-        )
-        self._n_label = W.HTML(layout=W.Layout(max_width="320px"))
+        self._photo = PhotoInput(PHOTOS, name or "upload", on_photo=self.set_photo, say=self.say)
+        self._photo_pick, self._upload = self._photo.menu, self._photo.upload
+        self.databases = DatabaseChoice(db, default=PHOTOS.get(name, "water"), quick=self.quick)
+        self._db_pick, self._db_path = self.databases.pick, self.databases.path
+        self._n_label = self.databases.label
 
         canvas = self._make_canvas()
         if params is None:
-            params = AnimateParams.for_kind(self._kind_of_choice(choice))
-        panel = ParamPanel(params, exclude=_HIDDEN, groups=GROUPS)
+            params = AnimateParams.for_kind(self.databases.kind)
+        self._fragments = None  # the chosen database's fragment count, once known
+        # The candidate slider ends at the database's size (more are refused).
+        panel = ParamPanel(params, exclude=_HIDDEN, groups=GROUPS, check=self._db_check)
 
         self._speed = W.FloatSlider(
             value=2.0,
@@ -501,19 +241,14 @@ class VideoDBApp(App):
             tooltip="show the strokes' interpolated direction as a quiver",
             layout=W.Layout(width="130px"),
         )
-        self._strokes_file = W.Text(
-            value="strokes.json",
-            description="strokes",
-            tooltip=(
-                "the strokes file (fluidnb.strokes JSON) Save writes and Load reads; a "
-                "name without a folder is in the output folder (fluidnb-output/)"
-            ),
-            style={"description_width": "52px"},
-            layout=W.Layout(width="170px"),
+        self._strokes_io = StrokesFile(
+            lambda: self.canvas, "flow", say=lambda *a: self.say(*a), lead=[self._show_quiver]
         )
-        self._save_button = W.Button(description="Save", icon="save", layout=W.Layout(width="72px"))
-        self._load_button = W.Button(
-            description="Load", icon="folder-open", layout=W.Layout(width="72px")
+        io_ = self._strokes_io
+        self._strokes_file, self._save_button, self._load_button = (
+            io_.name,
+            io_.save_button,
+            io_.load_button,
         )
         self._render_button = W.Button(
             description="Render",
@@ -532,30 +267,13 @@ class VideoDBApp(App):
             disabled=True,
             layout=W.Layout(width="220px"),
         )
-        # The rendering (AnimateParams.rendering, when the library has it) as a toggle
-        # bound to the panel's own control, which stays hidden.
-        self._rendering = None
-        if "rendering" in panel.controls:
-            control = panel.controls["rendering"]
-            self._rendering = W.ToggleButtons(
-                options=list(control.options),
-                value=control.value,
-                tooltip=control.tooltip,
-                style={"button_width": "64px"},
-                layout=W.Layout(width="auto"),
-            )
-            W.link((self._rendering, "value"), (control, "value"))
-            control.layout.display = "none"
-        self.map = _AssignmentMap()
+        # The rendering (AnimateParams.rendering, when the library has it) as a toggle.
+        self._rendering = panel.toggle("rendering") if "rendering" in panel.controls else None
+        self.map = AssignmentMap()
         self.map.on_pick = self._show_fragment
         self.energy = W.HTML()
         self.stats = W.HTML()
         for wid, cls in [
-            (self._photo_pick, "fluidnb-photo"),
-            (self._upload, "fluidnb-upload"),
-            (self._db_pick, "fluidnb-vdb-db"),
-            (self._db_path, "fluidnb-vdb-db-path"),
-            (self._n_label, "fluidnb-vdb-N"),
             (self._speed, "fluidnb-vdb-speed"),
             (self._show_quiver, "fluidnb-vdb-show-quiver"),
             (self._strokes_file, "fluidnb-vdb-strokes-file"),
@@ -579,13 +297,13 @@ class VideoDBApp(App):
         super().__init__(
             panel=panel,
             run=self._run_task,
+            preview=self._preview,
             canvas=canvas,
-            player=FramePlayer(display_width=_MAP_WIDTH),
+            player=FramePlayer(display_width=MAP_WIDTH),
             title="Fluid animation from one image — Okabe, Anjyo & Onai (video database)",
             inputs=[
-                row(self._photo_pick, self._upload),
-                row(self._db_pick, self._db_path),
-                self._n_label,
+                self._photo,
+                self.databases,
             ],
             controls=[
                 row(
@@ -608,25 +326,22 @@ class VideoDBApp(App):
             canvas_tools=[
                 row(self._speed, self._speed_unit),
                 row(*self._clear_buttons.values()),
-                row(self._show_quiver, self._strokes_file, self._save_button, self._load_button),
+                self._strokes_io,
             ],
         )
         self.views = (
             self.titled("clip", self.player, margin="0 0 0.4em 0"),
             self.titled("assignment (click a fragment)", self.map, margin="0"),
         )
-        self.views_width = f"{_MAP_WIDTH + 8}px"
+        self.views_width = f"{MAP_WIDTH + 8}px"
         self.add_class("fluidnb-vdb-app")
+        self.settle = 0.2  # the map and preview frame show the values; the clip at rest
 
         # ---------------------------------------------------------------- wiring
-        self._photo_pick.on_pick(self._photo_picked)
-        self._upload.observe(self._uploaded, "value")
         self._db_pick.on_pick(self._db_picked)
         self._db_path.observe(lambda _: self._show_n(), "value")
         self._speed.observe(lambda _: self._sync_brush(), "value")
         self._show_quiver.observe(lambda _: self._update_quiver(), "value")
-        self._save_button.on_click(lambda _: self._save_clicked())
-        self._load_button.on_click(lambda _: self._load_clicked())
         self._render_button.on_click(lambda _: self.start_render())
         self._use_speed_button.on_click(lambda _: self.use_result_speed())
         self.panel.observe(self._panel_changed, "params")
@@ -639,34 +354,14 @@ class VideoDBApp(App):
 
     # ------------------------------------------------------------------ photo
     def _load_photo(self, photo, matte=None):
-        from fluidnb import data
-
-        if isinstance(photo, str) and photo in PHOTOS:
-            image, alpha = data.sample(photo, return_alpha=True)
-            if max(image.shape[:2]) > self.size:
-                image, alpha = data.sample(photo, size=self.size, return_alpha=True)
-        else:
-            if isinstance(photo, Image.Image) and max(photo.size) > self.size:
-                photo = photo.copy()
-                photo.thumbnail((self.size, self.size), Image.LANCZOS)
-            image, alpha = as_image(photo, mode="rgb", name="photo", return_alpha=True)
-            if max(image.shape[:2]) > self.size:
-                h, w = image.shape[:2]
-                f = self.size / max(h, w)
-                new = (max(1, round(h * f)), max(1, round(w * f)))
-                image = resize(image, new)
-                alpha = None if alpha is None else resize(alpha, new)
-        if min(image.shape[:2]) < FRAGMENT:
-            raise ValueError(
-                f"photo must be at least {FRAGMENT} x {FRAGMENT} pixels (one fragment), got "
-                f"{image.shape[0]} x {image.shape[1]}"
+        try:
+            image, alpha = load_photo(
+                photo, matte, samples=PHOTOS, size=self.size, min_side=FRAGMENT
             )
-        if matte is not None:
-            alpha = as_image(matte, mode="grey", name="matte")
-            if alpha.shape != image.shape[:2]:
-                raise ValueError(
-                    f"matte must have the photo's size {image.shape[:2]}, got {alpha.shape}"
-                )
+        except ValueError as exc:
+            if "at least" not in str(exc):
+                raise
+            raise ValueError(f"{exc} (one {FRAGMENT} x {FRAGMENT} fragment)") from None
         return np.ascontiguousarray(image, np.float32), alpha
 
     def _make_canvas(self):
@@ -723,36 +418,27 @@ class VideoDBApp(App):
         self._wire_canvas(canvas)
         self._forget_result()
         self.map.set_photo(self.photo)
-        # Options and value together: a plain Dropdown given new options picks its
-        # first ("stream") on the way, which loaded the stream over the upload.
-        options = [*PHOTOS, *(["upload"] if name == "upload" else [])]
-        self._photo_pick.set_options(options, name)
+        self._photo.shown(name)
         if name in PHOTOS and self._db_pick.value in STARTER_KINDS:
             self.set_database(PHOTOS[name])
         h, w = image.shape[:2]
-        shown = "your upload" if name == "upload" else f"the {name} photo"
-        self.say(f"photo: {shown}, {w} x {h} pixels; paint its matte")
+        if name != "upload":
+            self.say(f"photo: the {name} photo, {w} x {h} pixels; paint its matte")
+            return True
+        # An upload keeps the database chosen before: say which, and what the photo
+        # looks like (fluidnb.videodb.suggest_kind, a first guess from its colours).
+        kind, why = suggest_kind(image, alpha)
+        using = self.databases.name
+        advice = (
+            f"it looks like {kind} ({why}): choose the {kind} database"
+            if kind != self.databases.kind
+            else f"it looks like {kind} too ({why})"
+        )
+        self.say(f"photo: your upload, {w} x {h} pixels; using {using}: {advice}; paint its matte")
         return True
 
-    def _photo_picked(self, name):
-        if name != self.photo_name and name in PHOTOS:
-            self.set_photo(name)
-
-    def _uploaded(self, change):
-        files = change["new"]
-        if not files:
-            return
-        try:
-            image = Image.open(io.BytesIO(bytes(files[0]["content"])))
-            image.load()
-        except Exception as exc:  # a broken or foreign file: say so, keep the photo
-            self.say(f"could not read the upload: {exc}", "error")
-            return
-        self.set_photo(image)
-
     def _forget_result(self):
-        self._supersede_render()
-        self._previewing = False
+        self._supersede()
         self.assignment = None
         self._base = None
         self._run_version = None
@@ -761,91 +447,39 @@ class VideoDBApp(App):
         self._show_energy()
 
     # ------------------------------------------------------------------ database
-    @staticmethod
-    def _kind_of_choice(choice):
-        return choice if choice in STARTER_KINDS else "water"
-
     def set_database(self, db):
         """Choose the database: a starter kind, a folder, or an opened database."""
-        if isinstance(db, VideoDatabase):
-            self._given_db = db
-            label = (f"given: {db.kind}, {db.n_fragments} fragments", "given")
-            others = [o for o in self._db_pick.options if o[1] != "given"]
-            self._db_pick.set_options([label, *others], "given")
-        elif isinstance(db, str) and db in STARTER_KINDS:
-            self._db_pick.value = db
-        else:
-            self._db_path.value = os.fspath(db)
-            self._db_pick.value = "folder"
+        self.databases.set(db)
         self._show_n()
 
     def _db_picked(self, choice):
-        self._db_path.layout.display = "" if choice == "folder" else "none"
-        kind = self._given_db.kind if choice == "given" else self._kind_of_choice(choice)
-        tau = AnimateParams.for_kind(kind).tau
+        tau = AnimateParams.for_kind(self.databases.kind).tau
         if "tau" in self.panel.controls and self.panel.params.tau != tau:
             self.panel.set("tau", tau)  # fire and smoke move their outline (Sec. 6)
         self._show_n()
         if self.assignment is not None:
             self.say("the database changed: press Run for a new retrieval")
 
-    def _db_key(self):
-        choice = self._db_pick.value
-        if choice == "given":
-            return ("given",)
-        if choice == "folder":
-            return ("folder", os.path.abspath(os.path.expanduser(self._db_path.value.strip())))
-        return ("starter", choice, self.quick)
-
     def database(self, progress=None):
         """The chosen database, opened (a starter one is built on first use, cached)."""
-        key = self._db_key()
-        if key[0] == "given":
-            return self._given_db
-        db = self._databases.get(key)
-        if db is None:
-            if key[0] == "folder":
-                if not self._db_path.value.strip():
-                    raise ValueError("database folder is empty: type the path of a video database")
-                if not os.path.isdir(key[1]):
-                    raise ValueError(f"database folder {key[1]!r} does not exist")
-                db = open_database(key[1], progress=progress)
-            else:
-                db = starter_database(key[1], quick=self.quick, progress=progress)
-            self._databases[key] = db
-        self._show_n(db)
+        db = self.databases.opened(progress)
+        self._show_n()
         return db
 
-    def _database_ready(self):
-        """Whether :meth:`database` opens the chosen database without building it."""
-        key = self._db_key()
-        return (
-            key[0] != "starter"
-            or key in self._databases
-            or starter_path(key[1], quick=self.quick).exists()
-        )
+    def _db_check(self, params):
+        n = self._fragments
+        if n is not None and params.candidates > n:
+            raise ValueError(
+                f"candidates must be <= the database's {n} fragments, got {params.candidates}"
+            )
 
-    def _show_n(self, db=None):
-        key = self._db_key()
-        if db is None:
-            db = self._given_db if key[0] == "given" else self._databases.get(key)
-        style = "font-size:12px;opacity:0.85;line-height:1.4;display:inline-block"
-        if db is not None:
-            text = (
-                f"N = <b>{db.params.N}</b> frames per fragment (the database's) · "
-                f"{plural(db.n_fragments, 'fragment')}, {plural(len(db.clips), 'clip')}"
-            )
-        elif key[0] == "starter":
-            built = starter_path(key[1], quick=self.quick).exists()
-            when = "cached" if built else "built on the first Run, then cached"
-            size = "quick" if self.quick else "full"
-            text = (
-                f"N = <b>{starter_params().N}</b> frames per fragment (the database's) · "
-                f"{size} starter database, {when}"
-            )
-        else:
-            text = "N (frames per fragment): read from the database when it opens"
-        self._n_label.value = f"<span style='{style}'>{text}</span>"
+    def _show_n(self):
+        """The candidate slider ends at the open database's size."""
+        db = self.databases.known()
+        fragments = None if db is None else db.n_fragments
+        if fragments != self._fragments and hasattr(self, "panel"):
+            self._fragments = fragments
+            self.panel.follow()
 
     # ------------------------------------------------------------------ drawing
     def select(self, tool, layer=None):
@@ -954,47 +588,17 @@ class VideoDBApp(App):
                 self.say("the drawing changed since the run: press Run for a new retrieval")
 
     # ------------------------------------------------------------------ strokes file
-    def _strokes_path(self, path):
-        """Where the strokes file ``path`` is: a bare name lies in the output folder."""
-        path = os.path.expanduser(
-            os.fspath(path or self._strokes_file.value.strip() or "strokes.json")
-        )
-        return path if os.path.dirname(path) else os.path.join(output_dir(), path)
-
     def save_strokes(self, path=None):
         """Write the strokes as a ``fluidnb.strokes`` JSON file; returns the path.
 
         ``path`` (default: the file box's, ``strokes.json``) is a bare file name in the
-        output folder (:func:`fluidnb.widgets._common.output_dir`, ``fluidnb-output/``
-        beside the notebook), or a path with its folder.
+        output folder (``fluidnb-output/`` beside the notebook), or a path.
         """
-        strokes = self.strokes()
-        out = save_strokes(self._strokes_path(path), strokes, self.photo.shape[:2])
-        self.say(f"saved {plural(len(strokes), 'stroke')} to {shown_path(out)}", "ok")
-        return out
+        return self._strokes_io.save(path)
 
     def load_strokes(self, path=None):
-        """Replace the strokes by those of a JSON file (undoable); ValueError if refused.
-
-        ``path`` as for :meth:`save_strokes`.
-        """
-        path = self._strokes_path(path)
-        strokes, _ = load_strokes(path, shape=self.photo.shape[:2])
-        self.set_strokes(strokes)
-        self.say(f"loaded {plural(len(strokes), 'stroke')} from {shown_path(path)}", "ok")
-        return strokes
-
-    def _save_clicked(self):
-        try:
-            self.save_strokes()
-        except (ValueError, OSError) as exc:
-            self.say(f"could not save the strokes: {exc}", "error")
-
-    def _load_clicked(self):
-        try:
-            self.load_strokes()
-        except (ValueError, OSError) as exc:
-            self.say(str(exc), "error")
+        """Replace the strokes by those of a JSON file (undoable); ValueError if refused."""
+        return self._strokes_io.load(path)
 
     # ------------------------------------------------------------------ run
     def _inputs(self):
@@ -1013,7 +617,7 @@ class VideoDBApp(App):
     def _busy_widgets(self):
         # Render stays clickable (refused while busy) so a failed run cannot leave it
         # enabled without an assignment.
-        return (self._photo_pick, self._upload, self._db_pick, self._db_path, self._load_button)
+        return (self._photo, self._db_pick, self._db_path, self._load_button)
 
     def start(self):
         """Retrieve, solve and render in the worker (what **Run** does).
@@ -1034,17 +638,19 @@ class VideoDBApp(App):
         def task(params, progress):
             return self._run_task(params, progress, inputs, image, version)
 
-        self._superseded = False
         return self.start_task(
             task, self._ran, message="retrieving candidates…", busy=self._busy_widgets
         )
+
+    def _rest_busy(self):
+        return self._busy_widgets
 
     def _run_task(self, params, progress, inputs=None, image=None, version=None):
         matte, strokes, speed = self._inputs() if inputs is None else inputs
         image = self.photo if image is None else image
         # A starter database built on first use takes most of the run (minutes in full
         # size): give it most of the bar, so the bar does not creep in its first 15 %.
-        building = not self._database_ready()
+        building = not self.databases.ready()
         cuts = (0.8, 0.93) if building else (0.15, 0.65)
         opening, assigning, rendering = Progress(progress).split(*cuts)
         db = self.database(progress=opening)
@@ -1059,14 +665,13 @@ class VideoDBApp(App):
 
     def _ran(self, clip, seconds):
         self._show_clip(clip, seconds)
-        self._previewing = False
-        self._on_main(self._show_assignment)
+        self.on_main(self._show_assignment)
         self._render_button.disabled = False
         self._use_speed_button.disabled = False
         a = self.assignment
-        # A slider moved during the run gets its re-solve; otherwise the worker fills
-        # the preview's cache, so the first drag shows its preview at once.
-        self.request_resolve()
+        # A slider moved during the run gets its re-solve; otherwise the preview worker
+        # fills the preview's cache, so the first drag shows its preview at once.
+        self.request_preview()
         return (
             f"done in {seconds:.1f} s: {plural(len(a.target), 'fragment')}, K = "
             f"{a.candidates.shape[1]}, E = {a.solution.energy:.4g} after "
@@ -1081,22 +686,16 @@ class VideoDBApp(App):
         if self.assignment is None:
             self.say("nothing to render yet: press Run first", "error")
             return False
-        self._superseded = False
         return self.start_task(
             self._render_task, self._rendered, message="rendering…", busy=self._busy_widgets
         )
 
     def _render_task(self, params, progress):
-        self.wait_resolve()
+        self.wait_preview()  # the re-solve of the latest values
         a = self.assignment
         # The assignment's own sigma, lambda, rho (they made it); the panel's rendering
         # settings.
         params = params.replace(**{k: getattr(a.params, k) for k in _SOLVE_FIELDS})
-        if self.live_preview and self._previewed is not a and not self._clip_is_current():
-            # One frame first (a few percent of the clip's time): the new assignment is
-            # on screen at once, its clip follows. A drag has shown it already.
-            progress(0.0, "a first frame")
-            self._show_preview(a, params)
         animation = self._render_streamed(a, params, progress)
         self.animation = animation
         return animation.clip
@@ -1120,19 +719,10 @@ class VideoDBApp(App):
         first = self.player.clip is not clip  # the first frames: they replace the preview
         self.player.stream(clip, done)
         if first:
-            self._previewing = False
-            if self._was_playing:  # the previews stopped the player: play the new clip
-                self._was_playing = False
-                self.player.play(True)
+            self.player.play(True)
 
     def _rendered(self, clip, seconds):
-        if clip is None:  # a render on release that newer values made obsolete
-            return self.status
         self._show_clip(clip, seconds)
-        self._previewing = False
-        if self._was_playing:  # the previews stopped it: play the new clip
-            self._was_playing = False
-            self.player.play(True)
         self._render_button.disabled = False
         self._use_speed_button.disabled = False
         p = clip.metadata["params"]
@@ -1149,92 +739,90 @@ class VideoDBApp(App):
 
     # ------------------------------------------------------------------ live: σ, λ, ρ
     def _panel_changed(self, change):
-        new, old, base = change["new"], change["old"], self._base
-        if base is None:
-            return
-        if any(getattr(new, k) != getattr(base.params, k) for k in _RETRIEVAL_FIELDS):
+        base = self._base
+        if base is not None and any(
+            getattr(change["new"], k) != getattr(base.params, k) for k in _RETRIEVAL_FIELDS
+        ):
             self.say("candidates changed: press Run for a new retrieval")
-        solve = any(getattr(new, k) != getattr(self.assignment.params, k) for k in _SOLVE_FIELDS)
-        look = any(getattr(new, k, None) != getattr(old, k, None) for k in _RENDER_FIELDS)
-        if solve or look:
-            self._supersede_render()
-        if solve:
-            self.request_resolve()  # its preview, then the clip once the slider rests
-        elif look:
-            self._schedule_render()
 
     def request_resolve(self):
         """Re-solve for the panel's sigma, lambda, rho in the background (latest wins).
 
-        Each re-solve redraws the assignment map and shows a preview frame in the
-        player (:func:`fluidnb.videodb.preview_frame`: one frame at half size); once
-        the values rest for :attr:`settle` seconds the clip is rendered.
+        The app shell's live preview (:meth:`App.request_preview`): the assignment map
+        and a preview frame follow; the clip once the values rest.
         """
-        if not self._closed:
-            self._resolves.request()
+        self.request_preview()
 
-    def _resolve_once(self):
-        base, current, params = self._base, self.assignment, self.panel.params
+    def wait_resolve(self, timeout=30):
+        """Block until every re-solve asked for so far, and its preview, is done (tests)."""
+        self.wait_preview(timeout)
+
+    def _preview(self, params):
+        """Re-solve for the values from the kept tables: the map, then one preview frame.
+
+        :meth:`~fluidnb.videodb.Assignment.resolve` (no new retrieval), the map
+        redrawn, and :func:`fluidnb.videodb.preview_frame` (one frame at half size)
+        for the player; None when σ, λ, ρ are those of the assignment shown (a
+        rendering setting changed: its clip comes at rest).
+        """
+        base, current = self._base, self.assignment
         if base is None or current is None:
-            return
+            return None
         wanted = {k: getattr(params, k) for k in _SOLVE_FIELDS}
         if all(getattr(current.params, k) == v for k, v in wanted.items()):
-            if self.live_preview:
-                # After a run: ready for the first drag, and the candidates' mean images
-                # read (0.3-0.5 s once; a re-solve's preview then reads one frame per
-                # new fragment). A value arriving meanwhile stops it between clips.
-                cache = self._preview_cache_for(current)
-                with contextlib.suppress(Cancelled):
-                    prefetch_preview(current, cache, progress=self._stop_when_moved(current))
-            return
+            if self.live_preview and not self._clip_is_current():
+                return self._preview_clip(current, params, "a rendering setting changed")
+            return None
         started = time.perf_counter()
         new = base.resolve(**wanted)
         if self._base is not base:  # a run replaced the tables meanwhile
-            return
+            return None
         solved = time.perf_counter() - started
         changed = int((new.labels != current.labels).sum())
         self.assignment = new
         self.resolves += 1
-        self._on_main(self._show_assignment)
-        # The map first; the preview when no newer value waits, or when the last one is
-        # older than preview_every (a drag faster than re-solve and preview together
-        # shows every map it can, a preview now and then, and the last one). The
-        # preview is made here while the kernel's thread draws the map (its kernels
-        # release the GIL).
-        stale = time.monotonic() - self._preview_shown > self.preview_every
-        if self.live_preview and (stale or not self._values_changed()):
-            self._show_preview(new, params)
-        if not self.running or self._live_render:
-            # One line (a second would move the app under the mouse while it drags).
-            # (σ, λ, ρ are on their sliders and under the energy plot.)
-            self.say(
-                f"re-solved from the kept tables in {solved:.2f} s: {changed} of "
-                f"{plural(len(new.labels), 'fragment')} changed"
-            )
-        self._schedule_render()
-        self._prefetch(new)
+        self.on_main(self._show_assignment)  # the map first (the kernel's thread draws it)
+        note = (
+            f"re-solved from the kept tables in {solved:.2f} s: {changed} of "
+            f"{plural(len(new.labels), 'fragment')} changed"
+        )
+        if not self.live_preview:
+            self.say(note)
+            return None
+        return self._preview_clip(new, params, note)
 
-    def _prefetch(self, a):
-        """While the values rest, rebuild the fragments ``a``'s clip needs (its render waits).
+    def _preview_clip(self, a, params, note):
+        """One frame of ``a``'s clip at half size (:func:`fluidnb.videodb.preview_frame`)."""
+        cache = self._preview_cache_for(a)
+        picture = preview_frame(
+            a, params, factor=_PREVIEW_FACTOR, levels=_PREVIEW_LEVELS, cache=cache
+        )
+        self.previews += 1
+        caption = (
+            f"preview: σ = {a.params.sigma:.3g}, λ = {a.params.lam:.3g}, ρ = {a.params.rho:.3g}"
+        )
+        meta = {"method": "videodb", "preview": True, "note": note, "caption": caption}
+        meta["smooth"] = True  # half size, enlarged on screen: a photo, smoothed
+        return Clip(picture[None], fps=24.0, metadata=meta)
 
-        :func:`fluidnb.videodb.prefetch` on this worker, after the map and the preview:
-        the render on rest (or a press of Render) waits for the re-solves, so it starts
-        with them. A newer value stops it between source clips.
+    def warm(self, params):
+        """While the values rest: the fragments the render will need, rebuilt ahead.
+
+        After a run, the candidates' mean images for the first drag's preview
+        (:func:`fluidnb.videodb.prefetch_preview`, 0.3-0.5 s once; a re-solve's
+        preview then reads one frame per new fragment); after a re-solve, the new
+        fragments' frames (:func:`fluidnb.videodb.prefetch`), so the render at rest
+        starts with them. A value arriving meanwhile stops either between clips.
         """
-        # Only once the values rest (prefetch_after seconds without a new one): a drag
-        # sends a value every ~30 ms, and a prefetch for each would hold this worker
-        # (30-90 ms measured in Chromium) while the next value waits for its map. A
-        # render that started meanwhile rebuilds what it needs itself.
-        deadline = time.monotonic() + self.prefetch_after
-        while True:
-            if self._closed or self.running or self._values_changed():
-                return
-            if time.monotonic() >= deadline:
-                break
-            time.sleep(0.005)
+        a = self.assignment
+        if a is None or not self.live_preview:
+            return
+        stop = self._stop_when_moved(a)
         # Stopped by a newer value, or settings the render will refuse (and say so).
         with contextlib.suppress(Cancelled, ValueError):
-            prefetch(a, self.panel.params, progress=self._stop_when_moved(a))
+            prefetch_preview(a, self._preview_cache_for(a), progress=stop)
+            if a is not self._base:
+                prefetch(a, params, progress=stop)
 
     def _stop_when_moved(self, a):
         """A progress callback that stops background work for ``a`` once it is stale.
@@ -1248,10 +836,6 @@ class VideoDBApp(App):
                 raise Cancelled
 
         return moved
-
-    def wait_resolve(self, timeout=30):
-        """Block until every re-solve asked for so far, and its preview, is done (tests)."""
-        self._resolves.wait(timeout)
 
     def _preview_cache_for(self, a):
         """The difference frames kept for previews of ``a``'s database (filled for ``a``)."""
@@ -1270,44 +854,6 @@ class VideoDBApp(App):
             getattr(params, k) != getattr(a.params, k) for k in _SOLVE_FIELDS
         )
 
-    def _show_preview(self, a, params):
-        """One frame of ``a`` at half size in the player, until its clip comes."""
-        cache = self._preview_cache_for(a)
-        picture = preview_frame(
-            a, params, factor=_PREVIEW_FACTOR, levels=_PREVIEW_LEVELS, cache=cache
-        )
-        data = jpeg(picture)  # the player's format
-        if self.assignment is not a:
-            return  # a newer one is on its way
-        # One line under the picture (a longer one would push the map down); the rest
-        # in its tooltip.
-        follows = "rendering the clip" if self.running else "the clip follows when the values rest"
-        note = f"preview: σ = {a.params.sigma:.3g}, λ = {a.params.lam:.3g}, ρ = {a.params.rho:.3g}"
-        title = (
-            f"one frame at half size, made in a moment (fluidnb.videodb.preview_frame); {follows}"
-        )
-
-        def show():
-            if self.assignment is not a or self._clip_is_current():
-                return
-            self._previewed = a
-            if not self._previewing:
-                self._was_playing = self.player.playing
-            self._previewing = True
-            self._preview_shown = time.monotonic()
-            self.player.play(False)
-            # The caption first: each widget sends its own message, and the picture
-            # should never show under the caption of the one before.
-            self.player.info.value = (
-                f"<span class='fluidnb-vdb-preview' title='{html.escape(title)}' "
-                f"style='opacity:0.85;white-space:nowrap'>{html.escape(note)}</span>"
-            )
-            self.player.image.value = data
-            self.player.image.layout.display = None
-            self.previews += 1
-
-        self._on_main(show)
-
     def _clip_is_current(self):
         """Whether the player's clip is the current assignment with the panel's rendering."""
         a, animation = self.assignment, self.animation
@@ -1316,67 +862,14 @@ class VideoDBApp(App):
         made, wanted = animation.clip.metadata["params"], self.panel.params.to_dict()
         return all(made.get(k) == wanted[k] for k in _RENDER_FIELDS if k in wanted)
 
-    def _schedule_render(self):
-        """Render the clip once the values have rested for :attr:`settle` seconds.
-
-        The kernel is told each value of a dragged slider but not that the mouse was
-        released: a pause stands for the release. Every new value restarts the wait.
-        """
-        with self._settle_lock:
-            if self._settle_timer is not None:
-                self._settle_timer.cancel()
-            if self._closed:
-                return
-            self._settle_timer = threading.Timer(self.settle, self._settled)
-            self._settle_timer.daemon = True
-            self._settle_timer.start()
-
-    def _settled(self):
-        if self._closed or self.running or self.assignment is None:
-            return
-        if self._values_changed():
-            return  # a re-solve is on its way; it schedules the render again
-        if self._clip_is_current():
-            return
-        self._live_render, self._superseded = True, False
-        if not self.start_task(
-            self._live_render_task,
-            self._rendered,
-            message="rendering the clip…",
-            busy=self._busy_widgets,
-        ):
-            self._live_render = False
-
-    def _live_render_task(self, params, progress):
-        try:
-            return self._render_task(params, progress)
-        except Cancelled:
-            if self._superseded:  # newer values: their render comes when they rest
-                return None
-            raise  # the user's Cancel
-        finally:
-            self._live_render = False
-
-    def _supersede_render(self):
-        """Stop a render on release that newer values made obsolete."""
-        token = self._token
-        if self._live_render and self.running and token is not None:
-            self._superseded = True
-            token.cancel()
-
-    def wait_live(self, timeout=60):
-        """Block until re-solves, previews and the render on release are done (tests)."""
-        deadline = time.monotonic() + timeout
-        while True:
-            self.wait_resolve(max(0.1, deadline - time.monotonic()))
-            timer = self._settle_timer
-            if timer is not None:
-                timer.join(max(0.1, deadline - time.monotonic()))
-            self.wait(max(0.1, deadline - time.monotonic()))
-            if timer is self._settle_timer and not self.running:
-                return  # no newer value came meanwhile
-            if time.monotonic() > deadline:
-                raise TimeoutError("the live re-solve and render did not finish in time")
+    def rest_task(self):
+        """Once σ, λ, ρ or a rendering setting rest: render the clip of the assignment."""
+        if self._base is None or self.assignment is None:
+            return None  # before the first Run there is nothing to render
+        self.wait_preview()
+        if self._clip_is_current() or self._values_changed():
+            return None
+        return self._render_task, self._rendered, "rendering the clip…"
 
     # ------------------------------------------------------------------ results
     def use_result_speed(self):
@@ -1424,25 +917,7 @@ class VideoDBApp(App):
 
     def _show_fragment(self, i):
         info = self.fragment_info(i)
-        db = self.assignment.db
-        n = db.params.N
-        mean = db.mean_images([info["fragment"]])[0]
-        picks = np.linspace(0, n - 1, 4).round().astype(int)
-        frames = db.fragment_frames([info["fragment"]])[0][picks]
-        self.map.strip.value = _strip_png([mean, *frames])
-        self.map.strip.layout.display = ""
-        v = info["version"]
-        flip = "flipped, " if v["flip"] else ""
-        dy, dx = info["mean_motion"]
-        self.map.caption.value = (
-            "<div style='font-size:12px;line-height:1.4'>"
-            f"fragment <b>{info['fragment']}</b> from <b>{html.escape(info['clip_name'])}</b> "
-            f"({flip}scale {v['scale']:g}, {v['angle']:g}°), frames {info['frames'][0]}–"
-            f"{info['frames'][1]}; mean motion ({dy:.2f}, {dx:.2f}) px/frame (dy, dx); "
-            f"candidate {info['rank'] + 1} of {self.assignment.candidates.shape[1]}, "
-            f"I = {info['score']:.2f}.<br><span style='opacity:0.75'>mean image A, then "
-            f"frames {', '.join(str(p) for p in picks)}</span></div>"
-        )
+        self.map.show_fragment(info, self.assignment)
         return info
 
     def _show_assignment(self):
@@ -1455,29 +930,10 @@ class VideoDBApp(App):
         self.map.set_assignment(a)
 
     def _show_energy(self):
-        a = self.assignment
-        if a is None:
-            self.energy.value = (
-                "<div style='opacity:0.75;font-size:12px;line-height:1.4'>The energy of "
-                "Eq. (4) after each alpha-expansion sweep appears here after a run, with "
-                "ICM's as a reference.</div>"
-            )
-            return
-        s = a.solution
-        self.energy.value = _energy_svg(np.asarray(s.energies, float), float(s.icm_energy)) + (
-            "<div style='font-size:12px;line-height:1.4'>"
-            f"alpha-expansion: E = {s.energy:.5g} after {plural(s.sweeps, 'sweep')} (from the "
-            f"{html.escape(s.start)} start) · ICM: {s.icm_energy:.5g}<br>"
-            f"σ = {a.params.sigma:.3g}, λ = {a.params.lam:.3g}, ρ = {a.params.rho:.3g}</div>"
-        )
+        self.energy.value = energy_html(self.assignment)
 
     def _show_stats(self):
-        self.stats.value = (
-            "<div style='font-size:12px;opacity:0.85;margin-top:4px'>"
-            f"retrievals <b class='fluidnb-vdb-retrievals'>{self.retrievals}</b> · "
-            f"re-solves <b class='fluidnb-vdb-resolves'>{self.resolves}</b> · "
-            f"renders <b class='fluidnb-vdb-renders'>{self.renders}</b></div>"
-        )
+        self.stats.value = stats_html(self.retrievals, self.resolves, self.renders)
 
     def state(self):
         """A summary of the app as plain values (for tests and notebooks to record)."""
@@ -1517,105 +973,9 @@ class VideoDBApp(App):
             out["selected"] = self.fragment_info(self.map.selected)
         return out
 
-    # ------------------------------------------------------------------ plumbing
-    def _on_main(self, fn):
-        """Run ``fn`` on the kernel's main thread (ipycanvas drawing is not thread-safe).
-
-        Without a running event loop (a script, the tests), run it here.
-        """
-        loop = self._loop
-        if loop is None or not loop.is_running() or threading.get_ident() == self._main_thread:
-            fn()
-            return
-
-        def call():
-            try:
-                fn()
-            except Exception:
-                traceback.print_exc()
-
-        loop.call_soon_threadsafe(call)
-
     def close(self):
         """Stop the workers and close the widgets."""
         self._closed = True
-        resolves = getattr(self, "_resolves", None)
-        if resolves is not None:
-            resolves.close()
-        with getattr(self, "_settle_lock", threading.Lock()):
-            timer = getattr(self, "_settle_timer", None)
-            if timer is not None:
-                timer.cancel()
         if hasattr(self, "map"):
             self.map.close()
         super().close()
-
-
-def _strip_png(images):
-    """Tiles side by side (float RGB (48, 48, 3) each) as a PNG with transparent gaps."""
-    gap = 4
-    n = len(images)
-    out = np.zeros((_TILE, n * _TILE + (n - 1) * gap, 4), np.uint8)
-    for k, img in enumerate(images):
-        x = k * (_TILE + gap)
-        out[:, x : x + _TILE, :3] = to_uint8(np.clip(resize(img, (_TILE, _TILE)), 0, 1))
-        out[:, x : x + _TILE, 3] = 255
-    buf = io.BytesIO()
-    Image.fromarray(out).save(buf, format="png")
-    return buf.getvalue()
-
-
-def _tick(value):
-    """An axis label of at most 6 characters: 7738, 1.72e4, 0.0123 (the SVG's margin)."""
-    text = f"{value:.4g}"
-    if len(text) > 6:
-        text = f"{value:.2e}".replace("e+0", "e").replace("e-0", "e-").replace("e+", "e")
-    return text
-
-
-def _energy_svg(energies, icm, width=280, height=150):
-    """A small line plot (inline SVG, theme colours) of the energy after each sweep."""
-    left, right, top, bottom = 52, 10, 10, 26
-    values = np.append(energies, icm)
-    lo, hi = float(values.min()), float(values.max())
-    pad = 0.08 * (hi - lo) if hi > lo else max(abs(hi), 1.0) * 0.05
-    lo, hi = lo - pad, hi + pad
-    n = len(energies)
-
-    def x(i):
-        return left + (i / max(n - 1, 1)) * (width - left - right)
-
-    def y(v):
-        return top + (hi - v) / (hi - lo) * (height - top - bottom)
-
-    pts = " ".join(f"{x(i):.1f},{y(v):.1f}" for i, v in enumerate(energies))
-    dots = "".join(
-        f"<circle cx='{x(i):.1f}' cy='{y(v):.1f}' r='3' fill='var(--jp-brand-color1, #1976d2)'/>"
-        for i, v in enumerate(energies)
-    )
-    ticks = "".join(
-        f"<text x='{x(i):.1f}' y='{height - 10}' text-anchor='middle'>{i}</text>" for i in range(n)
-    )
-    axis = "stroke='currentColor' stroke-opacity='0.5'"
-    return (
-        f"<svg class='fluidnb-vdb-energy-plot' width='{width}' height='{height}' "
-        "style='color:var(--jp-ui-font-color1, #333);font-size:10px' "
-        f"data-energies='{','.join(f'{e:.6g}' for e in energies)}' data-icm='{icm:.6g}'>"
-        f"<line x1='{left}' y1='{top}' x2='{left}' y2='{height - bottom}' {axis}/>"
-        f"<line x1='{left}' y1='{height - bottom}' x2='{width - right}' y2='{height - bottom}' "
-        f"{axis}/>"
-        f"<text x='{left - 4}' y='{y(hi - pad) + 3:.1f}' text-anchor='end' "
-        f"fill='currentColor'>{_tick(hi - pad)}</text>"
-        f"<text x='{left - 4}' y='{y(lo + pad) + 3:.1f}' text-anchor='end' "
-        f"fill='currentColor'>{_tick(lo + pad)}</text>"
-        f"<g fill='currentColor' fill-opacity='0.8'>{ticks}</g>"
-        f"<text x='{width - right}' y='{height - 1}' text-anchor='end' fill='currentColor' "
-        "fill-opacity='0.8'>sweep</text>"
-        f"<line x1='{left}' y1='{y(icm):.1f}' x2='{width - right}' y2='{y(icm):.1f}' "
-        "stroke='var(--jp-warn-color1, #f57c00)' stroke-width='1.5' stroke-dasharray='5,4'/>"
-        f"<text x='{width - right}' y='{y(icm) - 4:.1f}' text-anchor='end' "
-        "fill='var(--jp-warn-color1, #f57c00)'>ICM</text>"
-        f"<polyline points='{pts}' fill='none' stroke='var(--jp-brand-color1, #1976d2)' "
-        "stroke-width='2'/>"
-        f"{dots}</svg>"
-    )

@@ -110,6 +110,7 @@ from ._smoothness import TEXTURE_SCALE, PairTables, pair_tables
 from ._starter import prebuild_starters, starter_database, starter_params, starter_path
 from ._starter_clips import STARTER_KINDS, starter_clips
 from ._store import VideoDatabase, open_database, verify_database
+from ._suggest import suggest_kind
 from ._target import Target, cut_target, fragment_motion
 from ._video import Video, read_video
 from ._words import fit_codebook, intersection, pyramid_histograms, quantise
@@ -211,6 +212,7 @@ __all__ = [
     "starter_database",
     "starter_params",
     "starter_path",
+    "suggest_kind",
     "sweep_figure",
     "sync_share",
     "temporal_offsets",

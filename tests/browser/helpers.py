@@ -159,9 +159,18 @@ def canvas_rgba(locator, points, radius=0):
 
 
 def img_rgba(locator, fx=0.5, fy=0.5):
-    """RGBA of an ``<img>``'s picture at fractions (fx, fy), or None before it loads."""
+    """RGBA of an ``<img>``'s or a ``<canvas>``'s picture at fractions (fx, fy).
+
+    None before an image loads or while a player's canvas shows no frame yet.
+    """
     return locator.evaluate(
         """(el, [fx, fy]) => {
+          if (el.tagName === 'CANVAS') {
+            if (!el.width || el.dataset.drawn === undefined) return null;
+            const x = Math.min(el.width - 1, Math.floor(fx * el.width));
+            const y = Math.min(el.height - 1, Math.floor(fy * el.height));
+            return Array.from(el.getContext('2d').getImageData(x, y, 1, 1).data);
+          }
           if (!el.complete || !el.naturalWidth) return null;
           const c = document.createElement('canvas');
           c.width = el.naturalWidth; c.height = el.naturalHeight;
@@ -258,3 +267,135 @@ def drag_slider(page, slider, fraction, steps=8):
     )
     page.mouse.up()
     return float(slider.locator(".widget-readout").inner_text())
+
+
+# ---------------------------------------------------------------------- the player
+# Every frame a player draws is announced by a bubbling "fluidnb-frame" event on its
+# canvas (widgets/_player.js): logged here with the time, to measure what is shown.
+_WATCH = """() => {
+  if (window.__fluidnbFrames) return;
+  window.__fluidnbFrames = [];
+  document.addEventListener('fluidnb-frame', e => window.__fluidnbFrames.push(
+    {t: e.detail.t, clip: e.detail.clip, frame: e.detail.frame, el: e.target}));
+}"""
+
+
+def watch_frames(page):
+    """Start logging the frames every player draws (idempotent)."""
+    page.evaluate(_WATCH)
+
+
+def frames_drawn(page, selector, since=0.0, until=None):
+    """[(t ms, clip, frame)] drawn by the player canvas at ``selector`` in [since, until]."""
+    return page.evaluate(
+        """([sel, since, until]) => {
+          const el = document.querySelector(sel);
+          return (window.__fluidnbFrames || [])
+            .filter(f => f.el === el && f.t >= since && (until === null || f.t <= until))
+            .map(f => [f.t, f.clip, f.frame]);
+        }""",
+        [selector, since, until],
+    )
+
+
+def now_ms(page):
+    return page.evaluate("() => performance.now()")
+
+
+def clip_fps(page, player):
+    """The fps the player at selector ``player`` plays at (its fps box)."""
+    return float(page.locator(f"{player} .fluidnb-fps input").input_value())
+
+
+def run_in_kernel(page, code):
+    """Execute ``code`` in the open notebook's kernel without a cell (returns at once)."""
+    page.evaluate(
+        """code => window.jupyterapp.shell.currentWidget.sessionContext.session.kernel
+             .requestExecute({code, silent: true})""",
+        code,
+    )
+
+
+def playback_while_kernel_busy(page, player, seconds=2.0):
+    """Frames a second the player draws while the kernel sleeps, and the clip's fps.
+
+    The kernel is kept busy (``time.sleep``) for the whole window: a player that
+    asked the kernel for its frames would show none; one that plays in the page
+    shows the clip's fps. Starts playback if it is paused.
+    """
+    watch_frames(page)
+    canvas = f"{player} canvas.fluidnb-frame"
+    button = page.locator(f"{player} button.fluidnb-play")
+    if button.get_attribute("aria-label") == "play":
+        button.click()
+    page.wait_for_function(
+        "sel => document.querySelector(sel).getAttribute('aria-label') === 'pause'",
+        arg=f"{player} button.fluidnb-play",
+    )
+    run_in_kernel(page, f"import time; time.sleep({seconds + 1.0})")
+    page.wait_for_timeout(400)  # the kernel is asleep now
+    t0 = now_ms(page)
+    page.wait_for_timeout(int(seconds * 1000))
+    t1 = now_ms(page)
+    shown = frames_drawn(page, canvas, t0, t1)
+    page.wait_for_timeout(800)  # the kernel wakes up
+    return 1000 * len(shown) / (t1 - t0), clip_fps(page, player)
+
+
+def preview_follows_held_slider(page, slider, player, fractions, timeout=10):
+    """Hold ``slider``'s handle and move it to each fraction of its track in turn.
+
+    After each move, wait (mouse still down) until the player draws a new clip;
+    returns the lags in ms from each move to its new picture. While the handle is
+    held the app must not start its full run (its Cancel button would be enabled).
+    Releases the mouse at the end.
+    """
+    watch_frames(page)
+    canvas = f"{player} canvas.fluidnb-frame"
+    loc = page.locator(slider)
+    loc.scroll_into_view_if_needed()
+    handle = loc.locator(".noUi-handle").bounding_box()
+    track = loc.locator(".noUi-base").bounding_box()
+    y = handle["y"] + handle["height"] / 2
+    page.mouse.move(handle["x"] + handle["width"] / 2, y)
+    page.mouse.down()
+    lags = []
+    try:
+        for f in fractions:
+            before = page.locator(canvas).get_attribute("data-clip")
+            t0 = now_ms(page)
+            page.mouse.move(track["x"] + f * track["width"], y, steps=2)
+            deadline = time.monotonic() + timeout
+            while True:
+                new = [fr for fr in frames_drawn(page, canvas, t0) if str(fr[1]) != before]
+                if new:
+                    lags.append(new[0][0] - t0)
+                    break
+                if time.monotonic() > deadline:
+                    pytest.fail(f"no new preview in {timeout} s after moving {slider} to {f}")
+                time.sleep(0.02)
+            page.wait_for_timeout(400)  # held, still: a pause is not a release
+            assert page.locator(".fluidnb-app .fluidnb-cancel").first.is_disabled(), (
+                "a run started while the slider was held"
+            )
+    finally:
+        page.mouse.up()
+    return lags
+
+
+def shown_frame(locator):
+    """Which clip and frame a player's canvas shows ("clip:frame"; None before one)."""
+    return locator.evaluate(
+        "el => el.dataset.clip === undefined ? null : el.dataset.clip + ':' + el.dataset.frame"
+    )
+
+
+#: ``page.wait_for_function`` body: the canvas ``el`` shows another frame than ``was``.
+ANOTHER_FRAME = "([el, was]) => (el.dataset.clip + ':' + el.dataset.frame) !== was"
+
+
+def pause(page, player):
+    """Pause the player at selector ``player`` (if it plays)."""
+    button = page.locator(f"{player} button.fluidnb-play")
+    if button.get_attribute("aria-label") == "pause":
+        button.click()

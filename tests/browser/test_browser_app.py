@@ -2,7 +2,14 @@
 
 import pytest
 
-from tests.browser.helpers import assert_visible, contrast, drag_slider, img_rgba, poll
+from tests.browser.helpers import (
+    assert_visible,
+    contrast,
+    drag_slider,
+    img_rgba,
+    poll,
+    shown_frame,
+)
 
 pytestmark = pytest.mark.browser
 
@@ -30,7 +37,8 @@ canvas = DrawingCanvas(
 )
 canvas.draw_stroke([[20, 20], [60, 90]])
 panel = ParamPanel(Probe)
-app = App(panel=panel, run=run, preview=preview, canvas=canvas, title="Probe app")
+app = App(panel=panel, run=run, preview=preview, canvas=canvas, title="Probe app",
+          run_on_rest=False)  # the preview alone here (the runs at rest: test_browser_live)
 panel.observe(lambda ch: dump("params.json", {"level": ch["new"].level}), "params")
 app.player.observe(
     lambda ch: dump("player.json", {"level": float(ch["new"].frames[0, 0, 0])}), "clip"
@@ -57,7 +65,7 @@ def test_slider_changes_the_previewed_frame(notebook, page, shot):
     app = page.locator(".fluidnb-app")
     app.wait_for()
     wait_level(page, 0.2, "the preview at the default level 0.2")
-    src0 = page.locator(".fluidnb-app .fluidnb-frame").get_attribute("src")
+    src0 = shown_frame(page.locator(".fluidnb-app .fluidnb-frame"))
 
     slider = page.locator(".fluidnb-param-level")
     shown = drag_slider(page, slider, 0.8, steps=10)
@@ -67,7 +75,7 @@ def test_slider_changes_the_previewed_frame(notebook, page, shot):
     final = nb.state("params.json", lambda s: abs(s["level"] - shown) < 5e-4)["level"]
     nb.state("player.json", lambda s: abs(s["level"] - final) < 1e-6)
     wait_level(page, final, f"the preview at the slider's level {final}")
-    assert page.locator(".fluidnb-app .fluidnb-frame").get_attribute("src") != src0
+    assert shown_frame(page.locator(".fluidnb-app .fluidnb-frame")) != src0
     assert page.locator(".fluidnb-status").inner_text().startswith("preview (")
     shot(app)
 

@@ -3,7 +3,15 @@
 import numpy as np
 import pytest
 
-from tests.browser.helpers import drag_slider, img_rgba, open_app, poll
+from tests.browser.helpers import (
+    ANOTHER_FRAME,
+    drag_slider,
+    img_rgba,
+    open_app,
+    pause,
+    poll,
+    shown_frame,
+)
 
 pytestmark = pytest.mark.browser
 
@@ -51,9 +59,10 @@ def test_slider_run_frames_appear_and_differ(notebook, page, shot):
     frame = page.locator(".fluidnb-app .fluidnb-player .fluidnb-frame").first
     frame.scroll_into_view_if_needed()
     poll("the first frame to show", lambda: img_rgba(frame) is not None)
-    src0 = frame.get_attribute("src")
-    drag_slider(page, page.locator(".fluidnb-app .fluidnb-frame-slider").first, 0.9)
-    page.wait_for_function(
-        "([el, src]) => el.src !== src", arg=[frame.element_handle(), src0], timeout=10_000
-    )
+    pause(page, ".fluidnb-app .fluidnb-app-player")
+    src0 = shown_frame(frame)
+    scrub = page.locator(".fluidnb-app .fluidnb-frame-slider").first
+    scrub.focus()
+    page.keyboard.press("Home" if src0.split(":")[1] != "0" else "End")
+    page.wait_for_function(ANOTHER_FRAME, arg=[frame.element_handle(), src0], timeout=10_000)
     shot(app)

@@ -3,7 +3,15 @@
 import numpy as np
 import pytest
 
-from tests.browser.helpers import at, drag, drag_slider, open_app, to_image
+from tests.browser.helpers import (
+    ANOTHER_FRAME,
+    at,
+    drag,
+    drag_slider,
+    open_app,
+    shown_frame,
+    to_image,
+)
 
 pytestmark = pytest.mark.browser
 
@@ -56,16 +64,15 @@ def test_paint_region_move_slider_frames_change_only_inside(notebook, page, shot
     t = np.clip((cells - p0) @ (p1 - p0) / ((p1 - p0) @ (p1 - p0)), 0, 1)
     dist = np.linalg.norm(cells - (p0 + t[:, None] * (p1 - p0)), axis=1)
     assert dist.max() <= region["radius"] + 1.5
-    src0 = page.locator(".fluidnb-app .fluidnb-frame").get_attribute("src")
+    src0 = shown_frame(page.locator(".fluidnb-app .fluidnb-frame"))
 
     # Unfold the light's group and move its azimuth: the live preview follows.
     page.locator(".fluidnb-app .fluidnb-param-groups").get_by_text("light and relief").click()
     shown = drag_slider(page, page.locator(".fluidnb-param-azimuth"), 0.9)
     assert shown != first["azimuth"]
     nb.state("clip.json", lambda s: abs(s["azimuth"] - shown) < 0.5 and not s["full"])
-    page.wait_for_function(
-        "src => document.querySelector('.fluidnb-app .fluidnb-frame').src !== src", arg=src0
-    )
+    frame = page.locator(".fluidnb-app .fluidnb-frame")
+    page.wait_for_function(ANOTHER_FRAME, arg=[frame.element_handle(), src0])
 
     # Full render: every frame changes inside the painted region, never outside it.
     page.locator(".fluidnb-app .fluidnb-run").click()

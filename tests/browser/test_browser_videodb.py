@@ -288,7 +288,8 @@ def test_draw_run_drag_sigma_and_export_in_jupyterlab(notebook, page, shot, lab_
     )
     shown = page.evaluate("() => window.__player")
     assert any("preview: σ" in text for text in shown), shown[-3:]
-    poll("the clip in the player", lambda: " frames, " in frame.locator("..").inner_text())
+    info = page.locator(".fluidnb-app .fluidnb-app-player .fluidnb-player-info")
+    poll("the clip in the player", lambda: " frames, " in info.inner_text())
     assert page.locator(".fluidnb-vdb-retrievals").inner_text() == "1"
     resolved = time.monotonic()
 

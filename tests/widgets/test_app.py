@@ -158,7 +158,9 @@ def test_unexpected_exceptions_are_shown_not_raised(capsys):
 
 def test_invalid_parameters_disable_run_and_explain():
     app, _ = make_app(canvas=False)
-    app.panel.controls["lo"].value = 9  # lo >= n = 4: invalid combination
+    assert app.panel.controls["lo"].max == 3  # the slider offers lo < n = 4 only
+    with pytest.raises(ValueError, match="lo must be < n"):
+        app.panel.set("lo", 9)  # from code: lo >= n = 4, an invalid combination
     assert app._run_button.disabled
     assert "lo must be < n" in app.status
     assert not app.start()
@@ -239,3 +241,87 @@ def test_the_repository_ignores_the_output_folder():
             ["git", "check-ignore", "-q", path], cwd=root, check=False
         ).returncode
         assert ignored == 0, f"{path} is not ignored by .gitignore"
+
+
+def test_the_full_result_waits_for_the_slider_to_be_let_go_and_rest():
+    # Issue 36: a render started while the handle was still held (a pause in a drag
+    # looked like a release). The page says when a slider is held; the full run
+    # starts only once it is let go and the values rest.
+    runs, previews = [], []
+
+    def run(params, progress):
+        runs.append(params.level)
+        return level_clip(params, 3)
+
+    def preview(params):
+        previews.append(params.level)
+        return level_clip(params)
+
+    app = App(panel=ParamPanel(Demo), run=run, preview=preview, min_interval=0.0, run_on_rest=True)
+    try:
+        app.settle = 0.05
+        app.wait_preview()
+        app._live.held = True  # the page: a slider's handle is pressed
+        for v in (0.2, 0.3, 0.4):
+            app.panel.controls["level"].value = v
+            time.sleep(0.1)  # pauses longer than settle: still held
+        app.wait_preview()
+        assert previews[-1] == pytest.approx(0.4)  # the preview follows while held
+        assert runs == []
+        assert not app.running
+        app._live.held = False  # let go
+        app.wait_live()
+        assert runs == [pytest.approx(0.4)]
+        assert app.result.frames[0, 0, 0] == pytest.approx(0.4)
+        assert app.player.clip is app.result
+        assert app.player.playing  # it plays at once
+        # A key press (no hold): the full result follows once the value rests.
+        app.panel.controls["level"].value = 0.6
+        app.wait_live()
+        assert runs[-1] == pytest.approx(0.6)
+    finally:
+        app.close()
+
+
+def test_a_newer_value_stops_the_full_result_of_the_old_one_quietly():
+    started = threading.Event()
+    runs = []
+
+    def run(params, progress):
+        runs.append(params.level)
+        if params.level == pytest.approx(0.2):
+            started.set()
+            while True:  # slow and cancellable
+                progress(0.5, "working")
+                time.sleep(0.01)
+        return level_clip(params)
+
+    app = App(
+        panel=ParamPanel(Demo), run=run, preview=level_clip, min_interval=0.0, run_on_rest=True
+    )
+    try:
+        app.settle = 0.05
+        app.panel.controls["level"].value = 0.2
+        assert started.wait(10)
+        app.panel.controls["level"].value = 0.7  # the slider moves again
+        app.wait_live()
+        assert runs == [pytest.approx(0.2), pytest.approx(0.7)]
+        assert app.result.frames[0, 0, 0] == pytest.approx(0.7)
+        assert "cancelled" not in app.status
+        assert app.progress.bar_style == "success"
+    finally:
+        app.close()
+
+
+def test_runs_start_by_themselves_only_in_a_notebook():
+    # Scripts and tests press Run themselves: no run starts behind their back.
+    app, _ = make_app(preview=level_clip)
+    try:
+        assert not app.run_on_rest
+        app.settle = 0.01
+        app.panel.controls["level"].value = 0.9
+        time.sleep(0.1)
+        assert not app.running
+        assert app.result is None
+    finally:
+        app.close()

@@ -74,7 +74,8 @@ def test_each_slot_is_shown_where_the_docstring_draws_it():
         views=[App.titled("the clip", W.Label("x")), view],
     )
     try:
-        heading, runbar, columns, aside = app.children
+        heading, runbar, columns, aside, live = app.children
+        assert live is app._live  # hidden: tells the kernel while a slider is held
         assert "Demo" in heading.value
         # Run, Cancel and the progress bar, then the status line, above everything.
         assert app.progress in tree(runbar)
@@ -96,7 +97,7 @@ def test_each_slot_is_shown_where_the_docstring_draws_it():
 def test_empty_slots_take_no_room_and_the_player_is_the_default_view():
     app = App(panel=ParamPanel(Demo), run=lambda p, progress: clip_of(p))
     try:
-        _runbar, columns, aside = app.children  # no title, no heading
+        _runbar, columns, aside, _live = app.children  # no title, no heading
         views, controls = columns.children  # no canvas column
         assert views.children == (app.player,)
         assert controls.children == (app.panel,)
@@ -215,7 +216,7 @@ def test_every_app_fills_the_slots_and_keeps_the_apps_layout(name):
     try:
         shown = tree(app)
         # The App's own structure: a heading, the run bar, the columns, the aside row.
-        heading, _runbar, columns, _aside = app.children
+        heading, _runbar, columns, _aside, _live = app.children
         assert "<h3" in heading.value
         assert app.views
         # The result beside the canvas: the views' column follows the canvas's.
@@ -262,12 +263,15 @@ def test_the_turbulence_players_are_built_with_the_players_public_options(tmp_pa
         for player in (app.player, app.vorticity):
             assert player.display_width == 300
             assert player.export_dir == tmp_path
-            (slider,) = [w for w in tree(player) if isinstance(w, W.IntSlider)]
-            assert slider.layout.width == "200px"
+            assert player.view.slider_width == "200px"
+        # One group in the page: the vorticity shows the dye's frame as it plays.
+        assert app.player.view.group == app.vorticity.view.group != ""
         app.player.clip = Clip(np.zeros((4, 6, 6)), fps=4)
         app.vorticity.clip = Clip(np.zeros((4, 6, 6)), fps=4)
         app.player.show(2)
         assert app.vorticity.frame == 2
+        app.player.play()
+        assert app.vorticity.playing
     finally:
         app.close()
 

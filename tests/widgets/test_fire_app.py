@@ -73,7 +73,7 @@ def test_run_makes_fire_with_the_panels_parameters(app):
     assert app.player.clip is clip
     # Shown at its own size, never enlarged (before: 64 px shown at 384).
     assert app.player.display_width == 128
-    assert app.player.image.layout.width == "128px"
+    assert app.player.view.display_width == 128
     # Side by side on the 64 x 64 grid, one frame per simulation frame:
     # temperature | keyframe | fire (every third clip frame, at 24 fps).
     assert app.compare.clip.shape == (64, 192)

@@ -1,10 +1,12 @@
 """The frost app driven from Python, with the same calls the front end makes."""
 
+import time
+
 import numpy as np
 import pytest
 
 from fluidnb import data
-from fluidnb.frost import FrostParams
+from fluidnb.frost import FrostParams, grow
 from fluidnb.widgets import FrostApp
 from tests.support.frontend import mouse_drag
 
@@ -137,11 +139,22 @@ def test_the_app_says_up_front_how_long_the_papers_gamma_takes_and_fits_gamma_to
     app.wait_preview()
     est = app.estimate
     assert est is not None
-    assert est.likely > 600
+    assert est.likely > 3 * 120  # far beyond the target
+    lattice, cells = app._lattice(3.0)
+    end = grow(lattice, cells, app.panel.params.replace(max_frames=5000), seed=app.seed).end_frame
+    assert est.low <= end <= est.high  # (436 here, the likely frame 450)
+    # The estimate at once (with how sure it is), the run's own end frame once the
+    # values rest (the automaton run without drawing, after the preview).
+    app._show_length(app.panel.params)
     text = app.length.value
     assert f"{est.likely:,.0f}" in text
+    assert f"likely {est.low:,.0f}–{est.high:,.0f}: 90 % of measured runs" in text
     assert f"at most {est.frames:,.0f}" in text
     assert "ends near the target 120" in text
+    app.warm(app.panel.params)
+    assert f"this run ends at frame <b>{end:,}</b>" in app.length.value
+    # A later target: a smaller gamma (issue 36: it suggested a larger one).
+    assert est.likely_gamma_for(2 * round(est.likely)) < app.panel.params.gamma
     assert "Use γ for 120 frames" in app._gamma_button.description
     app._gamma_button.click()
     app.wait(120)
@@ -169,6 +182,13 @@ def test_the_clip_plays_at_the_panels_fps_and_the_status_tells_its_length(app):
     assert f"{clip.n_frames} frames at 12 fps = {clip.n_frames / 12:.1f} s" in app.status
     # The estimate above the run speaks the same units: frames at the panel's fps.
     assert "at 12 fps" in app.length.value
+    # Once the values rest, the Length line says the run's own end frame (the
+    # automaton without drawing, the same seed): the frame the run ended at.
+    deadline = time.monotonic() + 30
+    while f"this run ends at frame <b>{end:,}</b>" not in app.length.value:
+        assert time.monotonic() < deadline, app.length.value
+        app.wait_preview()  # a newer preview stops a dry run: once none waits, it ends
+        app.warm(app.panel.params)  # (what the preview's worker does once they rest)
 
 
 def test_a_long_run_is_drawn_smaller_then_thinned_and_the_status_says_so():

@@ -1,4 +1,5 @@
 import io
+import time
 
 import numpy as np
 import pytest
@@ -13,26 +14,57 @@ def clip(n=5):
     return Clip(frames, fps=6, metadata={"method": "demo"})
 
 
-def test_frames_show_and_are_encoded_once():
-    p = FramePlayer(clip())
-    first = p.image.value
+def sent_frames(p, timeout=5):
+    """The frames the player sent to the page: {index: JPEG bytes}, once all are sent."""
+    got = {}
+    p.view.send = lambda content, buffers=None: got.update(
+        {content["start"] + k: bytes(b) for k, b in enumerate(buffers)}
+    )
+    return got
+
+
+def wait_for(cond, timeout=5):
+    deadline = time.monotonic() + timeout
+    while not cond():
+        assert time.monotonic() < deadline, "timed out"
+        time.sleep(0.01)
+
+
+def test_frames_are_sent_to_the_page_once_and_playing_needs_no_kernel():
+    p = FramePlayer()
+    got = sent_frames(p)
+    c = clip()
+    p.clip = c
+    wait_for(lambda: len(got) == 5)
+    assert p.view.clip_id == 1
+    assert p.view.n_frames == p.view.ready == 5
+    assert (p.view.width, p.view.height) == (12, 8)
+    # Each frame once, in order; the page plays them: show and play send no frames.
+    encoded = dict(p._encoded)
+    assert set(got) == set(encoded) == set(range(5))
+    assert all(got[i] == encoded[i] for i in range(5))
+    got.clear()
     p.show(3)
-    assert p.frame == 3
-    assert p._slider.value == 3
-    assert p.image.value != first
-    cached = p._encoded[3]
-    p.show(0)
-    p.show(3)
-    assert p._encoded[3] is cached  # not re-encoded
-    assert bytes(p.image.value) == cached
+    assert p.frame == p.view.frame == 3
+    p.play()
+    assert p.view.playing
+    time.sleep(0.1)
+    assert got == {}
+    # A page that reloads asks for what it misses, and gets the frames encoded before.
+    p._message(p.view, {"type": "want", "clip": 1, "have": 2}, [])
+    wait_for(lambda: set(got) == {2, 3, 4})
+    assert all(got[i] == encoded[i] for i in got)
+    got.clear()
+    p._message(p.view, {"type": "want", "clip": 0, "have": 0}, [])  # an old clip's
+    time.sleep(0.1)
+    assert got == {}
+    p.close()
 
 
 def test_frames_are_sent_as_jpeg_close_to_the_frame():
     photo = data.sample("stream", size=96)  # a photo: what the apps play
     p = FramePlayer(Clip(np.stack([photo * 0.5, photo, photo[::-1]]), fps=6))
-    p.show(1)
-    assert p.image.format == "jpeg"
-    shown = np.asarray(Image.open(io.BytesIO(bytes(p.image.value))))
+    shown = np.asarray(Image.open(io.BytesIO(p._encode(1))))
     assert shown.shape == photo.shape
     error = np.abs(shown.astype(float) - to_uint8(photo))
     # (A PNG: 0 and 0; quality 95 here: 2.2 and 15.)
@@ -40,18 +72,22 @@ def test_frames_are_sent_as_jpeg_close_to_the_frame():
     assert error.max() <= 30
 
 
-def test_slider_drives_the_frame_and_fps_drives_play_interval():
-    p = FramePlayer(clip())
+def test_the_page_drives_the_frame_and_fps_follows_the_clip():
+    p = FramePlayer()
+    assert p.fps == 8  # the page shows no fps before a clip
+    assert p.view.clip_id == 0
+    p.clip = clip()
     assert p.fps == 6
-    p._slider.value = 4
+    p.view.frame = 4  # a scrub in the page
     assert p.frame == 4
     p.fps = 20
-    assert p._play.interval == 50
-    assert p._play.max == 4
+    assert p.view.fps == 20
     p.play()
     assert p.playing
     p.play(False)
     assert not p.playing
+    p.loop = False
+    assert not p.view.loop
 
 
 def test_new_clip_resets_cache_and_bounds():
@@ -59,8 +95,8 @@ def test_new_clip_resets_cache_and_bounds():
     p.show(4)
     p.clip = clip(3)
     assert p.frame == 2
-    assert p._play.max == 2
-    assert set(p._encoded) == {2}
+    assert p.view.n_frames == p.view.ready == 3
+    assert p.view.clip_id == 2
 
 
 def test_export_gif_and_mp4_write_files_with_links(tmp_path):
@@ -138,7 +174,7 @@ def test_a_clip_streams_in_and_keeps_playing_when_finished(tmp_path):
     p.stream(streamed, 2)
     assert p.clip is streamed
     assert p.playing
-    assert p._play.max == p._slider.max == 1
+    assert (p.view.ready, p.view.n_frames) == (2, 6)
     assert "2 of 6 frames so far" in p.info.value
     assert p._gif.disabled
     assert p._mp4.disabled
@@ -147,23 +183,23 @@ def test_a_clip_streams_in_and_keeps_playing_when_finished(tmp_path):
     with pytest.raises(ValueError, match=r"frame must be in \[0, 1\]"):
         p.show(4)
     p.show(1)
-    encoded = p._encoded[1]
+    encoded = p._encode(1)
     frames[2:] = 1.0
     p.stream(streamed, 6)
-    assert p._play.max == 5
+    assert p.view.ready == 5 + 1
     assert p.playing
     assert not p._gif.disabled
     final = Clip._trusted(frames, 6, {}).with_metadata(method="demo")
     p.clip = final
     assert p.playing
-    assert p._encoded[1] is encoded
-    assert p._play.max == 5
+    assert p._encode(1) is encoded
+    assert p.view.clip_id == 2  # the same clip in the page: nothing sent again
     assert "6 frames" in p.info.value
     assert "demo" in p.info.value
     assert Clip.load(p.export("gif")).n_frames == 6
-    # Another clip is a new start: the cache goes, playback stops.
+    # Another clip is a new start: its own frames (and it plays on).
     p.clip = clip(3)
-    assert not p.playing
-    assert set(p._encoded) == {1}
+    assert p.playing
+    assert p._encode(1) is not encoded
     with pytest.raises(ValueError, match="ready must be in"):
         p.stream(clip(3), 0)

@@ -159,7 +159,8 @@ def test_a_problem_found_in_the_run_is_shown(tmp_path):
     app = TurbulenceApp(smokeless, source, export_dir=tmp_path)
     try:
         app.panel.set("D_th", 0.2)
-        assert app.status == ""  # the grids are fine: found only when the flows are read
+        assert app.check() == ""  # the grids are fine: found only when the flows are read
+        app.wait_preview()  # the live preview reads them, and says so at once
         app.run(timeout=300)
         assert "the target mask (density > D_th = 0.2) is empty" in app.status
         assert app.panel.params.D_th == 0.2

@@ -21,6 +21,7 @@ from fluidnb.videodb import AnimateParams, starter_database
 from fluidnb.widgets import VideoDBApp
 from fluidnb.widgets import _canvas as canvas_module
 from fluidnb.widgets import _videodb as module
+from fluidnb.widgets import _videodb_database as dbchoice
 from tests.support.frontend import canvas_event, client_ready, mouse_drag
 
 ROW = 62  # a band across the stream photo at 160 px (125 x 160)
@@ -36,7 +37,7 @@ def db():
 def app(db):
     a = VideoDBApp("stream", size=160, db=db)
     a.panel.set("candidates", 30)
-    a.resolve_interval = 0.0
+    a.run_on_rest = True  # as in a notebook: the clip follows when the values rest
     yield a
     a.close()
 
@@ -238,6 +239,7 @@ def test_moving_sigma_resolves_from_the_kept_tables(app, monkeypatch):
     calls = []
     real = module.assign
     monkeypatch.setattr(module, "assign", lambda *a, **k: calls.append(1) or real(*a, **k))
+    app.run_on_rest = False  # Render is pressed below (the render at rest: further down)
     draw_scene(app)
     app.run(timeout=120)
     first = app.assignment
@@ -511,6 +513,11 @@ def test_an_upload_after_another_photo_shows_the_upload_and_keeps_the_database()
         assert app.canvas.image.shape == (96, 120, 3)
         assert app._db_pick.value == "smoke"  # an upload keeps the chosen database
         assert app.status.startswith("photo: your upload, 120 x 96 pixels")
+        # ... and says so, with a first guess from the photo's colours (issue 36: a lake
+        # photo silently kept the smoke database picked for the clouds).
+        assert "using the smoke starter database" in app.status
+        assert "it looks like water" in app.status
+        assert "choose the water database" in app.status
         # The same through the upload button, after picking the fire photo.
         app._photo_pick.value = "fire"
         assert (app.photo_name, app._db_pick.value) == ("fire", "fire")
@@ -522,6 +529,7 @@ def test_an_upload_after_another_photo_shows_the_upload_and_keeps_the_database()
         assert app.photo.shape == (64, 80, 3)
         assert app.photo[..., 2].min() > 0.75
         assert app._db_pick.value == "fire"
+        assert "using the fire starter database: it looks like water" in app.status
         # A photo is one pick away again, and "upload" leaves the menu with it.
         app._photo_pick.value = "lake"
         assert app.photo_name == "lake"
@@ -570,7 +578,7 @@ def test_dragging_sigma_shows_the_map_and_a_preview_then_the_clip_when_it_rests(
     app.wait_resolve()
     first_clip, renders = app.result, app.renders
     assert app.previews == 0
-    assert app.player.image.value == app.player._encode(app.player.frame)
+    assert app.player.clip is app.result
     # While the values rested after the run, the candidates' mean images were read for
     # the previews: a drag reads one frame per new fragment, no mean image.
     cache = app._preview_cache[1]
@@ -583,7 +591,8 @@ def test_dragging_sigma_shows_the_map_and_a_preview_then_the_clip_when_it_rests(
     assert a.params.sigma == 1e4
     assert app.map.assignment is a  # the map shows the latest
     assert app.previews >= 1
-    shown = Image.open(io.BytesIO(app.player.image.value))
+    assert app.player.clip.metadata["preview"]
+    shown = Image.open(io.BytesIO(app.player._encode(0)))
     assert shown.size == (80, 63)  # one frame at half the photo's 160 x 125
     assert "preview" in app.player.info.value
     assert "σ = 1e+04" in app.player.info.value
@@ -638,7 +647,6 @@ def test_a_rendering_setting_renders_again_when_it_rests(app, monkeypatch):
     # A first frame with the new setting is on screen before the clip is made.
     assert len(shown) == 1
     assert "preview" in shown[0]
-    assert "rendering the clip" in shown[0]
     assert "preview" not in app.player.info.value
 
 
@@ -734,8 +742,8 @@ def test_a_starter_database_built_on_first_use_fills_most_of_the_bar(db, monkeyp
             seen.append(app.progress.value)
         return db
 
-    monkeypatch.setattr(module, "starter_database", building)
-    monkeypatch.setattr(module, "starter_path", lambda kind, quick=None: tmp_path / "none")
+    monkeypatch.setattr(dbchoice, "starter_database", building)
+    monkeypatch.setattr(dbchoice, "starter_path", lambda kind, quick=None: tmp_path / "none")
     app = VideoDBApp("stream", size=160, db="water", quick=True)
     try:
         app.panel.set("candidates", 20)
@@ -744,8 +752,8 @@ def test_a_starter_database_built_on_first_use_fills_most_of_the_bar(db, monkeyp
         assert seen == pytest.approx([0.0, 0.4, 0.8])
         # Once built (cached), the database is quick to open: a thin slice of the bar.
         seen.clear()
-        monkeypatch.setattr(module, "starter_path", lambda kind, quick=None: tmp_path)
-        app._databases.clear()
+        monkeypatch.setattr(dbchoice, "starter_path", lambda kind, quick=None: tmp_path)
+        app.databases._opened.clear()
         app.run(timeout=120)
         assert seen == pytest.approx([0.0, 0.075, 0.15])
     finally:
@@ -824,7 +832,7 @@ def test_a_resolve_rebuilds_the_new_fragments_while_the_values_rest(app, monkeyp
 
 def test_a_drag_prefetches_only_once_the_values_rest(app, monkeypatch):
     # A prefetch for every value of a drag would hold the re-solve's worker while the
-    # next value waits for its map: it waits until the values rest (prefetch_after).
+    # next value waits for its map: it waits until the values rest (warm_after).
     import fluidnb.widgets._videodb as module
 
     draw_scene(app)
@@ -837,7 +845,7 @@ def test_a_drag_prefetches_only_once_the_values_rest(app, monkeypatch):
         module, "prefetch", lambda a, *x, **k: fetched.append(a) or real(a, *x, **k)
     )
     sigma = app.assignment.params.sigma
-    app.prefetch_after = 0.3
+    app.warm_after = 0.3
     # A value every 50 ms: each is re-solved, none rests long enough to be prefetched.
     drag_sigma(app, [sigma * f for f in (2, 4, 8, 16)], pause=0.05)
     app.wait_resolve()
