@@ -119,7 +119,7 @@ def synthetic_store(base, path, n_fragments, *, seed=0, log=print):
     """
     import zarr
 
-    from fluidnb.videodb._store import (
+    from fluidnb.videodb.database._store import (
         CHUNK,
         FORMAT,
         RAM_ARRAYS,

@@ -231,7 +231,7 @@ STARTER_MARKS = ("clips read", "fragments done", "codebook ready", "database rea
 
 def _same_database(a, b):
     """Same codebook and, clip for clip, the same arrays (the manifest's checksums)."""
-    from fluidnb.videodb._store import read_manifest
+    from fluidnb.videodb.database._store import read_manifest
 
     ma, mb = read_manifest(a)[0], read_manifest(b)[0]
     return ma["codebook"] == mb["codebook"] and [c["checksum"] for c in ma["clips"]] == [
@@ -335,7 +335,7 @@ def part_starter(ctx):
 
 def part_throughput(ctx):
     from fluidnb.videodb import build_database, optical_flow, starter_clips, starter_params
-    from fluidnb.videodb._features import grey
+    from fluidnb.videodb.database._features import grey
 
     print("\n## Build throughput per flow backend (first two starter water clips)")
     clips = starter_clips("water", quick=ctx.quick, seed=0)[:2]
@@ -452,7 +452,7 @@ def part_store(ctx):
     import zarr
     from _videodb_store import disk_usage
 
-    from fluidnb.videodb._store import RAM_ARRAYS, checksum, clip_group
+    from fluidnb.videodb.database._store import RAM_ARRAYS, checksum, clip_group
 
     print("\n## A paper-sized store (synthesised from the starter water database)")
     load0 = load()
@@ -598,7 +598,7 @@ def rebuild_anatomy(db, ids, margin=12):
     frames read once (decoded from the store's chunks), the luminance of the part of
     each window its fragments read, each fragment re-sampled from it.
     """
-    from fluidnb.videodb import _frames
+    from fluidnb.videodb.database import _frames
 
     n, side = db.params.N, 48 + 2 * margin
     uniq = np.unique(ids)

@@ -163,7 +163,7 @@ def sync_sheet(path):
     """The overview's clouds: in sync, with offsets and mirrors, and the flow rendering."""
     from unittest import mock
 
-    import fluidnb.videodb._render as R
+    import fluidnb.videodb.rendering._render as R
 
     photo, matte = data.sample("clouds", mode="rgb"), data.region("clouds")
     h, w = matte.shape

@@ -13,7 +13,7 @@ import urllib.request
 import pytest
 
 from fluidnb.videodb import STARTER_KINDS
-from fluidnb.videodb._starter import _VERSION
+from fluidnb.videodb.starter._databases import _VERSION
 from tests.support.envs import ROOT
 
 pytestmark = pytest.mark.slow

@@ -41,9 +41,22 @@ One idea per module, in the order of the method:
 """
 
 from ._animate import animate
-from ._appearance import match_histograms_cells, motion_blur
-from ._assign import Assignment, assign
-from ._augment import (
+from ._common._geometry import ANGLES, FRAGMENT, SCALES, STRIDE, VERSIONS
+from ._common._params import AUGMENTATIONS, FLOW_BACKENDS, RENDERINGS, AnimateParams, DatabaseParams
+from .assignment._assign import Assignment, assign
+from .assignment._mrf import (
+    MRFSolution,
+    alpha_expansion,
+    brute_force,
+    energy,
+    grid_edges,
+    icm,
+    solve,
+)
+from .assignment._retrieval import HistogramIndex
+from .assignment._smoothness import TEXTURE_SCALE, PairTables, pair_tables
+from .assignment._target import Target, cut_target, fragment_motion
+from .database._augment import (
     sample_version,
     transform_flow,
     transform_vectors,
@@ -51,12 +64,16 @@ from ._augment import (
     version_coordinates,
     version_shape,
 )
-from ._blend import blend_differences, fragment_weights
-from ._build import add_clips, build_database, clip_fragments
-from ._composite import composite, dynamic_matte, inpaint_background, loop_crossfade
-from ._desync import mirror_axes, stagger, sync_share, temporal_offsets
-from ._features import motion_spectra, textureness, window_features
-from ._figures import (
+from .database._build import add_clips, build_database, clip_fragments
+from .database._features import motion_spectra, textureness, window_features
+from .database._flow import optical_flow
+from .database._frames import FrameCache
+from .database._lock import DatabaseBusy
+from .database._sift import dense_sift
+from .database._store import VideoDatabase, open_database, verify_database
+from .database._video import Video, read_video
+from .database._words import fit_codebook, intersection, pyramid_histograms, quantise
+from .figures._database import (
     assignment_figure,
     clip_colour,
     clip_fragments_figure,
@@ -70,10 +87,12 @@ from ._figures import (
     version_label,
     versions_figure,
 )
-from ._fill import exemplar_fill
-from ._flow import optical_flow
-from ._flow_map import flow_map_texture
-from ._flow_render import (
+from .rendering._appearance import match_histograms_cells, motion_blur
+from .rendering._blend import blend_differences, fragment_weights
+from .rendering._composite import composite, dynamic_matte, inpaint_background, loop_crossfade
+from .rendering._desync import mirror_axes, stagger, sync_share, temporal_offsets
+from .rendering._fill import exemplar_fill
+from .rendering._flow_render import (
     displacement_maps,
     eulerian_loop,
     extend_outside,
@@ -81,13 +100,8 @@ from ._flow_render import (
     flow_timing,
     loop_phases,
 )
-from ._frames import FrameCache
-from ._geometry import ANGLES, FRAGMENT, SCALES, STRIDE, VERSIONS
-from ._lock import DatabaseBusy
-from ._mrf import MRFSolution, alpha_expansion, brute_force, energy, grid_edges, icm, solve
-from ._params import AUGMENTATIONS, FLOW_BACKENDS, RENDERINGS, AnimateParams, DatabaseParams
-from ._preview import prefetch_preview, preview_frame
-from ._reference import (
+from .rendering._preview import prefetch_preview, preview_frame
+from .rendering._reference import (
     reference_alpha_expansion,
     reference_blend_differences,
     reference_dense_sift,
@@ -103,16 +117,10 @@ from ._reference import (
     reference_top_k,
     reference_transform_vectors,
 )
-from ._render import Animation, prefetch, render
-from ._retrieval import HistogramIndex
-from ._sift import dense_sift
-from ._smoothness import TEXTURE_SCALE, PairTables, pair_tables
-from ._starter import prebuild_starters, starter_database, starter_params, starter_path
-from ._starter_clips import STARTER_KINDS, starter_clips
-from ._store import VideoDatabase, open_database, verify_database
-from ._target import Target, cut_target, fragment_motion
-from ._video import Video, read_video
-from ._words import fit_codebook, intersection, pyramid_histograms, quantise
+from .rendering._render import Animation, prefetch, render
+from .starter._clips import STARTER_KINDS, starter_clips
+from .starter._databases import prebuild_starters, starter_database, starter_params, starter_path
+from .starter._flow_map import flow_map_texture
 
 __all__ = [
     "ANGLES",

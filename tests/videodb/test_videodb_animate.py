@@ -251,7 +251,7 @@ def test_the_lesson_pictures_are_there(anim, photo):
 def test_render_hands_out_its_frames_as_they_are_made(anim, monkeypatch):
     # What the app streams to its player: runs of final frames, in order, that make
     # up the clip render returns.
-    from fluidnb.videodb import _render
+    from fluidnb.videodb.rendering import _render
 
     monkeypatch.setattr(_render, "CHUNK", 4)
     params = AnimateParams.from_dict(anim.clip.metadata["params"])
@@ -288,7 +288,7 @@ def test_a_render_stopped_between_runs_stops_cleanly(anim, monkeypatch):
     # The next run is blended while the frames of the one before are made: stopping
     # (the app's Cancel) raises at once, and what was handed out is final.
     from fluidnb import Cancelled
-    from fluidnb.videodb import _render
+    from fluidnb.videodb.rendering import _render
 
     monkeypatch.setattr(_render, "CHUNK", 1)
     monkeypatch.setattr(_render, "FIRST_RUN", 1)
@@ -403,7 +403,9 @@ def test_each_weight_pulls_the_solution_towards_what_it_weighs(tmp_path):
 
 def test_prefetch_leaves_render_nothing_to_rebuild(anim, monkeypatch):
     from fluidnb import Cancelled
-    from fluidnb.videodb import _frames, _render, prefetch
+    from fluidnb.videodb import prefetch
+    from fluidnb.videodb.database import _frames
+    from fluidnb.videodb.rendering import _render
 
     a = anim.assignment
     params = AnimateParams.from_dict(anim.clip.metadata["params"])

@@ -214,7 +214,7 @@ def test_inputs_are_never_modified():
 
 
 def test_frames_go_into_the_colour_axes_and_back_as_numpy_computes_it():
-    from fluidnb.videodb._appearance import colour_axes, frames_from_axes, frames_in_axes
+    from fluidnb.videodb.rendering._appearance import colour_axes, frames_from_axes, frames_in_axes
 
     gen = np.random.default_rng(2)
     mean = gen.random((13, 17, 3)).astype(np.float32)
@@ -238,7 +238,7 @@ def test_frames_go_into_the_colour_axes_and_back_as_numpy_computes_it():
 
 
 def test_matching_on_threads_is_matching_on_one(monkeypatch):
-    from fluidnb.videodb import _appearance
+    from fluidnb.videodb.rendering import _appearance
 
     gen = np.random.default_rng(6)
     frames = smooth_texture(gen, (5, 40, 56), 2.0)[..., None] * [1.0, 0.8, 0.6]
@@ -272,14 +272,14 @@ def test_the_renderers_one_pass_kernels_are_the_numpy_steps_bit_for_bit(wa):
     # What render makes of a flow frame in one pass each: the phases cross-faded, the
     # detail added, into the colour axes; and back, composited, clipped, cropped.
     from fluidnb.videodb import composite
-    from fluidnb.videodb._appearance import (
+    from fluidnb.videodb.rendering._appearance import (
         _advected_in_axes,
         _composite_from_axes,
         colour_axes,
         colours_in_axes,
         frames_from_axes,
     )
-    from fluidnb.videodb._flow_render import _cross_fade
+    from fluidnb.videodb.rendering._flow_render import _cross_fade
 
     gen = np.random.default_rng(21)
     a, b, back = (gen.random((14, 19, 3)).astype(np.float32) for _ in range(3))

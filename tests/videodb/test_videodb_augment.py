@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from fluidnb.videodb import reference_sample_version, reference_transform_vectors
-from fluidnb.videodb._augment import (
+from fluidnb.videodb._common._geometry import FRAGMENT, STRIDE, VERSIONS
+from fluidnb.videodb.database._augment import (
     IDENTITY,
     VersionSampler,
     mirror_order,
@@ -18,8 +19,7 @@ from fluidnb.videodb._augment import (
     version_coordinates,
     version_shape,
 )
-from fluidnb.videodb._flow import optical_flow
-from fluidnb.videodb._geometry import FRAGMENT, STRIDE, VERSIONS
+from fluidnb.videodb.database._flow import optical_flow
 
 ALL = range(len(VERSIONS))
 
@@ -186,7 +186,7 @@ def test_the_version_sampler_gives_sample_version_bit_for_bit(shape):
             assert np.array_equal(bits(f), bits(carried))
     # The three samplers (and later windows and clips of this size) share each
     # version's sampling plan, made once and read-only: nothing can change it under them.
-    from fluidnb.videodb._augment import _whole_plan
+    from fluidnb.videodb.database._augment import _whole_plan
 
     plan = _whole_plan(*shape[1:], 0)
     assert plan is _whole_plan(*shape[1:], 0)
@@ -374,7 +374,7 @@ def test_prefilter_blur_is_the_clamped_gaussian(shape, sigma):
     kernel; and a window's interior is the whole's bit for bit."""
     from scipy import ndimage as ndi
 
-    from fluidnb.videodb._augment import _TRUNCATE, _blur, _gaussian_kernel
+    from fluidnb.videodb.database._augment import _TRUNCATE, _blur, _gaussian_kernel
 
     rng = np.random.default_rng(12)
     whole = rng.random((shape[0] + 8, shape[1] + 8, shape[2])).astype(np.float32)

@@ -5,7 +5,7 @@ import pytest
 from scipy import ndimage as ndi
 
 from fluidnb.videodb import blend_differences, fragment_weights, reference_blend_differences
-from fluidnb.videodb._blend import blend_values
+from fluidnb.videodb.rendering._blend import blend_values
 
 # --------------------------------------------------------------------------------------
 # helpers
@@ -264,7 +264,7 @@ def test_blend_values_spreads_each_fragments_value_over_its_cell():
 def test_blend_on_threads_is_the_blend_on_one(monkeypatch):
     # The phase layers' pyramids are made on threads and summed in layer order: the
     # result is the one-thread result bit for bit.
-    from fluidnb.videodb import _blend
+    from fluidnb.videodb.rendering import _blend
 
     gen = np.random.default_rng(8)
     shape = (168, 192)
@@ -284,8 +284,8 @@ def test_blend_is_the_numpy_layer_blend_bit_for_bit(margin, feather, frames, eve
     # The compiled fill, weighting and normalisation and the weights made once give
     # the phase-layer blend written in numpy exactly; fragments missing here and
     # there (every), zero weights far from the cores, margins short and long.
-    from fluidnb.videodb._blend import _blend, _BlendPlan
-    from fluidnb.videodb._reference import reference_layer_blend
+    from fluidnb.videodb.rendering._blend import _blend, _BlendPlan
+    from fluidnb.videodb.rendering._reference import reference_layer_blend
 
     gen = np.random.default_rng(11)
     shape = (192, 240)
@@ -309,7 +309,7 @@ def test_blend_is_the_numpy_layer_blend_bit_for_bit(margin, feather, frames, eve
 
 def test_difference_frames_are_the_frames_minus_their_mean_cross_faded():
     from fluidnb.videodb import loop_crossfade
-    from fluidnb.videodb._blend import difference_frames
+    from fluidnb.videodb.rendering._blend import difference_frames
 
     gen = np.random.default_rng(3)
     frames = gen.random((12, 9, 11)).astype(np.float32)
@@ -328,7 +328,7 @@ def test_difference_frames_are_the_frames_minus_their_mean_cross_faded():
 def test_difference_frames_are_their_numpy_steps_bit_for_bit():
     # The compiled pass (a row of pixels at a time) against the same float32 and
     # float64 steps written over whole frames in numpy, sums in frame order.
-    from fluidnb.videodb._blend import difference_frames
+    from fluidnb.videodb.rendering._blend import difference_frames
 
     gen = np.random.default_rng(5)
     frames = gen.random((15, 13, 21)).astype(np.float32)  # 15: no power of two
@@ -354,7 +354,7 @@ def test_difference_frames_are_their_numpy_steps_bit_for_bit():
 
 def test_play_loops_is_stagger_on_loops_already_made():
     from fluidnb.videodb import loop_crossfade, stagger
-    from fluidnb.videodb._blend import play_loops
+    from fluidnb.videodb.rendering._blend import play_loops
 
     gen = np.random.default_rng(4)
     diffs = gen.standard_normal((5, 10, 8, 8)).astype(np.float32)

@@ -6,13 +6,8 @@ import numpy as np
 import pytest
 
 from fluidnb import Cancelled, Clip
-from fluidnb.videodb import _build as build_module
-from fluidnb.videodb import (
-    add_clips,
-    build_database,
-    open_database,
-    read_video,
-)
+from fluidnb.videodb import add_clips, build_database, open_database, read_video
+from fluidnb.videodb.database import _build as build_module
 from tests.support.videodb_store import PARAMS, moving_texture, sources, store_bytes
 
 
@@ -313,7 +308,7 @@ def test_a_clips_frames_are_converted_to_8_bits_as_to_uint8_does():
     # to_uint8's bytes (the stored frames and the clips' SHA-256), rounding ties and
     # values outside [0, 1] included.
     from fluidnb import to_uint8
-    from fluidnb.videodb._video import _clip_uint8
+    from fluidnb.videodb.database._video import _clip_uint8
 
     gen = np.random.default_rng(4)
     ties = (np.arange(256, dtype=np.float32) - np.float32(0.5)) / np.float32(255)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from fluidnb.videodb import motion_spectra, textureness, window_features
-from fluidnb.videodb._features import _flow_blocks, _moving_blocks, pixel_features
+from fluidnb.videodb.database._features import _flow_blocks, _moving_blocks, pixel_features
 
 N = 32  # frames per fragment: n = N - 1 flows
 H, W = 48, 72
@@ -126,7 +126,7 @@ def test_stored_textureness_keeps_opencvs_pyramid_steps_bit_for_bit():
     import cv2
 
     from fluidnb.fields._pyramid import _kernel, _laplacian32
-    from fluidnb.videodb._features import _textureness
+    from fluidnb.videodb.database._features import _textureness
 
     gen = np.random.default_rng(5)
     stack = gen.random((H, W, 6)).astype(np.float32)  # even sides: the fused path applies
@@ -156,7 +156,7 @@ def test_stored_textureness_keeps_opencvs_pyramid_steps_bit_for_bit():
 
 def _block_mean_2(a):
     """The 2 x 2 block means of ``a`` (TEXTURE_BLOCK = 2), in float32 as the library."""
-    from fluidnb.videodb._features import block_mean
+    from fluidnb.videodb.database._features import block_mean
 
     return block_mean(a[None], 2)[0].astype(np.float32)
 
@@ -262,7 +262,7 @@ def _wide_range(gen, shape):
 def test_band_magnitudes_are_numpys_sum_bit_for_bit(c):
     # The kernel replicates numpy's pairwise summation order for up to 128 channels
     # (numpy's own sum beyond): the stored textureness must not change by one bit.
-    from fluidnb.videodb._features import _band_magnitudes
+    from fluidnb.videodb.database._features import _band_magnitudes
 
     gen = np.random.default_rng(c)
     g, e = _wide_range(gen, (5, 7, c)), _wide_range(gen, (5, 7, c))
@@ -275,8 +275,8 @@ def test_band_magnitudes_are_numpys_sum_bit_for_bit(c):
 
 @pytest.mark.parametrize(("n", "h", "w"), [(1, 4, 4), (2, 9, 13), (5, 33, 31), (32, 48, 72)])
 def test_textureness_equals_the_reference_bit_for_bit(n, h, w):
-    from fluidnb.videodb._features import _textureness
-    from fluidnb.videodb._reference import reference_textureness
+    from fluidnb.videodb.database._features import _textureness
+    from fluidnb.videodb.rendering._reference import reference_textureness
 
     stack = np.random.default_rng(n + h).random((h, w, n)).astype(np.float32)
     assert _same_bits(_textureness(stack), reference_textureness(stack))
@@ -284,8 +284,8 @@ def test_textureness_equals_the_reference_bit_for_bit(n, h, w):
 
 @pytest.mark.parametrize("seed", range(4))
 def test_window_sums_equal_the_numpy_integral_image_bit_for_bit(seed):
-    from fluidnb.videodb._features import _window_sums
-    from fluidnb.videodb._reference import reference_window_sums
+    from fluidnb.videodb.database._features import _window_sums
+    from fluidnb.videodb.rendering._reference import reference_window_sums
 
     gen = np.random.default_rng(seed)
     p, q = int(gen.integers(1, 6)), int(gen.integers(1, 3))
@@ -312,7 +312,7 @@ def test_pixel_features_equal_the_reference_bit_for_bit(n, h, w, threshold):
     # the textureness's magnitudes, the cut into fragments) against the numpy and
     # OpenCV version they replaced: every stored array the same bits, ragged edges,
     # fragments at the canvas's edges and windows with nothing moving included.
-    from fluidnb.videodb._reference import reference_pixel_features
+    from fluidnb.videodb.rendering._reference import reference_pixel_features
 
     gen = np.random.default_rng(n * h)
     stack = gen.random((h, w, n + 1)).astype(np.float32)
@@ -341,7 +341,7 @@ def test_half_rounding_is_numpys_cast_bit_for_bit():
     # once over all 2^32 float32 patterns; here every half, the midpoints between
     # neighbouring halves (the ties) and a float32 step either side of them, the
     # underflow and overflow boundaries, and random bit patterns, both signs.
-    from fluidnb.videodb._features import _to_half
+    from fluidnb.videodb.database._features import _to_half
 
     halves = np.arange(1 << 16, dtype=np.uint32).astype(np.uint16).view(np.float16)
     finite = np.sort(halves[np.isfinite(halves)].astype(np.float32))

@@ -35,8 +35,8 @@ from fluidnb.videodb import (
     version_label,
     versions_figure,
 )
-from fluidnb.videodb._features import grey
-from fluidnb.videodb._figures import CLIP_PALETTE
+from fluidnb.videodb.database._features import grey
+from fluidnb.videodb.figures._database import CLIP_PALETTE
 
 PARAMS = DatabaseParams(N=8, augment="flip", words=16, codebook_samples=5000)
 FEW = AnimateParams(candidates=12)

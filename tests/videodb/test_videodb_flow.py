@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from skimage.registration import optical_flow_tvl1
 
-from fluidnb.videodb._flow import (
+from fluidnb.videodb.database._flow import (
     TVL1_ATTACHMENT,
     TVL1_ITERATIONS,
     TVL1_THETA,

@@ -93,7 +93,7 @@ def test_flow_map_texture_refuses_bad_arguments():
 def test_the_compiled_flow_map_equals_the_plain_one_bit_for_bit(preserve, channels):
     # The kernels against _flow_map(compiled=False): backward_warp and numpy blending,
     # with an unsteady flow fast enough to wrap around and reach the clamped border.
-    from fluidnb.videodb._flow_map import _flow_map
+    from fluidnb.videodb.starter._flow_map import _flow_map
 
     gen = np.random.default_rng(6)
     h, w = 23, 37
@@ -109,7 +109,7 @@ def test_the_compiled_flow_map_equals_the_plain_one_bit_for_bit(preserve, channe
 def test_the_kernels_wrap_is_pythons_modulo():
     # The kernels' wrap skips the division for -n <= i < 2n (where nearly all the
     # coordinates are); everywhere else it must still be Python's i % n.
-    from fluidnb.videodb._flow_map import _wrap
+    from fluidnb.videodb.starter._flow_map import _wrap
 
     for n in (1, 2, 7, 23):
         for i in range(-5 * n - 3, 5 * n + 4):

@@ -358,7 +358,7 @@ def test_the_maps_are_the_recurrence_step_by_step_and_usable_as_made():
     # Both recurrences on their own threads, each sampling point worked out once and
     # each map written in place: the maps warp after warp, bit for bit, and a map can
     # be used as soon as it is made.
-    from fluidnb.videodb._flow_render import _grid, _Maps, _remap
+    from fluidnb.videodb.rendering._flow_render import _grid, _Maps, _remap
 
     yy, xx = np.mgrid[:40, :52]
     v = np.stack([0.7 * np.sin(xx / 7.0), 1.3 + 0.4 * np.cos(yy / 6.0)], axis=-1)
@@ -383,7 +383,7 @@ def test_what_renders_share_is_kept_and_the_clip_stays_the_same(assignment, monk
     # matching's reference side, the advected layer) is kept with the target; the
     # motion field and the maps with the last assignment, for its loop and travel.
     # Renders from what is kept are renders made afresh, bit for bit.
-    from fluidnb.videodb import _render
+    from fluidnb.videodb.rendering import _render
 
     base = assignment.params
     other = assignment.resolve(lam=0.0)  # another choice of fragments
@@ -420,7 +420,7 @@ def test_a_process_may_end_while_the_maps_are_being_made():
     code = (
         "import threading, time\n"
         "import numpy as np\n"
-        "from fluidnb.videodb._flow_render import _Maps\n"
+        "from fluidnb.videodb.rendering._flow_render import _Maps\n"
         "v = np.full((384, 480, 2), 0.5, np.float32)\n"
         "threading.Thread(target=_Maps, args=(v, 400), daemon=True).start()\n"
         "time.sleep(0.1)\n"
@@ -432,7 +432,7 @@ def test_a_process_may_end_while_the_maps_are_being_made():
 def test_the_fields_spread_is_the_numpy_loop_bit_for_bit():
     # flow_field spreads the fragments' values with a compiled loop: the numpy
     # loop's sums.
-    from fluidnb.videodb._flow_render import _spread
+    from fluidnb.videodb.rendering._flow_render import _spread
 
     gen = np.random.default_rng(4)
     positions = np.array([(r, c) for r in range(0, 97, 24) for c in range(0, 121, 24)])

@@ -14,8 +14,8 @@ from fluidnb.videodb import (
     reference_fragment_frames,
     sample_version,
 )
-from fluidnb.videodb import _frames as frames_module
-from fluidnb.videodb._frames import luminance
+from fluidnb.videodb.database import _frames as frames_module
+from fluidnb.videodb.database._frames import luminance
 from tests.support.videodb_store import moving_texture
 
 # All 18 versions (flips, 50/75/100 %, three angles): every resampling path.
@@ -70,7 +70,7 @@ def test_rebuilt_fragments_are_sample_version_of_the_frames_bit_for_bit(db):
 def test_fragments_prefiltered_together_are_the_ones_prefiltered_alone(db, monkeypatch):
     # Fragments of one start and one prefilter are blurred together on the rectangle
     # around theirs: the same frames bit for bit, with fewer blurs.
-    from fluidnb.videodb import _frames
+    from fluidnb.videodb.database import _frames
 
     ids = spread(db, per_version=12)
     blurs = []
@@ -243,7 +243,7 @@ def test_a_render_from_the_reference_frames_differs_only_by_round_off(built, mon
     1e-3 (a quarter of an 8-bit level).
     """
     from fluidnb.videodb import AnimateParams, assign, render
-    from fluidnb.videodb import _render as render_module
+    from fluidnb.videodb.rendering import _render as render_module
 
     db = open_database(built.path)
     gen = np.random.default_rng(5)
@@ -253,7 +253,7 @@ def test_a_render_from_the_reference_frames_differs_only_by_round_off(built, mon
     fast = render(a)
 
     def plain(db, ids, *, margin, grey, differences=None, progress=None):
-        from fluidnb.videodb._blend import difference_frames
+        from fluidnb.videodb.rendering._blend import difference_frames
 
         frames = reference_fragment_frames(db, np.unique(ids), margin=margin, grey=grey)
         if differences is not None:
@@ -305,7 +305,7 @@ def test_the_renders_differences_are_staggers_blended(built, rendering):
     st = anim.stages
     timing = {}
     if rendering == "flow":
-        from fluidnb.videodb._render import _flow_plan
+        from fluidnb.videodb.rendering._render import _flow_plan
 
         plan = _flow_plan(a, a.params, db.params.N)
         if not np.all(plan["rates"] == 1):  # the detail plays at the painted speed

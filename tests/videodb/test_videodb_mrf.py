@@ -4,7 +4,14 @@ import numpy as np
 import pytest
 
 from fluidnb import Cancelled, CancelToken
-from fluidnb.videodb._mrf import alpha_expansion, brute_force, energy, grid_edges, icm, solve
+from fluidnb.videodb.assignment._mrf import (
+    alpha_expansion,
+    brute_force,
+    energy,
+    grid_edges,
+    icm,
+    solve,
+)
 
 # ------------------------------------------------------------------------ helpers
 
@@ -300,7 +307,7 @@ def test_moves_that_failed_on_the_same_labels_are_skipped_without_changing_the_r
     # The compiled expansion does not try a move again that failed while the labels
     # have not changed since; the plain version tries every move every sweep.
     from fluidnb.videodb import reference_alpha_expansion
-    from fluidnb.videodb._mrf import Progress, _expand, _problem
+    from fluidnb.videodb.assignment._mrf import Progress, _expand, _problem
 
     gen = np.random.default_rng(40 + seed)
     k = [4, 7, 10, 6][seed]
@@ -384,7 +391,7 @@ def test_solve_runs_its_expansions_side_by_side_with_the_same_result(monkeypatch
     # in order.
     import threading
 
-    from fluidnb.videodb import _mrf
+    from fluidnb.videodb.assignment import _mrf
 
     unary, pairwise, edges, lam = realistic_problem(1)
     expand, threads = _mrf._expand, []
@@ -420,7 +427,7 @@ def test_solve_runs_its_expansions_side_by_side_with_the_same_result(monkeypatch
 def test_cancelling_solve_stops_both_expansions(monkeypatch):
     import threading
 
-    from fluidnb.videodb import _mrf
+    from fluidnb.videodb.assignment import _mrf
 
     monkeypatch.setattr(_mrf, "_SIDE_BY_SIDE", 1)
     monkeypatch.setattr(_mrf, "usable_cores", lambda: [0, 1])
@@ -487,7 +494,7 @@ def test_the_compiled_expansion_equals_the_plain_one_on_ties_and_lam_zero(kind):
 def test_energy_sums_as_numpy_does():
     # The compiled acceptance check sums Eq. (4) in numpy's pairwise order, so the
     # energies (and every `new < current` decision) are the plain version's bits.
-    from fluidnb.videodb._sums import _pairwise_sum
+    from fluidnb.videodb._common._sums import _pairwise_sum
 
     gen = np.random.default_rng(3)
     for n in [*range(0, 300), 511, 1024, 1031, 4099, 70001]:
@@ -560,7 +567,7 @@ GRAPHS = [
 def test_maxflow_equals_pymaxflow_to_the_bit(kind):
     # The same flow to the last bit and the same sink side (nodes that can reach the
     # sink): the same augmenting paths in the same order as Kolmogorov's library.
-    from fluidnb.videodb._maxflow import min_cut
+    from fluidnb.videodb.assignment._maxflow import min_cut
 
     gen = np.random.default_rng(GRAPHS.index(kind))
     sides = []
@@ -580,7 +587,7 @@ def test_maxflow_equals_pymaxflow_to_the_bit(kind):
 
 
 def test_maxflow_cut_is_minimal_and_a_known_answer():
-    from fluidnb.videodb._maxflow import min_cut
+    from fluidnb.videodb.assignment._maxflow import min_cut
 
     # s -> 0 (3), 0 -> 1 (1), 1 -> t (2): the edge 0 -> 1 is the cut.
     flow, side = min_cut(2, [[0, 1]], [1.0], [0.0], [3.0, 0.0], [0.0, 2.0])

@@ -153,7 +153,7 @@ def fragments(cache):
 
 
 def test_a_cache_keeps_the_targets_own_pictures_for_its_target_only(scene, monkeypatch):
-    import fluidnb.videodb._preview as module
+    import fluidnb.videodb.rendering._preview as module
 
     a, _ = scene
     cache = {}
@@ -185,7 +185,7 @@ def test_bad_arguments_are_named(scene):
 
 def test_its_one_level_blend_is_blend_differences_with_one_level(scene):
     # preview_frame adds the fragments with the blend's weights itself when levels=1.
-    import fluidnb.videodb._preview as module
+    import fluidnb.videodb.rendering._preview as module
     from fluidnb.videodb import blend_differences
 
     a, _ = scene

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from fluidnb.videodb import HistogramIndex, reference_top_k
-from fluidnb.videodb._words import intersection, pyramid_histograms
+from fluidnb.videodb.database._words import intersection, pyramid_histograms
 
 
 def database(seed, n, k, *, correlated=True):
@@ -52,7 +52,7 @@ def test_kernel_equals_dense_reference(seed):
 
 
 def test_queries_split_over_threads_give_the_same_candidates(monkeypatch):
-    from fluidnb.videodb import _retrieval
+    from fluidnb.videodb.assignment import _retrieval
 
     gen = np.random.default_rng(7)
     words, motion = database(5, 900, 20)

@@ -5,7 +5,7 @@ import pytest
 from scipy import ndimage as ndi
 
 from fluidnb.videodb import dense_sift, reference_dense_sift
-from fluidnb.videodb._sift import _orientation_units
+from fluidnb.videodb.database._sift import _orientation_units
 
 
 def smooth_images(n, seed, shape=(48, 48), sigmas=(0.7, 1.5, 3.0)):

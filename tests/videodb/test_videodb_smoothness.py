@@ -5,7 +5,7 @@ import pytest
 
 from fluidnb import Cancelled, CancelToken
 from fluidnb.videodb import TEXTURE_SCALE, grid_edges, pair_tables, reference_pair_tables
-from fluidnb.videodb import _smoothness as smoothness
+from fluidnb.videodb.assignment import _smoothness as smoothness
 
 # ------------------------------------------------------------------------ helpers
 

@@ -7,9 +7,9 @@ from scipy import ndimage as ndi
 
 from fluidnb import Cancelled, Clip
 from fluidnb.fields import resize
-from fluidnb.videodb import _starter_clips as sc
 from fluidnb.videodb import flow_map_texture
-from fluidnb.videodb._starter_clips import STARTER_KINDS, starter_clips
+from fluidnb.videodb.starter import _clips as sc
+from fluidnb.videodb.starter._clips import STARTER_KINDS, starter_clips
 
 LUMA = np.array([0.2125, 0.7154, 0.0721], np.float32)
 
@@ -249,7 +249,7 @@ def test_water_flow_equals_the_frame_by_frame_reference(recipe):
     # _water_flow makes the whole sequence at once in float32 (products of functions of
     # time and of space, one batched FFT); the reference writes each frame's formula
     # out in float64. Same random draws, so the same flow to float32 round-off.
-    from fluidnb.videodb._reference import reference_water_flow
+    from fluidnb.videodb.rendering._reference import reference_water_flow
 
     spec = next(r for r in sc._WATER if r["name"] == recipe)
     shape, n_frames = sc._QUICK.shape, 12

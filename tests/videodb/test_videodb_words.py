@@ -3,8 +3,7 @@
 import numpy as np
 import pytest
 
-from fluidnb.videodb._reference import reference_quantise
-from fluidnb.videodb._words import (
+from fluidnb.videodb.database._words import (
     HISTOGRAM_TOTAL,
     _bisecting_kmeans,
     fit_codebook,
@@ -13,6 +12,7 @@ from fluidnb.videodb._words import (
     pyramid_histograms,
     quantise,
 )
+from fluidnb.videodb.rendering._reference import reference_quantise
 
 
 def blobs(seed, n=600, d=16, centres=12):
@@ -112,7 +112,7 @@ def test_quantise_resolves_what_the_matrix_product_cannot():
 
 
 def test_quantise_works_block_by_block(monkeypatch):
-    from fluidnb.videodb import _words
+    from fluidnb.videodb.database import _words
 
     gen = np.random.default_rng(4)
     centres = gen.uniform(0, 50, (30, 8))

@@ -1,0 +1,774 @@
+r"""The 18 augmented versions of a database clip (Okabe et al., sec. 4, Fig. 4-a).
+
+To multiply its videos the paper [1]_ flips each one horizontally, scales it to 50, 75 and
+100 % and rotates it by -22.5, 0 and +22.5 degrees, then cuts every version into
+48 x 48 fragments. Here a version is an index into :data:`VERSIONS`
+(``9 * flip + 3 * scale_index + angle_index``; 7 is the clip itself).
+
+Geometry (shared by every part of :mod:`fluidnb.videodb`). For a source of
+:math:`H \times W` pixels and version :math:`(F, s, \theta)` the canvas is
+
+.. math::
+
+    H_v = \max(1, [s (H |\cos\theta| + W |\sin\theta|)]), \quad
+    W_v = \max(1, [s (W |\cos\theta| + H |\sin\theta|)])
+
+(``[.]`` rounds half away from zero) and version pixel :math:`(r, c)` shows the
+source at the pixel-centre coordinates
+
+.. math::
+
+    p = (r - \tfrac{H_v - 1}{2},\ c - \tfrac{W_v - 1}{2}), \quad
+    q = F R(-\theta)\, p / s, \quad
+    (y, x) = q + (\tfrac{H - 1}{2}, \tfrac{W - 1}{2}),
+
+with :math:`R(\theta) = ((\cos\theta, -\sin\theta), (\sin\theta, \cos\theta))`
+acting on (row, col) vectors -- counter-clockwise on screen for :math:`\theta > 0` --
+and :math:`F = \mathrm{diag}(1, -1)` for a flipped version. A motion vector (dy, dx)
+of the source becomes :math:`u_v = s R(\theta) F u_s` in the version.
+
+Frames are sampled bilinearly after a Gaussian antialiasing prefilter of standard
+deviation :math:`(1/s - 1)/2` source pixels when :math:`s < 1` (scikit-image's rule),
+clamped at the source's border. A window of a version sampled on its own (``origin``,
+``size``) is bit-for-bit the same window cut out of the whole version, so a renderer
+can rebuild one fragment from the source clip exactly as the build cut it.
+
+The sampling runs in two small numba kernels (a separable Gaussian and a bilinear
+gather that serves all frames from one set of indices and weights) on a pixel-major
+copy of the source window; :func:`fluidnb.videodb.reference_sample_version` and
+:func:`fluidnb.videodb.reference_transform_vectors` write the same computation out
+literally with scipy and explicit matrices, and the tests compare the two. All 18 versions of a
+64-frame 320 x 180 grey clip take about 0.5 s on one core, its flow's about 1 s.
+
+References
+----------
+.. [1] M. Okabe, K. Anjyo, R. Onai, "Creating fluid animation from a single image
+   using video database", Computer Graphics Forum 30(7) (Pacific Graphics 2011),
+   section 4 and Fig. 4.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from functools import cache, lru_cache
+
+import numpy as np
+from numba import njit
+
+from ..._validation import check_array, check_int
+from .._common._geometry import FRAGMENT, STRIDE, VERSIONS
+
+__all__ = [
+    "IDENTITY",
+    "VersionSampler",
+    "mirror_order",
+    "mirror_partner",
+    "prefilter_sigma",
+    "sample_version",
+    "transform_flow",
+    "transform_vectors",
+    "valid_positions",
+    "version_coordinates",
+    "version_matrix",
+    "version_shape",
+]
+
+#: The version that is the clip itself (no flip, 100 %, 0 degrees).
+IDENTITY = VERSIONS.index((False, 1.0, 0.0))
+
+# Passed to the gather kernel when no vectors are to be transformed.
+_NO_MATRIX = np.zeros((0, 0), np.float32)
+# scipy.ndimage.gaussian_filter's default: the kernel reaches int(4 sigma + 0.5) pixels.
+_TRUNCATE = 4.0
+
+
+def version_shape(shape, version):
+    r"""Height and width of a version's canvas, :math:`(H_v, W_v)`.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        The source's ``(H, W)`` (further entries, e.g. channels, are ignored).
+    version : int
+        Index into :data:`~fluidnb.videodb.VERSIONS`.
+
+    Returns
+    -------
+    tuple of int
+        ``(Hv, Wv)``: the bounding box of the scaled, rotated source (see the module
+        docstring).
+
+    Examples
+    --------
+    >>> version_shape((180, 320), 7), version_shape((180, 320), 1)
+    ((180, 320), (90, 160))
+    """
+    h, w = _check_source_shape(shape)
+    _, s, (cos, sin) = _parameters(version)
+    ac, as_ = abs(cos), abs(sin)
+    return (max(1, _round(s * (h * ac + w * as_))), max(1, _round(s * (w * ac + h * as_))))
+
+
+def version_matrix(version):
+    r"""The 2 x 2 matrix :math:`s R(\theta) F` taking source (dy, dx) to the version's.
+
+    Examples
+    --------
+    >>> version_matrix(7).tolist(), version_matrix(16).tolist()
+    ([[1.0, -0.0], [0.0, 1.0]], [[1.0, 0.0], [0.0, -1.0]])
+    """
+    flip, s, (cos, sin) = _parameters(version)
+    f = -1.0 if flip else 1.0
+    return np.array([[s * cos, -s * sin * f], [s * sin, s * cos * f]])
+
+
+def prefilter_sigma(version):
+    """Standard deviation (source pixels) of the antialiasing Gaussian; 0 if none.
+
+    Examples
+    --------
+    >>> prefilter_sigma(1), prefilter_sigma(7)
+    (0.5, 0.0)
+    """
+    _, s, _ = _parameters(version)
+    return (1.0 / s - 1.0) / 2.0 if s < 1.0 else 0.0
+
+
+def version_coordinates(shape, version, *, origin=(0, 0), size=None):
+    r"""Source pixel-centre coordinates (y, x) of a window of a version's pixels.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        The source's ``(H, W)``.
+    version : int
+        Index into :data:`~fluidnb.videodb.VERSIONS`.
+    origin : tuple of int
+        ``(row, col)`` of the window's top-left pixel in the version's canvas; may lie
+        outside it (the mapping extends beyond the canvas).
+    size : tuple of int, optional
+        ``(h, w)`` of the window; default: from ``origin`` to the canvas's end.
+
+    Returns
+    -------
+    ndarray, shape (h, w, 2), float64
+        Source (y, x) of version pixels ``origin + (i, j)``, unclamped: values outside
+        ``[0, H - 1] x [0, W - 1]`` fall outside the source.
+
+    Examples
+    --------
+    >>> yx = version_coordinates((4, 6), 1)  # 50 %: every other source pixel
+    >>> yx.shape, yx[0, 0].tolist(), yx[-1, -1].tolist()
+    ((2, 3, 2), [0.5, 0.5], [2.5, 4.5])
+    """
+    h, w = _check_source_shape(shape)
+    (r0, c0), (hh, ww) = _window(h, w, version, origin, size)
+    y, x = _coordinates(h, w, version, r0, c0, hh, ww)
+    return np.stack(np.broadcast_arrays(y, x), axis=-1)
+
+
+def sample_version(frames, version, *, origin=(0, 0), size=None):
+    r"""A version's pixels of a clip: flipped, scaled, rotated (Okabe et al., Fig. 4-a).
+
+    Parameters
+    ----------
+    frames : ndarray, shape (T, H, W) or (T, H, W, C), float
+        The source clip (grey or colour, or any channels, e.g. a flow).
+    version : int
+        Index into :data:`~fluidnb.videodb.VERSIONS`.
+    origin : tuple of int
+        ``(row, col)`` of the window's top-left pixel in the version's canvas.
+    size : tuple of int, optional
+        ``(h, w)`` of the window; default: from ``origin`` to the canvas's end (the
+        whole canvas for the default origin).
+
+    Returns
+    -------
+    ndarray, shape (T, h, w) or (T, h, w, C), float32
+        Bilinear samples of the (prefiltered, when :math:`s < 1`) source at
+        :func:`version_coordinates`, clamped at the source's border. A window sampled
+        on its own equals, bit for bit, the same window of the whole version; the
+        identity version returns the frames unchanged.
+
+    Raises
+    ------
+    ValueError
+        For frames that are not a 3-D or 4-D float array or hold NaN, a bad version
+        or a window with a side below 1.
+
+    See Also
+    --------
+    transform_flow : The same resampling for a flow, with its vectors carried along.
+
+    Notes
+    -----
+    Each output pixel reads the four source pixels around its coordinates with
+    weights computed once for all frames; only the source rectangle those pixels
+    (and the prefilter's reach around them) need is filtered, with the source's own
+    border rule, so a window's values cannot depend on what else is sampled.
+
+    Examples
+    --------
+    >>> clip = np.arange(24, dtype=np.float32).reshape(1, 4, 6)
+    >>> sample_version(clip, 16)[0]  # the mirror image
+    array([[ 5.,  4.,  3.,  2.,  1.,  0.],
+           [11., 10.,  9.,  8.,  7.,  6.],
+           [17., 16., 15., 14., 13., 12.],
+           [23., 22., 21., 20., 19., 18.]], dtype=float32)
+    >>> whole = sample_version(clip, 2)
+    >>> bool(
+    ...     np.array_equal(sample_version(clip, 2, origin=(1, 2), size=(2, 2)), whole[:, 1:3, 2:4])
+    ... )
+    True
+    """
+    arr = _check_frames("frames", frames)
+    return _sample(arr, version, origin, size)
+
+
+def transform_vectors(vectors, version):
+    r"""Carry source motion vectors into a version: :math:`u_v = s R(\theta) F u_s`.
+
+    Parameters
+    ----------
+    vectors : ndarray, shape (..., 2)
+        (dy, dx) in source pixels.
+    version : int
+        Index into :data:`~fluidnb.videodb.VERSIONS`.
+
+    Returns
+    -------
+    ndarray, shape (..., 2)
+        (dy, dx) in the version's pixels; float32 for float32 input, else float64.
+
+    Examples
+    --------
+    Flipping negates dx; +22.5 degrees turns "right" a little upwards (dy < 0):
+
+    >>> transform_vectors(np.array([0.0, 1.0]), 16).tolist()
+    [0.0, -1.0]
+    >>> np.round(transform_vectors(np.array([0.0, 1.0]), 8), 3).tolist()
+    [-0.383, 0.924]
+    """
+    arr = check_array("vectors", vectors, dtype_kinds="iuf")
+    if arr.ndim < 1 or arr.shape[-1] != 2:
+        raise ValueError(f"vectors must have shape (..., 2) as (dy, dx), got {arr.shape}")
+    dtype = np.float32 if arr.dtype == np.float32 else np.float64
+    return _transform(arr.astype(dtype, copy=False), version)
+
+
+def transform_flow(flow, version, *, origin=(0, 0), size=None):
+    r"""A clip's optical flow as seen in one of its versions.
+
+    The flow is resampled exactly like the frames (:func:`sample_version`: same
+    coordinates, same prefilter), then each vector is carried by
+    :func:`transform_vectors`. This stands in for estimating the flow of every version
+    again (the spec: compute once per clip).
+
+    Parameters
+    ----------
+    flow : ndarray, shape (T - 1, H, W, 2), float
+        (dy, dx) of the source clip (:func:`~fluidnb.videodb._flow.optical_flow`).
+    version : int
+        Index into :data:`~fluidnb.videodb.VERSIONS`.
+    origin, size : tuple of int
+        The window of the version's canvas, as in :func:`sample_version`.
+
+    Returns
+    -------
+    ndarray, shape (T - 1, h, w, 2), float32
+        (dy, dx) in the version's pixels per frame.
+
+    Examples
+    --------
+    >>> flow = np.zeros((1, 8, 8, 2), np.float32)
+    >>> flow[..., 1] = 1.0  # one pixel per frame to the right
+    >>> transform_flow(flow, 1)[0, 2, 2].tolist()  # at 50 %: half a pixel
+    [0.0, 0.5]
+    """
+    arr = _check_frames("flow", flow)
+    if arr.ndim != 4 or arr.shape[-1] != 2:
+        raise ValueError(f"flow must have shape (T, H, W, 2) as (dy, dx), got {arr.shape}")
+    return _sample(arr, version, origin, size, version_matrix(version))
+
+
+def mirror_partner(version):
+    r"""The version whose mirror image (left-right) is ``version``, bit for bit.
+
+    A flipped version :math:`(F, s, \theta)` is the mirror image of the unflipped
+    :math:`(s, -\theta)`, and the other way round (:math:`F R(-\theta) = R(\theta) F`).
+
+    Examples
+    --------
+    >>> mirror_partner(7), mirror_partner(16), mirror_partner(0), mirror_partner(11)
+    (16, 7, 11, 0)
+    """
+    flip, s, angle = VERSIONS[check_int("version", version, 0, len(VERSIONS) - 1)]
+    return VERSIONS.index((not flip, s, -angle))
+
+
+def mirror_order(versions):
+    """``versions`` reordered so that each unflipped one comes just before its mirror.
+
+    The order in which :class:`VersionSampler` samples each mirror pair once.
+
+    Examples
+    --------
+    >>> mirror_order(range(18))[:6]
+    [0, 11, 1, 10, 2, 9]
+    """
+    return sorted(versions, key=lambda v: (min(v, mirror_partner(v)), v))
+
+
+def valid_positions(shape, version):
+    """Top-left corners of the version's fragments that lie wholly inside the source.
+
+    Fragments are ``FRAGMENT x FRAGMENT`` (48 x 48) pixels with corners on the
+    ``STRIDE`` (24) grid from (0, 0); a fragment is kept when it lies inside the
+    canvas and every one of its pixels maps to source coordinates within
+    ``[0, H - 1] x [0, W - 1]`` (:func:`version_coordinates`), so no clamped pixel
+    ever enters a fragment.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        The source's ``(H, W)``.
+    version : int
+        Index into :data:`~fluidnb.videodb.VERSIONS`.
+
+    Returns
+    -------
+    ndarray, shape (n, 2), int64
+        ``(row, col)`` in the version's pixels, row-major order.
+
+    Examples
+    --------
+    >>> valid_positions((72, 96), 7).tolist()
+    [[0, 0], [0, 24], [0, 48], [24, 0], [24, 24], [24, 48]]
+    """
+    h, w = _check_source_shape(shape)
+    hv, wv = version_shape((h, w), version)
+    rows = np.arange(0, hv - FRAGMENT + 1, STRIDE)
+    cols = np.arange(0, wv - FRAGMENT + 1, STRIDE)
+    if not len(rows) or not len(cols):
+        return np.empty((0, 2), np.int64)
+    y, x = _coordinates(h, w, version, 0, 0, hv, wv)
+    outside = (y < 0) | (y > h - 1) | (x < 0) | (x > w - 1)
+    # A summed-area table counts outside pixels per fragment in one pass.
+    sat = np.zeros((hv + 1, wv + 1), np.int64)
+    sat[1:, 1:] = np.broadcast_to(outside, (hv, wv)).cumsum(0).cumsum(1)
+    r, c = rows[:, None], cols[None, :]
+    count = (
+        sat[r + FRAGMENT, c + FRAGMENT] - sat[r, c + FRAGMENT] - sat[r + FRAGMENT, c] + sat[r, c]
+    )
+    keep = np.argwhere(count == 0)
+    return np.stack([rows[keep[:, 0]], cols[keep[:, 1]]], axis=1).astype(np.int64)
+
+
+# --- internals ---
+
+
+def _round(v):
+    return int(math.floor(v + 0.5))
+
+
+@cache
+def _trig(angle):
+    # Exact 1 and 0 for 0 degrees, so the identity version maps pixels onto pixels.
+    if angle == 0.0:
+        return 1.0, 0.0
+    rad = math.radians(angle)
+    return math.cos(rad), math.sin(rad)
+
+
+def _parameters(version):
+    version = check_int("version", version, 0, len(VERSIONS) - 1)
+    flip, s, angle = VERSIONS[version]
+    return flip, s, _trig(angle)
+
+
+def _check_source_shape(shape):
+    if not isinstance(shape, Sequence | np.ndarray) or len(shape) < 2:
+        raise ValueError(f"shape must be a (height, width) pair, got {shape!r}")
+    return check_int("shape[0]", shape[0], 1), check_int("shape[1]", shape[1], 1)
+
+
+def _check_pair(name, value, lo=None):
+    if not isinstance(value, Sequence | np.ndarray) or len(value) != 2:
+        raise ValueError(f"{name} must be a (row, col) pair of integers, got {value!r}")
+    return check_int(f"{name}[0]", value[0], lo), check_int(f"{name}[1]", value[1], lo)
+
+
+def _window(h, w, version, origin, size):
+    r0, c0 = _check_pair("origin", origin)
+    if size is None:
+        hv, wv = version_shape((h, w), version)
+        size = (hv - r0, wv - c0)
+        if size[0] < 1 or size[1] < 1:
+            raise ValueError(
+                f"origin must lie inside the version's canvas {(hv, wv)} when size is "
+                f"not given, got {(r0, c0)}"
+            )
+    return (r0, c0), _check_pair("size", size, 1)
+
+
+def _coordinates(h, w, version, r0, c0, hh, ww):
+    """Source (y, x) of version pixels [r0, r0 + hh) x [c0, c0 + ww), broadcastable.
+
+    Every element is computed by the same sequence of float64 operations from its own
+    (r, c) alone, so overlapping windows agree bit for bit.
+    """
+    flip, s, (cos, sin) = _parameters(version)
+    hv, wv = version_shape((h, w), version)
+    py = (np.arange(r0, r0 + hh, dtype=np.float64) - (hv - 1) / 2)[:, None]
+    px = (np.arange(c0, c0 + ww, dtype=np.float64) - (wv - 1) / 2)[None, :]
+    # q = F R(-theta) p / s, with R(-theta) = ((cos, sin), (-sin, cos)).
+    y = (cos * py + sin * px) / s + (h - 1) / 2
+    x = (cos * px - sin * py) / s
+    if flip:
+        x = -x
+    return y, x + (w - 1) / 2
+
+
+def _check_frames(name, frames):
+    arr = check_array(name, frames, ndim=(3, 4), dtype_kinds="f")
+    return np.ascontiguousarray(arr, dtype=np.float32)
+
+
+def _corners(coord, n):
+    """Lower neighbour index, upper neighbour index and weight of clamped coordinates.
+
+    A coordinate on a pixel centre gets weight 0 on that pixel (also the last one, whose
+    upper neighbour is itself): ``a + 0 (b - a)`` is ``a`` exactly, while ``a + 1 (b -
+    a)`` need not be ``b``.
+    """
+    c = np.clip(coord, 0.0, n - 1)
+    lo = np.floor(c).astype(np.intp)
+    hi = np.minimum(lo + 1, n - 1)
+    return lo, hi, c - lo
+
+
+def _sample(arr, version, origin, size, matrix=None):
+    """Sample a window of a version; with ``matrix``, also carry (dy, dx) pairs by it."""
+    h, w = arr.shape[1:3]
+    (r0, c0), (hh, ww) = _window(h, w, version, origin, size)
+    if version == IDENTITY and (r0, c0, hh, ww) == (0, 0, h, w):
+        return arr.copy() if matrix is None else _transform(arr, version)
+    plan = _Plan(h, w, version, r0, c0, hh, ww)
+    layout = _Layout(arr.shape)
+    src = layout.pixel_major(arr[:, plan.top : plan.bottom, plan.left : plan.right])
+    if len(plan.kernel) > 1:
+        src = _blur(src, plan.kernel)
+    out = np.empty((layout.n_planes, hh * ww), layout.item)
+    _gather(plan.source_rows(src), *plan.indices, _matrix(matrix), out)
+    return layout.frame_major(out.view(np.float32), hh, ww)
+
+
+def _matrix(matrix):
+    return _NO_MATRIX if matrix is None else matrix.astype(np.float32)
+
+
+class _Plan:
+    """Where a window of a version reads the source: its rectangle and bilinear indices."""
+
+    def __init__(self, h, w, version, r0, c0, hh, ww):
+        y, x = _coordinates(h, w, version, r0, c0, hh, ww)
+        y, x = np.broadcast_arrays(y, x)
+        y0, y1, wy = _corners(y, h)
+        x0, x1, wx = _corners(x, w)
+        # The source rectangle the window reads, widened by the prefilter's reach and
+        # cut at the source's border (where the filter clamps, as it does on the whole
+        # frame): inside it every filtered value equals the whole frame's, bit for bit.
+        self.sigma = prefilter_sigma(version)
+        self.kernel = _gaussian_kernel(self.sigma)
+        reach = len(self.kernel) - 1
+        self.top, self.bottom = max(int(y0.min()) - reach, 0), min(int(y1.max()) + 1 + reach, h)
+        self.left, self.right = max(int(x0.min()) - reach, 0), min(int(x1.max()) + 1 + reach, w)
+        self.whole = (self.top, self.bottom, self.left, self.right) == (0, h, 0, w)
+        sw = self.right - self.left
+        # Each pixel reads rows k, k + ox, k + oy and k + oy + ox of the source window.
+        k = ((y0 - self.top) * sw + (x0 - self.left)).ravel().astype(np.uint32)
+        ox = (x1 - x0).ravel().astype(np.uint32)
+        oy = ((y1 - y0) * sw).ravel().astype(np.uint32)
+        self.indices = (k, ox, oy, wx.ravel().astype(np.float32), wy.ravel().astype(np.float32))
+
+    def source_rows(self, src):
+        """The (pixels, values) view of a pixel-major source window the indices read."""
+        return src.reshape((self.bottom - self.top) * (self.right - self.left), src.shape[2])
+
+
+@lru_cache(maxsize=16)
+def _whole_plan(h, w, version):
+    """The :class:`_Plan` of a whole version of an (h, w) source, made once (read-only).
+
+    A build samples each window's grey frames, mean image and flow at the same
+    points, and its clips are often all one size: the plan (coordinates, corners,
+    indices; ~0.3 s a water build when made for every call) depends on nothing else.
+    The 8 unflipped, resampled versions of a 180 x 320 clip hold 8.6 MB of indices.
+    """
+    hv, wv = version_shape((h, w), version)
+    plan = _Plan(h, w, version, 0, 0, hv, wv)
+    for arr in plan.indices:
+        arr.flags.writeable = False
+    return plan
+
+
+class _Layout:
+    """Frames (T, H, W[, C]) moved to and from the pixel-major layout the kernels use.
+
+    Pixel-major: each source pixel's values over all frames (and channels) are
+    contiguous, so the kernels run vectorised along them. A (dy, dx) pair moves as one
+    uint64 item (3-4x faster than moving floats); colour and the like go through as
+    extra frames, channel-major.
+    """
+
+    def __init__(self, shape):
+        self.shape = tuple(shape)
+        self.t = shape[0]
+        self.channels = int(np.prod(shape[3:], dtype=np.int64))
+        self.per_item = 2 if self.channels == 2 else 1
+        self.item = np.uint64 if self.per_item == 2 else np.float32
+        self.n_planes = self.t * (self.channels if self.channels > 2 else 1)
+
+    def pixel_major(self, window):
+        """(T, h, w[, C]) -> (h, w, values) float32, contiguous."""
+        t, hh, ww = window.shape[:3]
+        window = window.reshape(t, hh, ww, self.channels)
+        if self.channels > 2:
+            # (a small crop of a long clip moves only what it reads)
+            window = np.moveaxis(window, 3, 0).reshape(self.channels * t, hh, ww, 1)
+        window = np.ascontiguousarray(window).view(self.item)[..., 0]
+        src = np.ascontiguousarray(np.moveaxis(window, 0, 2)).view(np.float32)
+        return src.reshape(hh, ww, self.n_planes * self.per_item)
+
+    def frame_major(self, out, hh, ww):
+        """(planes, points) float32 -> (T, hh, ww[, C])."""
+        if self.channels > 2:
+            out = np.moveaxis(out.reshape(self.channels, self.t, hh, ww), 0, 3)
+            return np.ascontiguousarray(out).reshape(self.t, hh, ww, *self.shape[3:])
+        return out.reshape(self.t, hh, ww, *self.shape[3:])
+
+
+class VersionSampler:
+    r"""Every whole version of one clip (or window of frames), prepared once.
+
+    A build samples all 18 versions of each window of each clip: its grey frames, its
+    mean image and its flow. :func:`sample_version` and :func:`transform_flow` prepare
+    the source for every call (the pixel-major copy, the prefilter); this prepares it
+    once -- one pixel-major copy, blurred once per scale -- and makes each flipped
+    version as the mirror image of the unflipped one at the opposite angle:
+    :math:`F R(-\theta) = R(\theta) F`, so version :math:`(F, s, \theta)`'s pixel
+    :math:`(r, c)` reads the source at the very numbers version
+    :math:`(s, -\theta)`'s pixel :math:`(r, W_v - 1 - c)` does, and a vector's dx
+    comes out negated (the matrices' rows agree up to sign). The results are, bit for
+    bit, :func:`sample_version`'s and :func:`transform_flow`'s, pixel-major.
+
+    Parameters
+    ----------
+    frames : ndarray, shape (T, H, W) or (T, H, W, C), float
+        As for :func:`sample_version`; a flow (C = 2) with ``vectors=True``.
+    vectors : bool
+        The frames are (dy, dx) vectors, carried into each version as
+        :func:`transform_flow` does.
+    """
+
+    def __init__(self, frames, *, vectors=False):
+        arr = _check_frames("frames", frames)
+        if vectors and (arr.ndim != 4 or arr.shape[-1] != 2):
+            raise ValueError(f"frames must have shape (T, H, W, 2) as (dy, dx), got {arr.shape}")
+        self.vectors = bool(vectors)
+        self.layout = _Layout(arr.shape)
+        self.shape = arr.shape[1:3]
+        self._arr = arr
+        self._src = {0.0: self.layout.pixel_major(arr)}
+        self._last = None
+
+    def __call__(self, version):
+        """Version ``version``, pixel-major: ``(Hv, Wv, values)`` float32, contiguous.
+
+        ``values`` are the frames (grey: ``T``), the (dy, dx) pairs of each frame
+        (``2 T``) or the channels of each frame, channel-major (``C T``).
+        """
+        partner = mirror_partner(version)
+        if partner < version:
+            # The mirror image of its unflipped partner, kept from the call before when
+            # that was the partner (ask for versions in mirror_order() to get it free).
+            cached = self._last is not None and self._last[0] == partner
+            out = self._last[1] if cached else self._unflipped(partner)
+            out = np.ascontiguousarray(out[:, ::-1])
+            if self.vectors:
+                out[..., 1::2] *= np.float32(-1)
+            return out
+        out = self._unflipped(version)
+        self._last = (version, out)
+        return out
+
+    def _unflipped(self, version):
+        h, w = self.shape
+        hv, wv = version_shape((h, w), version)
+        src = self._src[0.0]
+        if version == IDENTITY:
+            out = src.copy()
+            if self.vectors:
+                matrix = version_matrix(version).astype(np.float32)
+                _apply_matrix(out.reshape(-1, 2), matrix, out.reshape(-1, 2))
+            return out
+        plan = _whole_plan(h, w, version)
+        if plan.whole:  # always, for a whole version: its prefilter is shared by scale
+            if plan.sigma not in self._src:
+                self._src[plan.sigma] = _blur(src, plan.kernel) if plan.sigma else src
+            src = self._src[plan.sigma]
+        else:  # pragma: no cover - kept for safety: read the rectangle as _sample does
+            src = self.layout.pixel_major(
+                self._arr[:, plan.top : plan.bottom, plan.left : plan.right]
+            )
+            src = _blur(src, plan.kernel) if len(plan.kernel) > 1 else src
+        out = np.empty((hv * wv, src.shape[2]), np.float32)
+        matrix = version_matrix(version) if self.vectors else None
+        _gather_pixels(plan.source_rows(src), *plan.indices, _matrix(matrix), out)
+        return out.reshape(hv, wv, src.shape[2])
+
+
+@cache
+def _gaussian_kernel(sigma):
+    """Half of a normalised Gaussian, centre first, reaching ``int(4 sigma + 0.5)``."""
+    if sigma <= 0:
+        return np.ones(1, np.float32)
+    radius = int(_TRUNCATE * sigma + 0.5)
+    phi = np.exp(-0.5 * (np.arange(-radius, radius + 1) / sigma) ** 2)
+    return (phi / phi.sum())[radius:].astype(np.float32)
+
+
+def _blur(src, kernel):
+    """Separable Gaussian over axes 0 and 1 of (rows, cols, values), clamped at the edges."""
+    src = np.ascontiguousarray(src)  # whole rows as one run of values (the kernels' form)
+    tmp = np.empty_like(src)
+    out = np.empty_like(src)
+    _correlate(src, kernel, 0, tmp)
+    _correlate(tmp, kernel, 1, out)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _correlate(src, kernel, axis, out):
+    """Correlate axis 0 or 1 of ``src`` (rows, cols, values) with a symmetric kernel.
+
+    ``kernel`` holds the centre weight and then the weights at distance 1, 2, ...;
+    neighbours beyond the edge repeat the edge. Every output is ``k0 x[i] + k1 (x[i-1]
+    + x[i+1]) + ...`` in this order whatever the array's extent, so overlapping windows
+    agree bit for bit. C-contiguous arrays: each term is added over a whole row at once
+    (the columns whose neighbours lie inside the row as one contiguous run), which
+    the compiler vectorises; every value's operations are the same.
+    """
+    rows, cols, m = src.shape
+    width = cols * m
+    flat = src.reshape(rows, width)
+    dst = out.reshape(rows, width)
+    for i in range(rows):
+        o = dst[i]
+        _scaled(o, kernel[0], flat[i])
+        for d in range(1, kernel.shape[0]):
+            k = kernel[d]
+            if axis == 0:
+                _add_pair(o, k, flat[max(i - d, 0)], flat[min(i + d, rows - 1)])
+                continue
+            row = flat[i]
+            lo = min(d, cols)  # columns [lo, hi) have both neighbours in the row
+            hi = max(cols - d, lo)
+            _add_pair(o[lo * m : hi * m], k, row[(lo - d) * m : (hi - d) * m], row[(lo + d) * m :])
+            for e in range(cols - (hi - lo)):  # the edge columns [0, lo) and [hi, cols)
+                j = e if e < lo else e + hi - lo
+                a = max(j - d, 0) * m
+                b = min(j + d, cols - 1) * m
+                for v in range(m):
+                    o[j * m + v] += k * (row[a + v] + row[b + v])
+
+
+@njit(cache=True, nogil=True)
+def _scaled(o, k, a):
+    """``o = k a`` (1-D, ``o``'s length)."""
+    for q in range(o.shape[0]):
+        o[q] = k * a[q]
+
+
+@njit(cache=True, nogil=True)
+def _add_pair(o, k, a, b):
+    """``o += k (a + b)`` over ``o``'s length (``a``, ``b`` at least as long)."""
+    for q in range(o.shape[0]):
+        o[q] += k * (a[q] + b[q])
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _bilinear(src, i, ox, oy, a, b, matrix, r):
+    """One point's samples of every value: ``r[v]`` from source rows around row ``i``.
+
+    ``top + fy * (bottom - top)`` rather than a four-weight sum: a fraction of 0
+    returns the sample bit for bit and a constant stays exactly constant (the form of
+    fluidnb.fields.advect and the fluid kernels). With a (2, 2) ``matrix``, each sampled
+    (dy, dx) pair is replaced by ``(m00 dy + m01 dx, m10 dy + m11 dx)``, as
+    :func:`_apply_matrix` computes it.
+    """
+    s00 = src[i]
+    s01 = src[i + ox]
+    s10 = src[i + oy]
+    s11 = src[i + oy + ox]
+    for v in range(r.shape[0]):
+        top = s00[v] + a * (s01[v] - s00[v])
+        bottom = s10[v] + a * (s11[v] - s10[v])
+        r[v] = top + b * (bottom - top)
+    if matrix.shape[0] == 2:
+        for v in range(0, r.shape[0], 2):
+            dy = r[v]
+            dx = r[v + 1]
+            r[v] = matrix[0, 0] * dy + matrix[0, 1] * dx
+            r[v + 1] = matrix[1, 0] * dy + matrix[1, 1] * dx
+
+
+@njit(cache=True, nogil=True)
+def _gather(src, k, ox, oy, fx, fy, matrix, out):
+    """Bilinear samples of all frames at the same points (frame-major output).
+
+    ``src`` is (source pixels, frames x channels) float32; ``out`` is (frames, points)
+    of items: float32 for one channel, or uint64 holding a float32 pair for two
+    (so that a (dy, dx) vector moves as one item). Results go through a small buffer
+    so that both the reads and the writes are contiguous.
+    """
+    n_frames, n = out.shape
+    m = src.shape[1]
+    block = 16
+    buf = np.empty((block, m), np.float32)
+    items = buf.view(out.dtype)
+    for p0 in range(0, n, block):
+        size = min(block, n - p0)
+        for q in range(size):
+            p = p0 + q
+            _bilinear(src, k[p], ox[p], oy[p], fx[p], fy[p], matrix, buf[q])
+        for f in range(n_frames):
+            o = out[f]
+            for q in range(size):
+                o[p0 + q] = items[q, f]
+
+
+@njit(cache=True, nogil=True)
+def _gather_pixels(src, k, ox, oy, fx, fy, matrix, out):
+    """:func:`_gather`'s samples, pixel-major: ``out`` is (points, values) float32."""
+    for p in range(out.shape[0]):
+        _bilinear(src, k[p], ox[p], oy[p], fx[p], fy[p], matrix, out[p])
+
+
+def _transform(vectors, version):
+    m = version_matrix(version).astype(vectors.dtype)
+    flat = np.ascontiguousarray(vectors).reshape(-1, 2)
+    out = np.empty_like(flat)
+    _apply_matrix(flat, m, out)
+    return out.reshape(vectors.shape)
+
+
+@njit(cache=True, nogil=True)
+def _apply_matrix(u, m, out):
+    """``out[i] = m @ u[i]``: ``m00 dy + m01 dx`` and ``m10 dy + m11 dx``."""
+    for i in range(u.shape[0]):
+        dy = u[i, 0]
+        dx = u[i, 1]
+        out[i, 0] = m[0, 0] * dy + m[0, 1] * dx
+        out[i, 1] = m[1, 0] * dy + m[1, 1] * dx
