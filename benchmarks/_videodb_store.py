@@ -119,7 +119,7 @@ def synthetic_store(base, path, n_fragments, *, seed=0, log=print):
     """
     import zarr
 
-    from fluidnb.videodb.database._store import (
+    from fluidnb.videodb.database._format import (
         CHUNK,
         FORMAT,
         RAM_ARRAYS,

@@ -231,7 +231,7 @@ STARTER_MARKS = ("clips read", "fragments done", "codebook ready", "database rea
 
 def _same_database(a, b):
     """Same codebook and, clip for clip, the same arrays (the manifest's checksums)."""
-    from fluidnb.videodb.database._store import read_manifest
+    from fluidnb.videodb.database._folder import read_manifest
 
     ma, mb = read_manifest(a)[0], read_manifest(b)[0]
     return ma["codebook"] == mb["codebook"] and [c["checksum"] for c in ma["clips"]] == [
@@ -334,8 +334,10 @@ def part_starter(ctx):
 
 
 def part_throughput(ctx):
-    from fluidnb.videodb import build_database, optical_flow, starter_clips, starter_params
+    from fluidnb.videodb import build_database, starter_params
+    from fluidnb.videodb.database import optical_flow
     from fluidnb.videodb.database._features import grey
+    from fluidnb.videodb.starter import starter_clips
 
     print("\n## Build throughput per flow backend (first two starter water clips)")
     clips = starter_clips("water", quick=ctx.quick, seed=0)[:2]
@@ -452,7 +454,8 @@ def part_store(ctx):
     import zarr
     from _videodb_store import disk_usage
 
-    from fluidnb.videodb.database._store import RAM_ARRAYS, checksum, clip_group
+    from fluidnb.videodb.assignment._retrieval import histogram_index
+    from fluidnb.videodb.database._format import RAM_ARRAYS, checksum, clip_group
 
     print("\n## A paper-sized store (synthesised from the starter water database)")
     load0 = load()
@@ -472,7 +475,7 @@ def part_store(ctx):
         checksum({k: getattr(db, k)[lo:hi] for k in RAM_ARRAYS})
     checksum_s = now() - t0
     t0 = now()
-    index = db.index
+    index = histogram_index(db)
     index_s = now() - t0
     own, through, linked = disk_usage(path)
     per_fragment = (disk_usage(base.path)[0] - _frames_bytes(base.path)) / base.n_fragments
@@ -644,6 +647,7 @@ def rebuild_anatomy(db, ids, margin=12):
 
 def part_paper(ctx):
     from fluidnb.videodb import assign, render
+    from fluidnb.videodb.assignment._retrieval import histogram_index
 
     print("\n## Paper scale: a 640 x 360 target, 100 candidates, the synthetic 240k store")
     load0 = load()
@@ -654,7 +658,7 @@ def part_paper(ctx):
         print(f"opened the store in {fmt_s(now() - t0)}")
     db = ctx.paper_db
     t0 = now()
-    _ = db.index
+    _ = histogram_index(db)
     index_s = now() - t0
     # Compile / load every kernel before timing (numba caches them on disk).
     warm_img, warm_matte = stream_target((96, 160))
@@ -852,9 +856,9 @@ def _resolve_at_app_size(ctx, db, rounds):
     move tried). Both give the same labels. Goal: < 15 ms median on a quiet machine.
     """
     from fluidnb.data import sample
-    from fluidnb.videodb import (
+    from fluidnb.videodb import assign
+    from fluidnb.videodb.assignment import (
         TEXTURE_SCALE,
-        assign,
         energy,
         reference_alpha_expansion,
         reference_icm,
@@ -1050,7 +1054,8 @@ def dis_flow(frames, mask):
 
 
 def part_rendering(ctx):
-    from fluidnb.videodb import assign, render, sync_share
+    from fluidnb.videodb import assign, render
+    from fluidnb.videodb.rendering import sync_share
 
     print("\n## Renderings: the flow rendering (beyond the paper) against the paper's")
     load0 = load()
@@ -1170,7 +1175,8 @@ def metric_problem(a, labels, kind):
 def part_solver(ctx):
     import maxflow
 
-    from fluidnb.videodb import alpha_expansion, assign, energy, grid_edges, icm
+    from fluidnb.videodb import assign
+    from fluidnb.videodb.assignment import alpha_expansion, energy, grid_edges, icm
 
     print("\n## Solver quality: alpha-expansion (solve) against ICM on the real assignments")
     load0 = load()
@@ -1419,7 +1425,7 @@ def coherence(a, assignment_fragments=None):
 
 
 def part_findings(ctx):
-    from fluidnb.videodb import TEXTURE_SCALE
+    from fluidnb.videodb.assignment import TEXTURE_SCALE
 
     print("\n## The paper's findings (section 7): lambda, sigma, rho a decade either side")
     load0 = load()

@@ -53,7 +53,8 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from fluidnb import data, to_uint8
-from fluidnb.videodb import AnimateParams, assign, render, starter_clips, starter_database
+from fluidnb.videodb import AnimateParams, assign, render, starter_database
+from fluidnb.videodb.starter import starter_clips
 
 NEW_API = "rendering" in AnimateParams.specs()
 SIZE = (180, 320)
@@ -182,7 +183,7 @@ def sync_sheet(path):
     }
     crop = (slice(20, 180), slice(20, 340))
     rows = []
-    from fluidnb.videodb import sync_share
+    from fluidnb.videodb.rendering import sync_share
 
     for name, anim in runs.items():
         f = anim.clip.frames
@@ -200,7 +201,7 @@ def fill_sheet(path, fresh):
     """Telea's diffusion against the exemplar fill, behind the clouds and a smoke cut-out."""
     from scipy import ndimage as ndi
 
-    from fluidnb.videodb import exemplar_fill
+    from fluidnb.videodb.rendering import exemplar_fill
 
     backdrop = (
         data.sample("lake", size=SIZE, mode="rgb")
@@ -277,7 +278,7 @@ def main():
             angle = f"{np.degrees(np.angle(np.exp(1j * (got - want)))):+.0f}"
         sync = "-"
         if NEW_API:
-            from fluidnb.videodb import sync_share
+            from fluidnb.videodb.rendering import sync_share
 
             before = sync_share(a.fragments, a.target.positions)
             after = sync_share(

@@ -41,9 +41,6 @@ from fluidnb.videodb import (
     AnimateParams,
     VideoDatabase,
     assign,
-    clip_colour,
-    clip_map_picture,
-    motion_arrows,
     open_database,
     prefetch,
     prefetch_preview,
@@ -53,6 +50,7 @@ from fluidnb.videodb import (
     starter_params,
     starter_path,
 )
+from fluidnb.videodb.figures import clip_colour, clip_map_picture, motion_arrows
 
 from ._app import App, LatestWins, _in_kernel, _quick_mode
 from ._canvas import DrawingCanvas
@@ -114,8 +112,8 @@ class _AssignmentMap(W.VBox):
     """Which source clip each target fragment came from; a click shows that fragment.
 
     Drawn by the library's rule for pictures of an assignment
-    (:func:`fluidnb.videodb.clip_map_picture`, :func:`fluidnb.videodb.motion_arrows`),
-    the one the lesson's figures use.
+    (:func:`fluidnb.videodb.figures.clip_map_picture`,
+    :func:`fluidnb.videodb.figures.motion_arrows`), the one the lesson's figures use.
     """
 
     def __init__(self, width=_MAP_WIDTH):
@@ -219,7 +217,7 @@ class _AssignmentMap(W.VBox):
     def motion_segments(self):
         """The assigned fragments' mean motion as arrows (k, 2, 2) (row, col) in the image.
 
-        :func:`fluidnb.videodb.motion_arrows`: one per moving fragment, centred on it.
+        :func:`fluidnb.videodb.figures.motion_arrows`: one per moving fragment, centred on it.
         """
         if self.assignment is None:
             return np.empty((0, 2, 2))

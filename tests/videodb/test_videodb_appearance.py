@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy import ndimage as ndi
 
-from fluidnb.videodb import (
+from fluidnb.videodb.rendering import (
     match_histograms_cells,
     motion_blur,
     reference_match_histograms_cells,
@@ -214,7 +214,7 @@ def test_inputs_are_never_modified():
 
 
 def test_frames_go_into_the_colour_axes_and_back_as_numpy_computes_it():
-    from fluidnb.videodb.rendering._appearance import colour_axes, frames_from_axes, frames_in_axes
+    from fluidnb.videodb.rendering._colour_axes import colour_axes, frames_from_axes, frames_in_axes
 
     gen = np.random.default_rng(2)
     mean = gen.random((13, 17, 3)).astype(np.float32)
@@ -238,14 +238,14 @@ def test_frames_go_into_the_colour_axes_and_back_as_numpy_computes_it():
 
 
 def test_matching_on_threads_is_matching_on_one(monkeypatch):
-    from fluidnb.videodb.rendering import _appearance
+    from fluidnb.videodb.rendering import _threads
 
     gen = np.random.default_rng(6)
     frames = smooth_texture(gen, (5, 40, 56), 2.0)[..., None] * [1.0, 0.8, 0.6]
     ref = smooth_texture(gen, (1, 40, 56), 3.0)[0, ..., None] * [0.9, 1.0, 0.7]
     weight = gen.random((40, 56))
     threads = match_histograms_cells(frames, ref, weight, cell=16)
-    monkeypatch.setattr(_appearance, "_THREADS", 1)
+    monkeypatch.setattr(_threads, "_THREADS", 1)
     assert np.array_equal(match_histograms_cells(frames, ref, weight, cell=16), threads)
 
 
@@ -271,8 +271,8 @@ def test_matching_a_clip_in_parts_is_matching_it_at_once():
 def test_the_renderers_one_pass_kernels_are_the_numpy_steps_bit_for_bit(wa):
     # What render makes of a flow frame in one pass each: the phases cross-faded, the
     # detail added, into the colour axes; and back, composited, clipped, cropped.
-    from fluidnb.videodb import composite
-    from fluidnb.videodb.rendering._appearance import (
+    from fluidnb.videodb.rendering import composite
+    from fluidnb.videodb.rendering._colour_axes import (
         _advected_in_axes,
         _composite_from_axes,
         colour_axes,

@@ -5,21 +5,23 @@ import math
 import numpy as np
 import pytest
 
-from fluidnb.videodb import reference_sample_version, reference_transform_vectors
 from fluidnb.videodb._common._geometry import FRAGMENT, STRIDE, VERSIONS
+from fluidnb.videodb.database import reference_sample_version, reference_transform_vectors
 from fluidnb.videodb.database._augment import (
-    IDENTITY,
     VersionSampler,
-    mirror_order,
-    mirror_partner,
     sample_version,
     transform_flow,
     transform_vectors,
+)
+from fluidnb.videodb.database._flow import optical_flow
+from fluidnb.videodb.database._versions import (
+    IDENTITY,
+    mirror_order,
+    mirror_partner,
     valid_positions,
     version_coordinates,
     version_shape,
 )
-from fluidnb.videodb.database._flow import optical_flow
 
 ALL = range(len(VERSIONS))
 
@@ -374,7 +376,8 @@ def test_prefilter_blur_is_the_clamped_gaussian(shape, sigma):
     kernel; and a window's interior is the whole's bit for bit."""
     from scipy import ndimage as ndi
 
-    from fluidnb.videodb.database._augment import _TRUNCATE, _blur, _gaussian_kernel
+    from fluidnb.videodb.database._augment import _blur, _gaussian_kernel
+    from fluidnb.videodb.database._versions import _TRUNCATE
 
     rng = np.random.default_rng(12)
     whole = rng.random((shape[0] + 8, shape[1] + 8, shape[2])).astype(np.float32)

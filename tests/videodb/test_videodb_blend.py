@@ -4,8 +4,12 @@ import numpy as np
 import pytest
 from scipy import ndimage as ndi
 
-from fluidnb.videodb import blend_differences, fragment_weights, reference_blend_differences
-from fluidnb.videodb.rendering._blend import blend_values
+from fluidnb.videodb._common._weights import blend_values
+from fluidnb.videodb.rendering import (
+    blend_differences,
+    fragment_weights,
+    reference_blend_differences,
+)
 
 # --------------------------------------------------------------------------------------
 # helpers
@@ -264,16 +268,18 @@ def test_blend_values_spreads_each_fragments_value_over_its_cell():
 def test_blend_on_threads_is_the_blend_on_one(monkeypatch):
     # The phase layers' pyramids are made on threads and summed in layer order: the
     # result is the one-thread result bit for bit.
-    from fluidnb.videodb.rendering import _blend
+    from fluidnb.videodb.rendering import _blend, _threads
 
     gen = np.random.default_rng(8)
     shape = (168, 192)
     pos = grid(shape)[::2]
     diffs = np.stack([smooth_texture(gen, (3, 72, 72), 1.5) for _ in pos])
     threads = blend_differences(diffs, pos, shape, margin=12)
-    monkeypatch.setattr(_blend, "_THREADS", 1)
+    for module in (_blend, _threads):
+        monkeypatch.setattr(module, "_THREADS", 1)
     assert np.array_equal(blend_differences(diffs, pos, shape, margin=12), threads)
-    monkeypatch.setattr(_blend, "_THREADS", 4)
+    for module in (_blend, _threads):
+        monkeypatch.setattr(module, "_THREADS", 4)
     assert np.array_equal(blend_differences(diffs, pos, shape, margin=12), threads)
 
 
@@ -308,8 +314,8 @@ def test_blend_is_the_numpy_layer_blend_bit_for_bit(margin, feather, frames, eve
 
 
 def test_difference_frames_are_the_frames_minus_their_mean_cross_faded():
-    from fluidnb.videodb import loop_crossfade
-    from fluidnb.videodb.rendering._blend import difference_frames
+    from fluidnb.videodb.database._differences import difference_frames
+    from fluidnb.videodb.rendering import loop_crossfade
 
     gen = np.random.default_rng(3)
     frames = gen.random((12, 9, 11)).astype(np.float32)
@@ -328,7 +334,7 @@ def test_difference_frames_are_the_frames_minus_their_mean_cross_faded():
 def test_difference_frames_are_their_numpy_steps_bit_for_bit():
     # The compiled pass (a row of pixels at a time) against the same float32 and
     # float64 steps written over whole frames in numpy, sums in frame order.
-    from fluidnb.videodb.rendering._blend import difference_frames
+    from fluidnb.videodb.database._differences import difference_frames
 
     gen = np.random.default_rng(5)
     frames = gen.random((15, 13, 21)).astype(np.float32)  # 15: no power of two
@@ -353,8 +359,8 @@ def test_difference_frames_are_their_numpy_steps_bit_for_bit():
 
 
 def test_play_loops_is_stagger_on_loops_already_made():
-    from fluidnb.videodb import loop_crossfade, stagger
-    from fluidnb.videodb.rendering._blend import play_loops
+    from fluidnb.videodb.rendering import loop_crossfade, stagger
+    from fluidnb.videodb.rendering._loops import play_loops
 
     gen = np.random.default_rng(4)
     diffs = gen.standard_normal((5, 10, 8, 8)).astype(np.float32)

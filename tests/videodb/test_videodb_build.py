@@ -7,7 +7,7 @@ import pytest
 
 from fluidnb import Cancelled, Clip
 from fluidnb.videodb import add_clips, build_database, open_database, read_video
-from fluidnb.videodb.database import _build as build_module
+from fluidnb.videodb.database import _pipeline as build_module
 from tests.support.videodb_store import PARAMS, moving_texture, sources, store_bytes
 
 

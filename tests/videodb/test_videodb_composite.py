@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy import ndimage as ndi
 
-from fluidnb.videodb import composite, dynamic_matte, inpaint_background, loop_crossfade
+from fluidnb.videodb.rendering import composite, dynamic_matte, inpaint_background, loop_crossfade
 
 
 def smooth_texture(gen, shape, blur):

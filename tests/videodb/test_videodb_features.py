@@ -7,7 +7,7 @@ here each is computed on inputs whose answer is known in closed form.
 import numpy as np
 import pytest
 
-from fluidnb.videodb import motion_spectra, textureness, window_features
+from fluidnb.videodb.database import motion_spectra, textureness, window_features
 from fluidnb.videodb.database._features import _flow_blocks, _moving_blocks, pixel_features
 
 N = 32  # frames per fragment: n = N - 1 flows
@@ -276,7 +276,7 @@ def test_band_magnitudes_are_numpys_sum_bit_for_bit(c):
 @pytest.mark.parametrize(("n", "h", "w"), [(1, 4, 4), (2, 9, 13), (5, 33, 31), (32, 48, 72)])
 def test_textureness_equals_the_reference_bit_for_bit(n, h, w):
     from fluidnb.videodb.database._features import _textureness
-    from fluidnb.videodb.rendering._reference import reference_textureness
+    from fluidnb.videodb.database._reference import reference_textureness
 
     stack = np.random.default_rng(n + h).random((h, w, n)).astype(np.float32)
     assert _same_bits(_textureness(stack), reference_textureness(stack))
@@ -285,7 +285,7 @@ def test_textureness_equals_the_reference_bit_for_bit(n, h, w):
 @pytest.mark.parametrize("seed", range(4))
 def test_window_sums_equal_the_numpy_integral_image_bit_for_bit(seed):
     from fluidnb.videodb.database._features import _window_sums
-    from fluidnb.videodb.rendering._reference import reference_window_sums
+    from fluidnb.videodb.database._reference import reference_window_sums
 
     gen = np.random.default_rng(seed)
     p, q = int(gen.integers(1, 6)), int(gen.integers(1, 3))
@@ -312,7 +312,7 @@ def test_pixel_features_equal_the_reference_bit_for_bit(n, h, w, threshold):
     # the textureness's magnitudes, the cut into fragments) against the numpy and
     # OpenCV version they replaced: every stored array the same bits, ragged edges,
     # fragments at the canvas's edges and windows with nothing moving included.
-    from fluidnb.videodb.rendering._reference import reference_pixel_features
+    from fluidnb.videodb.database._reference import reference_pixel_features
 
     gen = np.random.default_rng(n * h)
     stack = gen.random((h, w, n + 1)).astype(np.float32)

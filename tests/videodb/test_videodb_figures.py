@@ -13,30 +13,25 @@ from matplotlib.quiver import Quiver
 from scipy import ndimage as ndi
 
 from fluidnb.fields import resize
-from fluidnb.videodb import (
-    AnimateParams,
-    DatabaseParams,
-    assign,
+from fluidnb.videodb import AnimateParams, DatabaseParams, assign, build_database, render
+from fluidnb.videodb.assignment import histogram_index
+from fluidnb.videodb.database import sample_version, transform_vectors, valid_positions
+from fluidnb.videodb.database._features import grey
+from fluidnb.videodb.figures import (
     assignment_figure,
-    build_database,
     clip_colour,
     clip_fragments_figure,
     clip_map_picture,
     fragment_figure,
     motion_arrows,
-    render,
     rendering_figure,
     retrieval_figure,
-    sample_version,
     spectra_figure,
     sweep_figure,
-    transform_vectors,
-    valid_positions,
     version_label,
     versions_figure,
 )
-from fluidnb.videodb.database._features import grey
-from fluidnb.videodb.figures._database import CLIP_PALETTE
+from fluidnb.videodb.figures._pictures import CLIP_PALETTE
 
 PARAMS = DatabaseParams(N=8, augment="flip", words=16, codebook_samples=5000)
 FEW = AnimateParams(candidates=12)
@@ -210,7 +205,7 @@ def test_retrieval_figure_shows_the_best_candidates_a_mean_image_first(db):
     fid = 5
     query = db.mean_images([fid])[0]
     axes = drawn(retrieval_figure(db, query, k=3))
-    top = db.index.top_k(db.describe(query[None]), 3)
+    top = histogram_index(db).top_k(db.describe(query[None]), 3)
     assert top.ids[0, 0] == fid
     assert top.scores[0, 0] == 324  # I = 1: it finds itself
     for ax, i in zip(axes[2:], top.ids[0]):

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from fluidnb.videodb import flow_map_texture
+from fluidnb.videodb.starter import flow_map_texture
 
 
 def test_flow_map_texture_is_exact_where_both_phases_agree():

@@ -8,12 +8,9 @@ import pytest
 from scipy import ndimage as ndi
 
 from fluidnb import to_uint8
-from fluidnb.videodb import (
-    AnimateParams,
-    DatabaseParams,
-    assign,
+from fluidnb.videodb import AnimateParams, DatabaseParams, assign, build_database, render
+from fluidnb.videodb.rendering import (
     blend_differences,
-    build_database,
     displacement_maps,
     eulerian_loop,
     exemplar_fill,
@@ -25,7 +22,6 @@ from fluidnb.videodb import (
     mirror_axes,
     reference_eulerian_loop,
     reference_fill,
-    render,
     stagger,
     sync_share,
     temporal_offsets,
@@ -383,7 +379,7 @@ def test_what_renders_share_is_kept_and_the_clip_stays_the_same(assignment, monk
     # matching's reference side, the advected layer) is kept with the target; the
     # motion field and the maps with the last assignment, for its loop and travel.
     # Renders from what is kept are renders made afresh, bit for bit.
-    from fluidnb.videodb.rendering import _render
+    from fluidnb.videodb.rendering import _shared
 
     base = assignment.params
     other = assignment.resolve(lam=0.0)  # another choice of fragments
@@ -396,13 +392,13 @@ def test_what_renders_share_is_kept_and_the_clip_stays_the_same(assignment, monk
         (assignment, base.replace(rendering="paper")),
     ]
     kept = [render(a, p, stages=False).clip.frames for a, p in cases]
-    assert assignment.target in _render._SHARED
-    shared = _render._SHARED[assignment.target]
+    assert assignment.target in _shared._SHARED
+    shared = _shared._SHARED[assignment.target]
     assert {"blend", "layer", ("axes", 48), ("axes", 24), "behind"} <= set(shared)
     flow = shared["flow"][2]
     assert not flow["velocity"].flags.writeable
     for (a, p), clip in zip(cases, kept):
-        _render._SHARED.clear()
+        _shared._SHARED.clear()
         fresh = render(a, p, stages=False).clip.frames
         assert np.array_equal(fresh.view(np.uint32), clip.view(np.uint32))
     assert not np.array_equal(kept[0], kept[2])  # the travel's own field and maps

@@ -6,14 +6,8 @@ import threading
 import numpy as np
 import pytest
 
-from fluidnb.videodb import (
-    DatabaseParams,
-    FrameCache,
-    build_database,
-    open_database,
-    reference_fragment_frames,
-    sample_version,
-)
+from fluidnb.videodb import DatabaseParams, build_database, open_database
+from fluidnb.videodb.database import FrameCache, reference_fragment_frames, sample_version
 from fluidnb.videodb.database import _frames as frames_module
 from fluidnb.videodb.database._frames import luminance
 from tests.support.videodb_store import moving_texture
@@ -253,7 +247,7 @@ def test_a_render_from_the_reference_frames_differs_only_by_round_off(built, mon
     fast = render(a)
 
     def plain(db, ids, *, margin, grey, differences=None, progress=None):
-        from fluidnb.videodb.rendering._blend import difference_frames
+        from fluidnb.videodb.database._differences import difference_frames
 
         frames = reference_fragment_frames(db, np.unique(ids), margin=margin, grey=grey)
         if differences is not None:
@@ -293,7 +287,8 @@ def test_frames_decoded_directly_equal_zarrs_and_bad_chunks_go_to_zarr(db, tmp_p
 @pytest.mark.parametrize("rendering", ["paper", "flow"])
 def test_the_renders_differences_are_staggers_blended(built, rendering):
     """The compiled loops (difference_frames, play_loops) against stagger and the blend."""
-    from fluidnb.videodb import AnimateParams, assign, blend_differences, render, stagger
+    from fluidnb.videodb import AnimateParams, assign, render
+    from fluidnb.videodb.rendering import blend_differences, stagger
 
     db = open_database(built.path)
     photo = moving_texture(8, shape=(96, 120), frames=1)[0]

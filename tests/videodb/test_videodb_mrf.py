@@ -4,14 +4,10 @@ import numpy as np
 import pytest
 
 from fluidnb import Cancelled, CancelToken
-from fluidnb.videodb.assignment._mrf import (
-    alpha_expansion,
-    brute_force,
-    energy,
-    grid_edges,
-    icm,
-    solve,
-)
+from fluidnb.videodb.assignment._expansion import alpha_expansion
+from fluidnb.videodb.assignment._icm import icm
+from fluidnb.videodb.assignment._mrf import brute_force, energy, grid_edges
+from fluidnb.videodb.assignment._solve import solve
 
 # ------------------------------------------------------------------------ helpers
 
@@ -271,7 +267,7 @@ def test_solvers_refuse_bad_inputs():
 def test_the_compiled_solvers_equal_the_plain_ones_bit_for_bit(seed):
     """alpha_expansion and icm (compiled move terms, compiled sweeps) against the plain
     numpy versions in _reference: same labels, same energies, same truncated share."""
-    from fluidnb.videodb import reference_alpha_expansion, reference_icm
+    from fluidnb.videodb.assignment import reference_alpha_expansion, reference_icm
 
     gen = np.random.default_rng(seed)
     shape = [(3, 4), (5, 6), (2, 9), (6, 6), (1, 7), (4, 4)][seed]
@@ -292,7 +288,7 @@ def test_the_compiled_solvers_equal_the_plain_ones_bit_for_bit(seed):
 
 
 def test_the_compiled_solvers_handle_a_problem_without_edges():
-    from fluidnb.videodb import reference_alpha_expansion, reference_icm
+    from fluidnb.videodb.assignment import reference_alpha_expansion, reference_icm
 
     unary = np.array([[0.3, 0.1, 0.2], [0.0, 0.5, 0.4]])
     pairwise, edges = np.zeros((0, 3, 3)), np.zeros((0, 2), int)
@@ -306,8 +302,10 @@ def test_the_compiled_solvers_handle_a_problem_without_edges():
 def test_moves_that_failed_on_the_same_labels_are_skipped_without_changing_the_result(seed):
     # The compiled expansion does not try a move again that failed while the labels
     # have not changed since; the plain version tries every move every sweep.
-    from fluidnb.videodb import reference_alpha_expansion
-    from fluidnb.videodb.assignment._mrf import Progress, _expand, _problem
+    from fluidnb._progress import Progress
+    from fluidnb.videodb.assignment import reference_alpha_expansion
+    from fluidnb.videodb.assignment._expansion import _expand
+    from fluidnb.videodb.assignment._mrf import _problem
 
     gen = np.random.default_rng(40 + seed)
     k = [4, 7, 10, 6][seed]
@@ -362,7 +360,7 @@ def realistic_problem(seed, shape=(9, 19), k=100, n_clips=40, lam=0.01):
 def test_the_compiled_expansion_equals_the_plain_one_on_a_real_sized_problem():
     """171 nodes, K = 100, the app's scales: labels, energies, sweeps and the truncated
     share the same from both starts, and solve() the same as the plain steps."""
-    from fluidnb.videodb import reference_alpha_expansion, reference_icm
+    from fluidnb.videodb.assignment import reference_alpha_expansion, reference_icm
 
     unary, pairwise, edges, lam = realistic_problem(0)
     assert np.count_nonzero(pairwise == 0) > 1000  # exact ties, as in real tables
@@ -391,20 +389,20 @@ def test_solve_runs_its_expansions_side_by_side_with_the_same_result(monkeypatch
     # in order.
     import threading
 
-    from fluidnb.videodb.assignment import _mrf
+    from fluidnb.videodb.assignment import _solve
 
     unary, pairwise, edges, lam = realistic_problem(1)
-    expand, threads = _mrf._expand, []
+    expand, threads = _solve._expand, []
 
     def recording(*args, **kwargs):
         threads.append(threading.get_ident())
         return expand(*args, **kwargs)
 
-    monkeypatch.setattr(_mrf, "_expand", recording)
-    monkeypatch.setattr(_mrf, "usable_cores", lambda: [0, 1])
+    monkeypatch.setattr(_solve, "_expand", recording)
+    monkeypatch.setattr(_solve, "usable_cores", lambda: [0, 1])
     results, seen = [], []
     for side_by_side in (True, False):
-        monkeypatch.setattr(_mrf, "_SIDE_BY_SIDE", 1 if side_by_side else 10**9)
+        monkeypatch.setattr(_solve, "_SIDE_BY_SIDE", 1 if side_by_side else 10**9)
         threads.clear()
         seen.clear()
 
@@ -427,12 +425,12 @@ def test_solve_runs_its_expansions_side_by_side_with_the_same_result(monkeypatch
 def test_cancelling_solve_stops_both_expansions(monkeypatch):
     import threading
 
-    from fluidnb.videodb.assignment import _mrf
+    from fluidnb.videodb.assignment import _solve
 
-    monkeypatch.setattr(_mrf, "_SIDE_BY_SIDE", 1)
-    monkeypatch.setattr(_mrf, "usable_cores", lambda: [0, 1])
+    monkeypatch.setattr(_solve, "_SIDE_BY_SIDE", 1)
+    monkeypatch.setattr(_solve, "usable_cores", lambda: [0, 1])
     unary, pairwise, edges, lam = realistic_problem(2)
-    expand, ended = _mrf._expand, {}
+    expand, ended = _solve._expand, {}
 
     def recording(*args, **kwargs):
         try:
@@ -441,7 +439,7 @@ def test_cancelling_solve_stops_both_expansions(monkeypatch):
             ended[threading.get_ident()] = "cancelled"
             raise
 
-    monkeypatch.setattr(_mrf, "_expand", recording)
+    monkeypatch.setattr(_solve, "_expand", recording)
     before = threading.active_count()
 
     def progress(fraction, message):
@@ -475,7 +473,7 @@ def tie_problem(gen, kind):
 
 @pytest.mark.parametrize("kind", ["equal unaries", "quantised", "potts", "zeros", "random"])
 def test_the_compiled_expansion_equals_the_plain_one_on_ties_and_lam_zero(kind):
-    from fluidnb.videodb import reference_alpha_expansion
+    from fluidnb.videodb.assignment import reference_alpha_expansion
 
     gen = np.random.default_rng(
         ["equal unaries", "quantised", "potts", "zeros", "random"].index(kind)

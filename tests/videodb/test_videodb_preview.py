@@ -186,7 +186,7 @@ def test_bad_arguments_are_named(scene):
 def test_its_one_level_blend_is_blend_differences_with_one_level(scene):
     # preview_frame adds the fragments with the blend's weights itself when levels=1.
     import fluidnb.videodb.rendering._preview as module
-    from fluidnb.videodb import blend_differences
+    from fluidnb.videodb.rendering import blend_differences
 
     a, _ = scene
     hc, wc = a.target.canvas.shape[:2]

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from fluidnb.videodb import HistogramIndex, reference_top_k
+from fluidnb.videodb.assignment import HistogramIndex, reference_top_k
 from fluidnb.videodb.database._words import intersection, pyramid_histograms
 
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy import ndimage as ndi
 
-from fluidnb.videodb import dense_sift, reference_dense_sift
+from fluidnb.videodb.database import dense_sift, reference_dense_sift
 from fluidnb.videodb.database._sift import _orientation_units
 
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from fluidnb import Cancelled, CancelToken
-from fluidnb.videodb import TEXTURE_SCALE, grid_edges, pair_tables, reference_pair_tables
+from fluidnb.videodb.assignment import TEXTURE_SCALE, grid_edges, pair_tables, reference_pair_tables
 from fluidnb.videodb.assignment import _smoothness as smoothness
 
 # ------------------------------------------------------------------------ helpers

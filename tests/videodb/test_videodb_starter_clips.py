@@ -7,8 +7,7 @@ from scipy import ndimage as ndi
 
 from fluidnb import Cancelled, Clip
 from fluidnb.fields import resize
-from fluidnb.videodb import flow_map_texture
-from fluidnb.videodb.starter import _clips as sc
+from fluidnb.videodb.starter import _clips, _solver_clips, _water, flow_map_texture
 from fluidnb.videodb.starter._clips import STARTER_KINDS, starter_clips
 
 LUMA = np.array([0.2125, 0.7154, 0.0721], np.float32)
@@ -60,14 +59,14 @@ def test_full_mode_recipes_are_many_and_distinct():
     # Full mode makes every recipe (too slow to run here): several per kind, all
     # different, the quick ones first.
     for kind in STARTER_KINDS:
-        recipes = sc._RECIPES[kind]
+        recipes = _clips._RECIPES[kind]
         names = [r["name"] for r in recipes]
         assert 6 <= len(recipes) <= 8
         assert len(set(names)) == len(names)
-    flows = {r["flow"]["type"] for r in sc._WATER}
+    flows = {r["flow"]["type"] for r in _water._WATER}
     assert flows == {"uniform", "shear", "swirl", "falling"}
-    assert sc._FULL.shape == (180, 320)
-    assert sc._FULL.n_frames >= 64
+    assert _clips._FULL.shape == (180, 320)
+    assert _clips._FULL.n_frames >= 64
 
 
 @pytest.mark.parametrize("kind", STARTER_KINDS)
@@ -102,12 +101,12 @@ def test_every_clip_keeps_moving_to_its_end(quick, kind):
 
 
 def test_water_clip_helper_gives_the_starter_frames_and_their_flow(quick):
-    frames, velocity, texture = sc._water_clip("river", quick=True, seed=0)
+    frames, velocity, texture = _clips._water_clip("river", quick=True, seed=0)
     assert np.array_equal(frames, quick["water"][0][1].frames)
     assert velocity.shape == (35, 96, 160, 2)
     assert texture.shape == (96, 160, 3)
     with pytest.raises(ValueError, match="recipe must be one of"):
-        sc._water_clip("ocean")
+        _clips._water_clip("ocean")
 
 
 def dis_flow(frames):
@@ -120,8 +119,8 @@ def dis_flow(frames):
 def test_water_motion_is_what_optical_flow_measures():
     # The spec's check: DIS recovers the known flow of a shear clip to ~0.15-0.2 px
     # (median endpoint error) on the frame pairs away from the phases' restarts.
-    frames, velocity, _ = sc._water_clip("river", quick=True, seed=0)
-    period = sc._WATER[0]["period"]
+    frames, velocity, _ = _clips._water_clip("river", quick=True, seed=0)
+    period = _water._WATER[0]["period"]
     measured = dis_flow(frames)
     error = np.linalg.norm(measured - velocity, axis=-1)[:, 8:-8, 8:-8]
     pairs = [t for t in range(len(error)) if t % (period // 2) and (t + 1) % (period // 2)]
@@ -131,7 +130,7 @@ def test_water_motion_is_what_optical_flow_measures():
     speed = np.linalg.norm(velocity, axis=-1)
     assert 1.0 < np.median(speed) < 2.0  # a real motion, not a trivial one
     # The falling water goes down, fast.
-    frames, velocity, _ = sc._water_clip("cascade", quick=True, seed=0)
+    frames, velocity, _ = _clips._water_clip("cascade", quick=True, seed=0)
     measured = dis_flow(frames[:8])
     assert np.median(measured[..., 0]) > 2.5
     assert np.median(np.abs(measured - velocity[:7])) < 0.5
@@ -142,10 +141,10 @@ def test_water_motion_changes_in_time_as_filmed_water_does():
     # power beyond the mean (DC), in the known flow and in what optical flow measures,
     # so that sigma matters on water. Steady flows (the clips before 2026-11-25) had
     # a non-DC/DC ratio of ~0.004 (river) and ~0 (cascade).
-    from fluidnb.videodb import motion_spectra
+    from fluidnb.videodb.database import motion_spectra
 
     for recipe in ("river", "cascade"):
-        frames, velocity, _ = sc._water_clip(recipe, quick=True, seed=0)
+        frames, velocity, _ = _clips._water_clip(recipe, quick=True, seed=0)
         for flow in (velocity[:31], dis_flow(frames[:32])[:, 8:-8, 8:-8]):
             spectra = motion_spectra(np.ascontiguousarray(flow), 16).astype(np.float64)
             dc = (spectra[0] ** 2).sum(axis=0)
@@ -158,7 +157,7 @@ def test_water_texture_does_not_stretch():
     # detail (high frequencies) grows; with the phases restarting every period it
     # stays like the texture itself (a little softer: bilinear sampling).
     for recipe in ("cascade", "river"):
-        frames, velocity, texture = sc._water_clip(recipe, quick=True, seed=0)
+        frames, velocity, texture = _clips._water_clip(recipe, quick=True, seed=0)
         reference = high_frequency_energy(grey(texture))
         energy = np.array([high_frequency_energy(f) for f in grey(frames)]) / reference
         assert energy.min() > 0.6, recipe
@@ -222,18 +221,18 @@ def test_progress_is_reported_and_can_cancel():
 
 def test_doubling_is_bilinear_resizing():
     frames = np.random.default_rng(0).random((3, 7, 9, 3)).astype(np.float32)
-    doubled = sc._double(frames)
+    doubled = _solver_clips._double(frames)
     expected = np.stack([resize(f, (14, 18)) for f in frames])
     assert doubled.shape == (3, 14, 18, 3)
     np.testing.assert_allclose(doubled, expected, atol=1e-6)
     grey_frames = frames[..., 0]
-    np.testing.assert_allclose(sc._double(grey_frames), doubled[..., 0], atol=0)
+    np.testing.assert_allclose(_solver_clips._double(grey_frames), doubled[..., 0], atol=0)
 
 
 def test_mosaic_is_periodic_and_keeps_the_sources_statistics():
     gen = np.random.default_rng(0)
     source = ndi.gaussian_filter(gen.random((40, 60, 3)), (1, 1, 0))
-    texture = sc._mosaic([source], (48, 64), (24, 32), np.random.default_rng(1))
+    texture = _water._mosaic([source], (48, 64), (24, 32), np.random.default_rng(1))
     assert texture.shape == (48, 64, 3)
     assert texture.dtype == np.float32
     np.testing.assert_allclose(texture.mean(axis=(0, 1)), source.mean(axis=(0, 1)), atol=0.02)
@@ -244,16 +243,16 @@ def test_mosaic_is_periodic_and_keeps_the_sources_statistics():
     assert seam < 2 * inner
 
 
-@pytest.mark.parametrize("recipe", [r["name"] for r in sc._WATER])
+@pytest.mark.parametrize("recipe", [r["name"] for r in _water._WATER])
 def test_water_flow_equals_the_frame_by_frame_reference(recipe):
     # _water_flow makes the whole sequence at once in float32 (products of functions of
     # time and of space, one batched FFT); the reference writes each frame's formula
     # out in float64. Same random draws, so the same flow to float32 round-off.
-    from fluidnb.videodb.rendering._reference import reference_water_flow
+    from fluidnb.videodb.starter._reference import reference_water_flow
 
-    spec = next(r for r in sc._WATER if r["name"] == recipe)
-    shape, n_frames = sc._QUICK.shape, 12
-    fast = sc._water_flow(spec, shape, n_frames, np.random.default_rng(3))
+    spec = next(r for r in _water._WATER if r["name"] == recipe)
+    shape, n_frames = _clips._QUICK.shape, 12
+    fast = _water._water_flow(spec, shape, n_frames, np.random.default_rng(3))
     plain = reference_water_flow(spec, shape, n_frames, np.random.default_rng(3))
     assert fast.dtype == np.float32
     assert fast.shape == plain.shape == (n_frames - 1, *shape, 2)
@@ -272,6 +271,6 @@ def test_smooth_noise_is_a_periodic_gaussian_blur_of_the_noise(sigma):
     shape = (96, 160)
     noise = np.random.default_rng(1).standard_normal(shape)
     expected = ndi.gaussian_filter(noise, sigma, mode="wrap", truncate=8.0)
-    spectrum = sc._smooth_noise(shape, np.random.default_rng(1), sigma)
+    spectrum = _water._smooth_noise(shape, np.random.default_rng(1), sigma)
     got = scipy.fft.irfft2(spectrum, s=shape)
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())

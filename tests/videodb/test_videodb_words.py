@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from fluidnb.videodb.database._reference import reference_quantise
 from fluidnb.videodb.database._words import (
     HISTOGRAM_TOTAL,
     _bisecting_kmeans,
@@ -12,7 +13,6 @@ from fluidnb.videodb.database._words import (
     pyramid_histograms,
     quantise,
 )
-from fluidnb.videodb.rendering._reference import reference_quantise
 
 
 def blobs(seed, n=600, d=16, centres=12):

@@ -13,6 +13,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+__all__ = []
+
 __all__: list[str] = []
 
 

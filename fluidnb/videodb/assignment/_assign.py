@@ -24,7 +24,6 @@ motions agree (:meth:`Assignment.motion_coherence`).
 from __future__ import annotations
 
 import dataclasses
-import os
 import time
 from dataclasses import dataclass
 
@@ -34,36 +33,17 @@ from ..._progress import Progress
 from ..._validation import check_int
 from .._common._geometry import FRAGMENT, STRIDE, VERSIONS
 from .._common._params import AnimateParams
-from ..database._store import VideoDatabase, open_database
+from .._common._weights import blend_values, fragment_weights
+from ..database._kinds import as_database
+from ..database._store import VideoDatabase
 from ..database._words import HISTOGRAM_TOTAL
-from ..rendering._blend import blend_values, fragment_weights
-from ..starter._clips import STARTER_KINDS
-from ..starter._databases import starter_database
-from ._mrf import grid_edges, solve
-from ._retrieval import MIN_MOTION
+from ._mrf import grid_edges
+from ._retrieval import MIN_MOTION, histogram_index
 from ._smoothness import pair_tables
+from ._solve import solve
 from ._target import Target, cut_target, fragment_motion
 
 __all__ = ["Assignment", "assign"]
-
-
-def _as_database(db, progress=None):
-    """A VideoDatabase from a database, a folder, or a starter kind's name."""
-    if isinstance(db, VideoDatabase):
-        return db
-    if isinstance(db, str) and db in STARTER_KINDS:
-        return starter_database(db, progress=progress)
-    kinds = ", ".join(repr(k) for k in STARTER_KINDS)
-    if isinstance(db, (str, os.PathLike)):
-        if not os.path.exists(db):
-            raise ValueError(
-                f"db must be a VideoDatabase, a database folder, or one of {kinds}, got "
-                f"{str(db)!r} (no such folder)"
-            )
-        return open_database(db, progress=progress)
-    raise ValueError(
-        f"db must be a VideoDatabase, a database folder, or one of {kinds}, got {type(db).__name__}"
-    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -314,7 +294,7 @@ def assign(
     load, describe, retrieve, tables, solving = report.split(0.1, 0.2, 0.45, 0.9)
     clock = {}
     t0 = time.perf_counter()
-    db = _as_database(db, load)
+    db = as_database(db, load)
     params = _check_params(params, db)
     target = cut_target(image, matte)
     if len(target) == 0:
@@ -335,7 +315,7 @@ def assign(
             "lower candidates or use a larger database"
         )
     retrieve(0.0, f"top {k} candidates by histogram intersection (Eq. 1)")
-    top = db.index.top_k(
+    top = histogram_index(db).top_k(
         words,
         k,
         direction=dirs,

@@ -62,7 +62,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["arcs", "maxflow", "min_cut", "workspace"]
+__all__ = ["arcs", "maxflow", "min_cut", "sink_side", "workspace"]
 
 # A node's parent: an arc (the arc from the node to its parent), or one of these.
 _FREE = -1  # in no tree

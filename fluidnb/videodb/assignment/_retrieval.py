@@ -52,6 +52,8 @@ References
 from __future__ import annotations
 
 import math
+import threading
+import weakref
 from typing import NamedTuple
 
 import numpy as np
@@ -63,7 +65,7 @@ from .._common._geometry import GRID
 from ..database._words import CELLS, HISTOGRAM_TOTAL, _check_words, pyramid_cells
 from ._smoothness import _workers
 
-__all__ = ["MIN_MOTION", "HistogramIndex", "TopK"]
+__all__ = ["MIN_MOTION", "HistogramIndex", "TopK", "histogram_index"]
 
 #: Below this speed (px/frame) a fragment's mean motion has no direction.
 MIN_MOTION = 1e-6
@@ -265,6 +267,33 @@ class HistogramIndex:
             with spread_pool(workers, "fluidnb-retrieval") as pool:
                 list(pool.map(search, runs))
         return TopK(ids, scores, n_eligible)
+
+
+# Each database's index, built on first use and kept while the database lives.
+_INDEXES = weakref.WeakKeyDictionary()
+_INDEXES_LOCK = threading.Lock()
+
+
+def histogram_index(db):
+    """The :class:`HistogramIndex` of a database's word maps, built on first use and kept.
+
+    Parameters
+    ----------
+    db : VideoDatabase
+
+    Returns
+    -------
+    HistogramIndex
+        Over ``db.words`` with ``db.mean_motion`` (the motion filter), the same object
+        for every call with the same opened database.
+    """
+    with _INDEXES_LOCK:
+        index = _INDEXES.get(db)
+    if index is None:
+        index = HistogramIndex(db.words, db.params.words, mean_motion=db.mean_motion)
+        with _INDEXES_LOCK:
+            index = _INDEXES.setdefault(db, index)
+    return index
 
 
 def _check_motion(mean_motion, n):

@@ -51,17 +51,10 @@ from ..._progress import Progress
 from ..._threads import spread_pool
 from ..._validation import check_int
 from .._common._geometry import FRAGMENT
-from ._augment import (
-    _NO_MATRIX,
-    _blur,
-    _coordinates,
-    _corners,
-    _gather,
-    _gaussian_kernel,
-    prefilter_sigma,
-)
+from ._augment import _NO_MATRIX, _blur, _gather, _gaussian_kernel
+from ._versions import _coordinates, _corners, prefilter_sigma
 
-__all__ = ["CACHE_BYTES", "FrameCache", "luminance", "rebuild_fragments"]
+__all__ = ["CACHE_BYTES", "FrameCache", "luminance", "manifest_checksum", "rebuild_fragments"]
 
 #: Default bound (bytes) of a database's :class:`FrameCache`: the rebuilt fragments of
 #: a 640 x 360 target (364 fragments of 32 frames of 72 x 72 luminance, 241 MB) and
@@ -353,7 +346,7 @@ def _rebuild_clip(db, ids, kind):
     ``kind`` is the cache key's tail: ``(margin, grey)``, or ``(margin, True,
     "differences", loop)`` for the rendering's difference frames.
     """
-    from ..rendering._blend import difference_frames
+    from ._differences import difference_frames
 
     margin, grey = kind[:2]
     n, side = db.params.N, FRAGMENT + 2 * margin
@@ -428,7 +421,7 @@ def _read_frames(db, clip, a, b):
     other codecs, is read by :meth:`~fluidnb.videodb.VideoDatabase.clip_frames`
     instead, which fills or refuses it and names it as the store does.
     """
-    from ._store import _chunk_file
+    from ._format import _chunk_file
 
     arr = db._array(db._group(), clip, "frames")
     crc = _direct_codecs(arr)

@@ -27,7 +27,7 @@ from scipy import ndimage as ndi
 from ..._random import rng
 from ..._validation import check_array, check_int
 
-__all__ = ["exemplar_fill"]
+__all__ = ["PATCH_RADIUS", "exemplar_fill"]
 
 #: Patch radius: 7 x 7 patches.
 PATCH_RADIUS = 3

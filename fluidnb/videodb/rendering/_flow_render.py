@@ -35,10 +35,12 @@ from numba import njit
 from scipy import ndimage as ndi
 
 from ..._validation import check_array, check_int, check_range, check_vector_field
-from ._appearance import _each_frame
-from ._blend import fragment_weights
+from .._common._weights import fragment_weights
+from ._threads import _each_frame
 
 __all__ = [
+    "FIELD_SIGMA",
+    "MAX_REPEATS",
     "displacement_maps",
     "eulerian_loop",
     "extend_outside",

@@ -32,12 +32,15 @@ from ..._progress import Progress
 from ..._validation import check_int
 from ...fields import downsample
 from .._common._geometry import FRAGMENT
+from .._common._weights import blend_values, fragment_weights
 from ..assignment._assign import Assignment, _check_params
 from ..database._augment import sample_version
 from ..database._features import grey
-from ._appearance import colour_axes, match_histograms_cells, motion_blur
-from ._blend import blend_differences, blend_values, fragment_weights
+from ._blend import blend_differences
+from ._colour_axes import colour_axes
 from ._composite import composite
+from ._histograms import match_histograms_cells
+from ._motion_blur import motion_blur
 
 __all__ = ["prefetch_preview", "preview_frame"]
 

@@ -28,17 +28,12 @@ from ..._progress import Progress
 from ..._validation import check_choice
 from .._common._params import DatabaseParams
 from ..database._build import _build
+from ..database._folder import folder_state
 from ..database._lock import locked
-from ..database._store import built_database, folder_state, open_database
+from ..database._store import built_database, open_database
 from ._clips import STARTER_KINDS
 
-__all__ = [
-    "STARTER_KINDS",
-    "prebuild_starters",
-    "starter_database",
-    "starter_params",
-    "starter_path",
-]
+__all__ = ["prebuild_starters", "starter_database", "starter_params", "starter_path"]
 
 
 # Bump when the clips or the build change what a starter database holds.
