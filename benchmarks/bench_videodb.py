@@ -597,7 +597,7 @@ def _assign_render(img, matte, db):
 def rebuild_anatomy(db, ids, margin=12):
     """The render's rebuild of ``ids`` on one thread, piece by piece, with an empty cache.
 
-    What ``fluidnb.videodb._frames.rebuild_fragments`` does on each thread: a clip's
+    What ``fluidnb.videodb.database._frames.rebuild_fragments`` does on each thread: a clip's
     frames read once (decoded from the store's chunks), the luminance of the part of
     each window its fragments read, each fragment re-sampled from it.
     """

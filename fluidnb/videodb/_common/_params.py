@@ -30,7 +30,7 @@ class DatabaseParams(Params):
     r"""How a video database is built (Okabe et al., sec. 4).
 
     The fragment geometry is fixed (48 x 48 pixels, stride 24, a 9 x 9 dense-SIFT grid;
-    see :mod:`fluidnb.videodb._geometry`); these are the choices left.
+    see :mod:`fluidnb.videodb._common._geometry`); these are the choices left.
 
     Attributes
     ----------

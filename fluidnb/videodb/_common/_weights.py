@@ -1,4 +1,12 @@
-"""TODO."""
+r"""Partition-of-unity weights of the fragment grid (Burt & Adelson 1983; Okabe et al., sec. 6).
+
+Each fragment gets a flat-topped tent over its 48 x 48 core; divided by their sum,
+the weights make one everywhere the cores cover (:func:`fragment_weights`). The
+rendering blends the fragments' difference frames with them
+(:mod:`fluidnb.videodb.rendering._blend`), and the assignment spreads per-fragment
+values -- the assigned mean motion, say -- over the image with them
+(:func:`blend_values`), so both live below both.
+"""
 
 from __future__ import annotations
 

@@ -3,7 +3,7 @@ r"""Which database fragment animates each target fragment (Okabe et al., sec. 5)
 :func:`assign`:
 
 1. **cut** the target into fragments exactly as the database's
-   (:func:`~fluidnb.videodb.cut_target`); only fragments touching the matte take part;
+   (:func:`~fluidnb.videodb.assignment.cut_target`); only fragments touching the matte take part;
 2. **candidates** (Eq. 1): each target fragment's visual words, the top-``k`` database
    fragments by spatial-pyramid histogram intersection, after dropping those whose mean
    motion disagrees with the user's direction / speed (Okabe et al., Fig. 8);
@@ -216,7 +216,7 @@ class Assignment:
         What the assignment looks like in the database's own pixels: each target
         fragment's chosen database fragment's mean image :math:`A`, pasted at the
         fragment's place and blended with the render's partition-of-unity weights
-        (:func:`~fluidnb.videodb.fragment_weights`). Comparing it with the photo shows
+        (:func:`~fluidnb.videodb.rendering.fragment_weights`). Comparing it with the photo shows
         how well Eq. (1) matched appearance.
 
         Returns
@@ -245,7 +245,7 @@ class Assignment:
         of the angle between their assigned fragments' mean motions: 1 when all flow
         the same way, about 0 when directions are random (Okabe et al., sec. 7: a large
         :math:`\sigma` ignores the mean motion and the motion turns random). Edges with
-        a still fragment (below :data:`~fluidnb.videodb._retrieval.MIN_MOTION`) count as
+        a still fragment (below :data:`~fluidnb.videodb.assignment._retrieval.MIN_MOTION`) count as
         0; a target of one fragment (no edge) gives 1.
 
         Returns

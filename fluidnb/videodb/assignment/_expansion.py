@@ -1,4 +1,17 @@
-"""TODO."""
+r"""Alpha-expansion over label indices (Boykov, Veksler & Zabih 2001), each sweep compiled.
+
+For each :math:`\alpha` in turn every node keeps its label or takes its own
+:math:`\alpha`-th candidate, whichever the minimum cut of the move's binary energy
+says (Kolmogorov & Zabih 2004), cut by our Boykov-Kolmogorov max-flow
+(:mod:`fluidnb.videodb.assignment._maxflow`). Labels are per-node candidate indices, so
+:math:`W` is not a metric and a move's binary energy is often not submodular
+(measured: 20-50 % of its pairwise terms on real-sized problems). Such terms are
+truncated by lowering :math:`E_{11}` to :math:`E_{01} + E_{10} - E_{00}` (Rother et
+al. 2005), which makes the move energy a lower bound of the true one that is exact at
+the current labelling; a move is accepted only if the true energy (Eq. 4) drops, so no
+move can raise it. :func:`~fluidnb.videodb.assignment.reference_alpha_expansion` is the
+same in plain numpy with PyMaxflow's cuts.
+"""
 
 from __future__ import annotations
 
@@ -20,7 +33,7 @@ __all__ = ["alpha_expansion"]
 def _move_terms(unary, labels, p, q, lam, alpha, tables, cap, cost1, sp, sq):
     """One expansion move's graph terms in one pass over the edges.
 
-    As :func:`~fluidnb.videodb.reference_alpha_expansion` builds them with numpy:
+    As :func:`~fluidnb.videodb.assignment.reference_alpha_expansion` builds them with numpy:
     writes the (truncated) pairwise capacities ``cap`` and the nodes' cost of taking
     alpha ``cost1``, with the same operations in the same order (so the same bits);
     returns (truncated terms, free terms). The four values of :math:`W_{pq}` each edge
@@ -146,7 +159,7 @@ def _expansion_sweep(w, unary, p, q, lam, graph, labels, current, changes, faile
     """One sweep of alpha-expansion moves over every alpha, in place.
 
     For each alpha: the move's graph terms (:func:`_move_terms`), its minimum cut
-    (:func:`~fluidnb.videodb._maxflow.maxflow`: the nodes on the sink side take alpha)
+    (:func:`~fluidnb.videodb.assignment._maxflow.maxflow`: the nodes on the sink side take alpha)
     and, if some node moves, the true energy (:func:`_energy`), the move kept only if
     it drops. ``failed[0, alpha]`` is the number of moves made (the labels' version)
     when alpha last failed, -1 if never, ``failed[1:, alpha]`` that move's truncated
@@ -245,7 +258,7 @@ def alpha_expansion(unary, pairwise, edges, lam, *, init=None, max_sweeps=20, pr
     every node either keeps its label or takes its own :math:`\alpha`-th candidate,
     whichever a minimum cut of the move's binary energy says (Kolmogorov & Zabih's
     construction; the cut by Boykov & Kolmogorov's max-flow, the same cut PyMaxflow
-    gives, :mod:`fluidnb.videodb._maxflow`; each sweep in compiled code). Because labels
+    gives, :mod:`fluidnb.videodb.assignment._maxflow`; each sweep in compiled code). Because labels
     are per-node candidate indices, :math:`W` is not a metric and a move's pairwise
     term :math:`(E_{00}, E_{01}, E_{10}, E_{11})` may be non-submodular
     (:math:`E_{01} + E_{10} < E_{00} + E_{11}`); such terms are truncated by lowering

@@ -1,4 +1,9 @@
-"""TODO."""
+r"""Iterated conditional modes (Besag 1986) on the assignment's MRF (Eq. 4), each sweep compiled.
+
+In raster order each node takes the label minimising :math:`V_p(l) + \lambda \sum_q
+W_{pq}` with its neighbours fixed, sweep after sweep until nothing changes.
+:func:`~fluidnb.videodb.assignment.reference_icm` is the same node by node in numpy.
+"""
 
 from __future__ import annotations
 
@@ -84,7 +89,7 @@ def _icm(prob, labels, max_sweeps, report, sweep=None):
     """Iterated conditional modes in raster order, sweep after sweep until none changes.
 
     ``sweep(labels) -> changed`` visits every node once, in place (default
-    :func:`_icm_sweep`, compiled; :func:`~fluidnb.videodb.reference_icm` passes it
+    :func:`_icm_sweep`, compiled; :func:`~fluidnb.videodb.assignment.reference_icm` passes it
     written with numpy).
     """
     t0 = time.perf_counter()

@@ -1,6 +1,6 @@
 r"""Minimum s-t cuts by Boykov and Kolmogorov's augmenting-path algorithm, compiled.
 
-Each alpha-expansion move of the assignment MRF (:mod:`fluidnb.videodb._mrf`) is the
+Each alpha-expansion move of the assignment MRF (:mod:`fluidnb.videodb.assignment._mrf`) is the
 minimum cut of a small graph: one node per target fragment, one edge per pair of
 neighbours, and each node joined to the source :math:`s` and the sink :math:`t`. The
 algorithm of Boykov & Kolmogorov [1]_ keeps two search trees of non-saturated
@@ -22,7 +22,7 @@ graph. They form the sink side of the minimum cut (:math:`x = 1`); the others,
 :math:`S` and the free nodes, the source side.
 
 The cut must be the very one of Kolmogorov's maxflow library (v3.0x, as PyMaxflow wraps
-it), which :func:`fluidnb.videodb.reference_alpha_expansion` uses, so the conventions
+it), which :func:`fluidnb.videodb.assignment.reference_alpha_expansion` uses, so the conventions
 are that library's:
 
 - edge ``e`` (``p -> q``) is the arcs ``2 e`` (``p -> q``, capacity ``cap``) and
@@ -48,7 +48,7 @@ the same bits, hence the same cut (the tests check this against PyMaxflow).
 
 (For whoever edits this module: numba caches a compiled caller with its callees built
 in and does not notice when a callee's module changes, so after an edit here clear
-``fluidnb/videodb/__pycache__``, or the cached :mod:`fluidnb.videodb._mrf` sweeps keep
+``fluidnb/videodb/__pycache__``, or the cached :mod:`fluidnb.videodb.assignment._mrf` sweeps keep
 running the old max-flow.)
 
 References

@@ -1,4 +1,4 @@
-r"""The assignment MRF of the video-database method and its solvers (Okabe et al., sec. 5).
+r"""The assignment's MRF (Okabe et al., sec. 5, Eq. 4-5): its grid, its energy, its exact minimum.
 
 Every target fragment :math:`p` (a node of a 4-connected grid, :func:`grid_edges`)
 takes one of its :math:`K` candidate database fragments (its labels, ranked by
@@ -11,30 +11,24 @@ appearance, Eq. 1). The labelling minimises
     V_p(l) = 1 - I(H_p, H_l)                                                    \quad (5)
 
 with :math:`W_{pq}` the smoothness term of Eq. (6), computed in bulk by
-:func:`fluidnb.videodb.pair_tables` (:mod:`fluidnb.videodb._smoothness`). This module
-takes ``unary`` and ``pairwise`` as given.
+:func:`~fluidnb.videodb.assignment.pair_tables`. This module takes ``unary`` and
+``pairwise`` as given.
 
 Decision (spec 05, section 2): the data term is :math:`V_p = 1 - I` with the
 normalised histogram intersection :math:`I \in [0, 1]`. The paper writes
 :math:`V_p = I` (Eq. 5), which a minimisation would turn into a reward for
 *dissimilar* fragments; the caller passes :math:`1 - I`.
 
-The energy (:func:`energy`) and its solvers: alpha-expansion over label indices
-(:func:`alpha_expansion`: each sweep of moves compiled, every move's minimum cut by our
-Boykov-Kolmogorov max-flow, :mod:`fluidnb.videodb._maxflow`), iterated conditional
-modes (:func:`icm`), the spec's recipe combining them (:func:`solve`), and exhaustive
-search for tiny problems (:func:`brute_force`). The plain versions,
-:func:`fluidnb.videodb.reference_alpha_expansion` (numpy and PyMaxflow) and
-:func:`fluidnb.videodb.reference_icm`, give the same labels and energies to the bit.
+Here: the grid (:func:`grid_edges`), the problem checked once (:class:`_Problem`), the
+energy (:func:`energy`), the solvers' common result (:class:`SolverRun`) and exhaustive
+search for tiny problems (:func:`brute_force`). The solvers: alpha-expansion over label
+indices (:mod:`fluidnb.videodb.assignment._expansion`), iterated conditional modes
+(:mod:`~fluidnb.videodb.assignment._icm`) and the spec's recipe combining them
+(:mod:`~fluidnb.videodb.assignment._solve`).
 
 Labels are per-node candidate *indices* (node :math:`p`'s label :math:`\alpha` is its
 :math:`\alpha`-th candidate, a different fragment from node :math:`q`'s), so
-:math:`W` is not a metric and an expansion move's binary energy is often not
-submodular (measured: 20-50 % of its pairwise terms on real-sized problems). Such
-terms are truncated by lowering :math:`E_{11}` to :math:`E_{01} + E_{10} - E_{00}`
-(Rother et al. 2005), which makes the move energy a lower bound of the true one that
-is exact at the current labelling; a move is accepted only if the true energy drops,
-so no move can raise it.
+:math:`W` is not a metric.
 
 References
 ----------

@@ -1,4 +1,21 @@
-"""TODO."""
+r"""The assignment's steps as one would first write them, in numpy (Okabe et al., sec. 5; slow).
+
+Each fast path of :mod:`fluidnb.videodb.assignment` (sparse posting lists, matrix
+products in bulk, compiled sweeps over our own max-flow) has its plain version here,
+in the paper's notation, one query, one pair or one node at a time; the tests check the
+fast path against it, and a reader finds the maths in its most readable form.
+
+=================================  ================================================
+plain version                      fast path (tested against it)
+=================================  ================================================
+:func:`reference_top_k`            :meth:`~fluidnb.videodb.assignment.HistogramIndex.top_k`
+:func:`reference_pair_tables`      :func:`~fluidnb.videodb.assignment.pair_tables`
+:func:`reference_alpha_expansion`  :func:`~fluidnb.videodb.assignment.alpha_expansion`
+:func:`reference_icm`              :func:`~fluidnb.videodb.assignment.icm`
+=================================  ================================================
+
+How closely each pair agrees is said in each function's docstring.
+"""
 
 from __future__ import annotations
 
@@ -124,7 +141,7 @@ def reference_pair_tables(candidates, edges, horizontal, spectra, texture):
 def reference_alpha_expansion(unary, pairwise, edges, lam, *, init=None, max_sweeps=20):
     r"""Alpha-expansion (Eq. 4), each move built in plain numpy and cut by PyMaxflow.
 
-    What :func:`~fluidnb.videodb.alpha_expansion` computes, bit for bit (the tests
+    What :func:`~fluidnb.videodb.assignment.alpha_expansion` computes, bit for bit (the tests
     check labels, energies, sweeps and the truncated share). For each :math:`\alpha`
     in turn, every node either keeps its label (:math:`x = 0`) or takes its
     :math:`\alpha`-th candidate (:math:`x = 1`); the move's binary energy per edge is
@@ -134,10 +151,10 @@ def reference_alpha_expansion(unary, pairwise, edges, lam, *, init=None, max_swe
     true energy falls. Sweeps repeat until one brings no improvement.
 
     The fast path does the same in compiled code, its own Boykov-Kolmogorov max-flow
-    (:mod:`fluidnb.videodb._maxflow`) following the library's steps so that the
+    (:mod:`fluidnb.videodb.assignment._maxflow`) following the library's steps so that the
     residuals, hence the cuts, are the same to the bit; it also skips a move that
     failed on the same labels (it would fail again). Arguments and result as
-    :func:`~fluidnb.videodb.alpha_expansion` (without ``progress``).
+    :func:`~fluidnb.videodb.assignment.alpha_expansion` (without ``progress``).
     """
     t0 = time.perf_counter()
     max_sweeps = check_int("max_sweeps", max_sweeps, 1)
@@ -202,11 +219,11 @@ def reference_alpha_expansion(unary, pairwise, edges, lam, *, init=None, max_swe
 def reference_icm(unary, pairwise, edges, lam, *, init=None, max_sweeps=20):
     r"""Iterated conditional modes (Eq. 4) node by node, in plain numpy.
 
-    What :func:`~fluidnb.videodb.icm` computes, bit for bit: in raster order, each
+    What :func:`~fluidnb.videodb.assignment.icm` computes, bit for bit: in raster order, each
     node takes the label minimising :math:`V_p(l) + \lambda \sum_q W_{pq}` with its
     neighbours fixed (a strict decrease only), sweep after sweep until nothing
     changes (the sweeps are counted as the fast path does; its sweep is compiled).
-    Arguments and result as :func:`~fluidnb.videodb.icm` (without ``progress``).
+    Arguments and result as :func:`~fluidnb.videodb.assignment.icm` (without ``progress``).
     """
     max_sweeps = check_int("max_sweeps", max_sweeps, 1)
     prob = _problem(unary, pairwise, edges, lam)

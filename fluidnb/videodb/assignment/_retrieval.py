@@ -1,7 +1,7 @@
 r"""Candidate retrieval: the database fragments most similar in appearance (Okabe et al., sec. 5).
 
 For every target fragment the assignment keeps the :math:`K` = 100 database fragments
-whose spatial-pyramid histograms of visual words (:mod:`~fluidnb.videodb._words`)
+whose spatial-pyramid histograms of visual words (:mod:`~fluidnb.videodb.database._words`)
 have the largest intersection with its own (Eq. 1),
 
 .. math::
@@ -38,8 +38,9 @@ the top :math:`K` is taken. A fragment is eligible when
 (Both within a relative 1e-12, so that motions exactly on a boundary count as inside.)
 When fewer than :math:`K` fragments are eligible, the row is padded by repeating the
 best of them (a repeated label is harmless to the MRF); when none is, the query falls
-back to the unfiltered top :math:`K`. :func:`fluidnb.videodb.reference_top_k` is the same search
-written densely in numpy, for the tests.
+back to the unfiltered top :math:`K`.
+:func:`~fluidnb.videodb.assignment.reference_top_k` is the same search written densely
+in numpy, for the tests.
 
 References
 ----------
@@ -417,7 +418,7 @@ def _filter(motion, mag, uy, ux, s, cos_max, ratio, ok):
 
     The angle test is ``m . u >= (cos(max_angle) - slack) |m|`` (no division), the
     speed test ``max(|m|, s) <= ratio min(|m|, s) (1 + slack)``, exactly as
-    :func:`fluidnb.videodb.reference_top_k` writes them.
+    :func:`fluidnb.videodb.assignment.reference_top_k` writes them.
     """
     use_dir = not math.isnan(uy)
     use_speed = not math.isnan(s)

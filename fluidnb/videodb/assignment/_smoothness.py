@@ -16,7 +16,7 @@ database fragments :math:`l_i, l_j` pay
 where :math:`\Omega` is the overlap of the two fragments (half of each),
 :math:`\hat M_f` the motion power spectrum at frequency bin :math:`f` (:math:`f = 1`,
 our bin 0, is DC, which the database stores as the signed mean motion: its power would
-not tell opposite flows apart; see :mod:`fluidnb.videodb._features`) and :math:`T`
+not tell opposite flows apart; see :mod:`fluidnb.videodb.database._features`) and :math:`T`
 the textureness, and
 
 .. math::
@@ -34,7 +34,7 @@ candidates, where float32 gave 300 % errors) are recomputed directly, so every e
 is exact to 1e-9 relative (a worst-case bound). Three tables per edge are kept -- the
 DC term, the other frequencies and the textureness -- so that a change of
 :math:`\sigma` or :math:`\rho` only recombines them (:meth:`PairTables.smoothness`).
-:func:`fluidnb.videodb.reference_pair_tables` is the literal pair-by-pair definition.
+:func:`fluidnb.videodb.assignment.reference_pair_tables` is the literal pair-by-pair definition.
 
 References
 ----------
@@ -488,7 +488,7 @@ def pair_tables(candidates, edges, horizontal, spectra, texture, *, progress=Non
     one vertical edge, so every node's candidates are gathered once per side), in
     float64; entries where that formula cancels (near-duplicate candidates) are
     recomputed directly, so every entry is within 1e-9 relative of
-    :func:`fluidnb.videodb.reference_pair_tables`. The overlap halves are gathered from
+    :func:`fluidnb.videodb.assignment.reference_pair_tables`. The overlap halves are gathered from
     the float16 arrays, converted, centred and their norms taken by one compiled
     kernel (:func:`_gather_centred`; numpy's take, cast and centring cost twice the
     matrix products), and the products become distances in another (:func:`_finish`),

@@ -2,7 +2,7 @@
 
 The target (a photo or painting of fluid) is padded by reflection at its bottom and
 right to whole strides and cut into 48 x 48 fragments on the stride-24 grid, the
-database's own geometry (:mod:`fluidnb.videodb._geometry`); only the fragments that
+database's own geometry (:mod:`fluidnb.videodb._common._geometry`); only the fragments that
 touch the matte take part (:func:`cut_target`). The user's motion, flow strokes and a
 painted speed, is averaged over each of them (:func:`fragment_motion`) for the
 retrieval's motion filter (Okabe et al., Fig. 8).

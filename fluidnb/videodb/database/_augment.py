@@ -1,31 +1,8 @@
-r"""The 18 augmented versions of a database clip (Okabe et al., sec. 4, Fig. 4-a).
+r"""The augmented versions' pixels and motion, sampled from the source clip (Okabe et al., sec. 4).
 
-To multiply its videos the paper [1]_ flips each one horizontally, scales it to 50, 75 and
-100 % and rotates it by -22.5, 0 and +22.5 degrees, then cuts every version into
-48 x 48 fragments. Here a version is an index into :data:`VERSIONS`
-(``9 * flip + 3 * scale_index + angle_index``; 7 is the clip itself).
-
-Geometry (shared by every part of :mod:`fluidnb.videodb`). For a source of
-:math:`H \times W` pixels and version :math:`(F, s, \theta)` the canvas is
-
-.. math::
-
-    H_v = \max(1, [s (H |\cos\theta| + W |\sin\theta|)]), \quad
-    W_v = \max(1, [s (W |\cos\theta| + H |\sin\theta|)])
-
-(``[.]`` rounds half away from zero) and version pixel :math:`(r, c)` shows the
-source at the pixel-centre coordinates
-
-.. math::
-
-    p = (r - \tfrac{H_v - 1}{2},\ c - \tfrac{W_v - 1}{2}), \quad
-    q = F R(-\theta)\, p / s, \quad
-    (y, x) = q + (\tfrac{H - 1}{2}, \tfrac{W - 1}{2}),
-
-with :math:`R(\theta) = ((\cos\theta, -\sin\theta), (\sin\theta, \cos\theta))`
-acting on (row, col) vectors -- counter-clockwise on screen for :math:`\theta > 0` --
-and :math:`F = \mathrm{diag}(1, -1)` for a flipped version. A motion vector (dy, dx)
-of the source becomes :math:`u_v = s R(\theta) F u_s` in the version.
+A version's geometry (:mod:`fluidnb.videodb.database._versions`): version pixel
+:math:`(r, c)` shows the source at :math:`q = F R(-\theta)\, p / s` about the centres,
+and a motion vector becomes :math:`u_v = s R(\theta) F u_s`.
 
 Frames are sampled bilinearly after a Gaussian antialiasing prefilter of standard
 deviation :math:`(1/s - 1)/2` source pixels when :math:`s < 1` (scikit-image's rule),
@@ -35,16 +12,12 @@ can rebuild one fragment from the source clip exactly as the build cut it.
 
 The sampling runs in two small numba kernels (a separable Gaussian and a bilinear
 gather that serves all frames from one set of indices and weights) on a pixel-major
-copy of the source window; :func:`fluidnb.videodb.reference_sample_version` and
-:func:`fluidnb.videodb.reference_transform_vectors` write the same computation out
-literally with scipy and explicit matrices, and the tests compare the two. All 18 versions of a
-64-frame 320 x 180 grey clip take about 0.5 s on one core, its flow's about 1 s.
-
-References
-----------
-.. [1] M. Okabe, K. Anjyo, R. Onai, "Creating fluid animation from a single image
-   using video database", Computer Graphics Forum 30(7) (Pacific Graphics 2011),
-   section 4 and Fig. 4.
+copy of the source window; :class:`VersionSampler` prepares a clip once for all 18
+versions. :func:`fluidnb.videodb.database.reference_sample_version` and
+:func:`fluidnb.videodb.database.reference_transform_vectors` write the same computation
+out literally with scipy and explicit matrices, and the tests compare the two. All 18
+versions of a 64-frame 320 x 180 grey clip take about 0.5 s on one core, its flow's
+about 1 s.
 """
 
 from __future__ import annotations
@@ -174,7 +147,7 @@ def transform_flow(flow, version, *, origin=(0, 0), size=None):
     Parameters
     ----------
     flow : ndarray, shape (T - 1, H, W, 2), float
-        (dy, dx) of the source clip (:func:`~fluidnb.videodb._flow.optical_flow`).
+        (dy, dx) of the source clip (:func:`~fluidnb.videodb.database._flow.optical_flow`).
     version : int
         Index into :data:`~fluidnb.videodb.VERSIONS`.
     origin, size : tuple of int

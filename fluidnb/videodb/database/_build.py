@@ -18,7 +18,7 @@ on which worker finished first, so a resumed build ends byte-identical to an
 uninterrupted one, and a cluster build equals a local one.
 
 Failures (our decision, so that ``info``, ``build``, ``build --resume`` and ``add``
-agree on what a folder holds, see :func:`~fluidnb.videodb._store.folder_state`):
+agree on what a folder holds, see :func:`~fluidnb.videodb.database._folder.folder_state`):
 
 - an interruption (a kill, a cancel, a worker that died, a full disk) leaves a
   resumable state: ``build/state.json`` records the settings and the clips stored so
@@ -30,7 +30,7 @@ agree on what a folder holds, see :func:`~fluidnb.videodb._store.folder_state`):
   resume, whose state is kept when a source does not match or cannot be read: the
   right sources can still continue it;
 - a build or an addition holds the folder's lock (``_lock.py``): a second writer gets
-  a :class:`~fluidnb.videodb._lock.DatabaseBusy` error naming the holder at once.
+  a :class:`~fluidnb.videodb.database._lock.DatabaseBusy` error naming the holder at once.
 """
 
 from __future__ import annotations
@@ -134,7 +134,7 @@ def build_database(
         same clip given twice, or no fragment at all (every clip too short, too small
         or still): then the folder is left as it was (a resumed build's state is kept
         when a source does not match it). A
-        :class:`~fluidnb.videodb._lock.DatabaseBusy` (a ValueError) if another process
+        :class:`~fluidnb.videodb.database._lock.DatabaseBusy` (a ValueError) if another process
         is building into or adding to the folder.
     """
     folder, arrays = _build(
@@ -155,7 +155,7 @@ def _build(sources, path, *, kind, params, seed, client, workers, resume, progre
     """:func:`build_database` up to the open database: its folder and clips' arrays.
 
     ``arrays`` maps each clip's index to the arrays a database holds in memory, as
-    stored: :func:`~fluidnb.videodb._store.built_database` makes the database of them
+    stored: :func:`~fluidnb.videodb.database._store.built_database` makes the database of them
     -- after moving the folder, for a starter database built in ``<path>.partial``.
     """
     params = _check_params(params)
@@ -247,7 +247,7 @@ def add_clips(db, sources, *, client=None, workers=None, resume=False, progress=
         For unreadable sources, a clip already in the database, an unfinished
         addition (without ``resume``), clips that give no fragment at all, or a
         database of format version 1 (rebuild it first). A
-        :class:`~fluidnb.videodb._lock.DatabaseBusy` if another process is writing it.
+        :class:`~fluidnb.videodb.database._lock.DatabaseBusy` if another process is writing it.
     """
     root = Path(getattr(db, "path", db))
     workers = _check_workers(workers)

@@ -1,4 +1,12 @@
-"""TODO."""
+"""One clip cut into fragments and their features (Okabe et al., sec. 4): a worker's task.
+
+:func:`clip_fragments` cuts a clip's every temporal window and augmented version into
+48 x 48 fragments with their features (:func:`~fluidnb.videodb.database.window_features`)
+and dense-SIFT descriptors; :func:`_process_clip` -- what a build runs per clip, on a
+local thread or a dask worker -- writes them into the clip's group of the store a whole
+chunk at a time, and its count into ``build/done-<i>.json``, so that a resumed build
+skips the clips already cut.
+"""
 
 from __future__ import annotations
 

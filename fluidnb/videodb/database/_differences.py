@@ -1,4 +1,11 @@
-"""TODO."""
+r"""A fragment's difference frames :math:`D_i = F_i - A` (Okabe et al., sec. 6), made at rebuild.
+
+The rendering animates with the fragments' difference frames; they are made from a
+fragment's frames as soon as the database rebuilds them
+(:func:`~fluidnb.videodb.database._frames.rebuild_fragments`, on its threads) and kept
+in the database's frame cache, so a render of the same fragments does nothing with
+them but blend.
+"""
 
 from __future__ import annotations
 

@@ -172,7 +172,7 @@ def _band_magnitudes(g, e, out):
     ``g`` a Gaussian level (H, W, C) and ``e`` the next level's expansion: the
     Laplacian band's magnitudes summed over the channels (frames) in float32, the
     values of ``np.abs(g - e).sum(axis=-1, dtype=np.float32)`` (summed in numpy's
-    order, :func:`~fluidnb.videodb._sums._pairwise_sum`), without the band, its
+    order, :func:`~fluidnb.videodb._common._sums._pairwise_sum`), without the band, its
     absolute value or its negation ever being written out (``g + (-1) e``, what
     ``_laplacian32`` computes, is ``g - e`` exactly).
     """
@@ -228,7 +228,7 @@ def pixel_features(stack, colour_mean, flow, positions, *, threshold, n_bins):
 
     ``stack`` is the grey frames as (Hv, Wv, N) and ``flow`` the flows as (Hv, Wv,
     2 (N - 1)), each pixel's (dy, dx) pairs frame after frame
-    (:class:`~fluidnb.videodb._augment.VersionSampler`'s layout); the results are
+    (:class:`~fluidnb.videodb.database._augment.VersionSampler`'s layout); the results are
     :func:`window_features`'s, bit for bit. So are those of the numpy version it
     replaced (``reference_pixel_features``): its kernels write each stored array once,
     in its final layout, with numpy's and OpenCV's operations in their order.

@@ -13,7 +13,7 @@ fluids and comes out relatively smooth". Two backends compute it here:
   1-2 s a 320 x 180 pair, about 100 times slower.
 
 The flow is computed once per source clip; the augmented versions get theirs by
-:func:`fluidnb.videodb._augment.transform_flow`, not by estimating again.
+:func:`fluidnb.videodb.database._augment.transform_flow`, not by estimating again.
 """
 
 from __future__ import annotations
@@ -105,7 +105,7 @@ def optical_flow(frames, *, backend="dis", progress=None):
     ``attachment = 0.8 * 255 = 204``, ``tightness = 1.0``, ``num_iter = 25`` (the
     paper's iteration count) and ``num_warp = 5`` (scikit-image's default; OFLib's is
     not given). Measured on synthetic textures whose flow is known exactly (48 x 64,
-    tests/videodb/test_videodb_flow.py):
+    tests/videodb/database/test_videodb_flow.py):
 
     - a sub-pixel translation comes out within 0.02-0.08 px mean endpoint error and
       a 2-degree rotation within 0.07 px (inside a 4-pixel border);

@@ -1,4 +1,10 @@
-"""TODO."""
+"""What a database folder holds: a database, an unfinished build, debris, or another's files.
+
+:func:`folder_state` is what :func:`~fluidnb.videodb.build_database`,
+:func:`~fluidnb.videodb.add_clips` and ``fluidnb videodb info`` decide by, and
+:func:`read_manifest` reads and checks a database's manifest, saying what a folder
+without one holds and what to do about it in the same words.
+"""
 
 from __future__ import annotations
 

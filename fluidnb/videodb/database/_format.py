@@ -1,4 +1,31 @@
-"""TODO."""
+"""The video database's format on disk: a zarr v3 store and a JSON manifest (Okabe et al., sec. 4).
+
+Layout of a database folder::
+
+    zarr.json                 the zarr root group
+    manifest.json             format, parameters, codebook, clips, counts (written last)
+    clips/00000/frames        (T, H, W, 3) uint8, the source clip as it went in
+    clips/00000/mean          (F0, 48, 48, 3) uint8      mean image A
+    clips/00000/words         (F0, 9, 9) uint8           visual-word map
+    clips/00000/mean_motion   (F0, 2) float32            (dy, dx) px/frame
+    clips/00000/motion        (F0, N - 1, 2) float32     the same, per frame pair
+    clips/00000/spectra       (F0, NB, 2, 12, 12) float16  motion spectra M^ (Eq. 2)
+    clips/00000/texture       (F0, 4, 24, 24) float16    textureness T (Fig. 7)
+    clips/00000/source        (F0, 5) int32              clip, version, first frame, row, col
+    clips/00001/...
+
+A database is complete when ``manifest.json`` exists: it is written last, atomically,
+so an interrupted build never leaves a folder that opens. Fragment ``i`` of the whole
+database is fragment ``i - first`` of the clip whose range holds it (clips in order).
+
+Every chunk of every array carries a CRC-32C checksum (zarr's ``crc32c`` codec, after
+blosc-lz4), and every chunk is written, even an all-zero one: so a chunk that was
+changed, truncated or deleted is found when it is read -- a clear error naming the
+array, the chunk and its file, never zeros or garbage in its place.
+:func:`read_rows` reads rows so that any such chunk is a ``ValueError`` naming it.
+Format version 1 (before 2026-11-25) had neither; such a database still opens, without
+those checks (its summary says so).
+"""
 
 from __future__ import annotations
 

@@ -5,7 +5,7 @@ assigned fragment, from which it takes the difference frames :math:`D_i = F_i - 
 The database keeps only the source clips' frames (and each fragment's ``source``:
 clip, version, first frame, position), so every fragment is re-sampled from its
 clip's frames with its version's flip, scale and rotation, exactly as the build cut it
-(:func:`~fluidnb.videodb.sample_version`). At the paper's scale this was most of the
+(:func:`~fluidnb.videodb.database.sample_version`). At the paper's scale this was most of the
 rendering: 364 fragments from 116 clip windows, each window's 32 frames decoded from
 the store, made grey and re-sampled.
 
@@ -16,7 +16,7 @@ the store, made grey and re-sampled.
   read once (runs of frames, one read each), and only those;
 - luminance (``grey=True``, what rendering needs) is computed only on the part of the
   frames the clip's fragments read, straight into the pixel-major layout the
-  re-sampling kernel reads (:mod:`fluidnb.videodb._augment`), so every fragment samples
+  re-sampling kernel reads (:mod:`fluidnb.videodb.database._augment`), so every fragment samples
   the same array: no per-fragment copy or transposition;
 - clips are processed on up to two threads (the decoder and the kernels release the
   GIL);
@@ -24,12 +24,12 @@ the store, made grey and re-sampled.
   (bounded in bytes), so a second render of the same assignment, or a render after a
   re-solve that changed a few fragments, rebuilds only what changed.
 
-The values are those of :func:`~fluidnb.videodb.sample_version` applied to the frames
+The values are those of :func:`~fluidnb.videodb.database.sample_version` applied to the frames
 made grey by :func:`luminance` (colour: divided by 255), bit for bit.
 :func:`luminance` computes :math:`0.2125 R + 0.7154 G + 0.0721 B` element by element,
 so a pixel's grey value never depends on which other pixels are converted with it
 (numpy's ``frames @ LUMA`` differs from it and from itself across array shapes by a
-float32 rounding, 1.2e-7). :func:`fluidnb.videodb.reference_fragment_frames` is the
+float32 rounding, 1.2e-7). :func:`fluidnb.videodb.database.reference_fragment_frames` is the
 plain version (one fragment at a time, scipy's filters), which the tests compare this
 with.
 """
@@ -301,7 +301,7 @@ def rebuild_fragments(db, ids, *, margin, grey, differences=None, progress=None)
         Fragment id -> read-only float32 (N, 48 + 2 margin, 48 + 2 margin[, 3]) in
         [0, 1], as :meth:`~fluidnb.videodb.VideoDatabase.fragment_frames` documents;
         with ``differences``, (48 + 2 margin, 48 + 2 margin, N - differences)
-        (:func:`fluidnb.videodb._blend.difference_frames`).
+        (:func:`fluidnb.videodb.database._differences.difference_frames`).
     """
     if differences is not None and not grey:
         raise ValueError("differences are made of grey frames: pass grey=True")
@@ -486,7 +486,7 @@ def _plan(shape, version, r0, c0, side):
 
     Returns the bilinear corners and weights of every output pixel and the source
     rectangle they read, widened by the prefilter's reach and cut at the source's
-    border (see :func:`fluidnb.videodb.sample_version`).
+    border (see :func:`fluidnb.videodb.database.sample_version`).
     """
     h, w = shape
     y, x = _coordinates(h, w, version, r0, c0, side, side)

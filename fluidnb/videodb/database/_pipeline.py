@@ -1,4 +1,19 @@
-"""TODO."""
+"""The build's stages after the folder is locked: ingest, fragments, codebook, words.
+
+1. **ingest**: each source read once (:func:`~fluidnb.videodb.read_video`) and stored as
+   ``clips/<i>/frames``, its record in ``build/state.json`` (:class:`_Ingest`);
+2. **fragments**: each clip cut (:mod:`fluidnb.videodb.database._cut`) as soon as it is
+   stored, on local threads beside the ingest (:func:`_pipeline`), or on a dask cluster
+   after it (:func:`_run_clips`);
+3. **codebook**: bisecting k-means on a seeded sample of the descriptors
+   (:func:`_train_codebook`);
+4. **words**: every fragment's descriptors quantised to its word map
+   (:func:`_quantise_clips`), the arrays read back for the manifest's checksums.
+
+What :func:`~fluidnb.videodb.build_database` and :func:`~fluidnb.videodb.add_clips`
+share; their transactions (locks, roll-backs, the manifest) are
+:mod:`fluidnb.videodb.database._build`'s.
+"""
 
 from __future__ import annotations
 
@@ -388,7 +403,7 @@ def _read_back(root, counts, params):
     """Each clip's arrays a database holds in memory (but for its words), from the store.
 
     The manifest's checksums and the database :func:`build_database` returns are made
-    of them (:func:`~fluidnb.videodb._store.built_database`), with the words: read
+    of them (:func:`~fluidnb.videodb.database._store.built_database`), with the words: read
     here while the codebook is fitted, not again, one clip after the other, at the end.
     """
     import zarr

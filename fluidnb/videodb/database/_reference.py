@@ -1,4 +1,25 @@
-"""TODO."""
+r"""The database's steps as one would first write them, in numpy (Okabe et al., sec. 4; slow).
+
+Each fast path of :mod:`fluidnb.videodb.database` has its plain version here, in the
+paper's notation, one pixel or one fragment at a time; the tests check the fast path
+against it, and a reader finds the maths in its most readable form.
+
+=====================================  =============================================
+plain version                          fast path (tested against it)
+=====================================  =============================================
+:func:`reference_sample_version`       :func:`~fluidnb.videodb.database.sample_version`
+:func:`reference_transform_vectors`    :func:`~fluidnb.videodb.database.transform_vectors`
+:func:`reference_fragment_frames`      :meth:`~fluidnb.videodb.VideoDatabase.fragment_frames`
+:func:`reference_pixel_features`       ``pixel_features`` (the build's features)
+:func:`reference_textureness`          :func:`~fluidnb.videodb.database.textureness`
+:func:`reference_window_sums`          ``_window_sums``
+:func:`reference_dense_sift`           :func:`~fluidnb.videodb.database.dense_sift`
+:func:`reference_quantise`             :func:`~fluidnb.videodb.database.quantise`
+=====================================  =============================================
+
+How closely each pair agrees, and why not bit for bit where it does not, is said in
+each function's docstring.
+"""
 
 from __future__ import annotations
 

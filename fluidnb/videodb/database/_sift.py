@@ -39,7 +39,7 @@ the same operations in the same order wherever its fragment sits in the batch, s
 fragment's descriptors do not depend on the batch it came in: database and target
 agree bit for bit; no fastmath, so the compiler may not reorder sums). It computes
 ``atan2`` by octants and a polynomial (to a few ulp), pools
-separably, and normalises with reciprocals. :func:`fluidnb.videodb.reference_dense_sift`
+separably, and normalises with reciprocals. :func:`fluidnb.videodb.database.reference_dense_sift`
 is the recipe above written out literally, one descriptor and one pixel at a time; the two
 agree to within one count of the uint8 values (a value differs only where
 :math:`512 v` lands within round-off of an integer), and on the tests' images

@@ -1,37 +1,15 @@
-"""The video database on disk (zarr v3 + a JSON manifest) and in memory.
+"""A video database opened: its manifest, its fragments' features in memory (Okabe et al., sec. 4).
 
-Layout of a database folder::
-
-    zarr.json                 the zarr root group
-    manifest.json             format, parameters, codebook, clips, counts (written last)
-    clips/00000/frames        (T, H, W, 3) uint8, the source clip as it went in
-    clips/00000/mean          (F0, 48, 48, 3) uint8      mean image A
-    clips/00000/words         (F0, 9, 9) uint8           visual-word map
-    clips/00000/mean_motion   (F0, 2) float32            (dy, dx) px/frame
-    clips/00000/motion        (F0, N - 1, 2) float32     the same, per frame pair
-    clips/00000/spectra       (F0, NB, 2, 12, 12) float16  motion spectra M^ (Eq. 2)
-    clips/00000/texture       (F0, 4, 24, 24) float16    textureness T (Fig. 7)
-    clips/00000/source        (F0, 5) int32              clip, version, first frame, row, col
-    clips/00001/...
-
-A database is complete when ``manifest.json`` exists: it is written last, atomically,
-so an interrupted build never leaves a folder that opens. Fragment ``i`` of the whole
-database is fragment ``i - first`` of the clip whose range holds it (clips in order).
-
-Every chunk of every array carries a CRC-32C checksum (zarr's ``crc32c`` codec, after
-blosc-lz4), and every chunk is written, even an all-zero one: so a chunk that was
-changed, truncated or deleted is found when it is read -- a clear error naming the
-array, the chunk and its file, never zeros or garbage in its place.
-:func:`verify_database` reads every chunk. Format version 1 (before 2026-11-25) had
-neither; such a database still opens, without those checks (its summary says so).
+:func:`open_database` checks a database folder (its format:
+:mod:`fluidnb.videodb.database._format`) and reads the word maps, motions, spectra and
+textureness of every clip sequentially into memory once (the paper's bottleneck was
+random disk access for the smoothness terms); the :class:`VideoDatabase` it returns
+reads mean images and source frames on demand, and rebuilds fragments' frames through
+its frame cache (:mod:`fluidnb.videodb.database._frames`).
 
 A build, an addition of clips or a resume locks the folder (``.fluidnb-lock``, see
 ``_lock.py``); readers take no lock: a complete database only grows by new clip groups
 and a new manifest, so a reader sees the database as it was or as it is.
-
-:func:`open_database` reads the word maps, motions, spectra and textureness of every
-clip sequentially into memory once (the paper's bottleneck was random disk access for
-the smoothness terms); mean images and source frames are read on demand.
 """
 
 from __future__ import annotations
@@ -225,11 +203,11 @@ class VideoDatabase:
         """Rebuild the ``N`` frames of fragments from their source clips.
 
         Each fragment is re-sampled from its clip's frames with its version's flip,
-        scale and rotation (:func:`~fluidnb.videodb.sample_version`), exactly as the
+        scale and rotation (:func:`~fluidnb.videodb.database.sample_version`), exactly as the
         build cut it, with ``margin`` extra pixels of context on every side (clamped
         at the clip's border). Each fragment is rebuilt once, reading only the frames
         its window needs, and kept in :attr:`cache` for the next call
-        (:mod:`fluidnb.videodb._frames`).
+        (:mod:`fluidnb.videodb.database._frames`).
 
         Parameters
         ----------
@@ -239,7 +217,7 @@ class VideoDatabase:
             Context pixels around the 48 x 48 fragment.
         grey : bool
             Luminance only (what rendering needs): the frames are made grey
-            (:func:`~fluidnb.videodb._frames.luminance`) before they are resampled
+            (:func:`~fluidnb.videodb.database._frames.luminance`) before they are resampled
             (both are linear), a third of the work.
 
         Returns

@@ -1,4 +1,9 @@
-"""TODO."""
+"""Every chunk of a database read and checked: what ``fluidnb videodb info --verify`` reports.
+
+Opening a database checks its in-memory arrays; :func:`verify_database` also reads the
+frames and mean images, which are otherwise read on demand, and lists every missing
+or damaged chunk instead of stopping at the first.
+"""
 
 from __future__ import annotations
 

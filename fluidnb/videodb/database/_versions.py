@@ -1,4 +1,42 @@
-"""TODO."""
+r"""The 18 augmented versions of a database clip (Okabe et al., sec. 4, Fig. 4-a).
+
+To multiply its videos the paper [1]_ flips each one horizontally, scales it to 50, 75 and
+100 % and rotates it by -22.5, 0 and +22.5 degrees, then cuts every version into
+48 x 48 fragments. Here a version is an index into :data:`VERSIONS`
+(``9 * flip + 3 * scale_index + angle_index``; 7 is the clip itself).
+
+Geometry (shared by every part of :mod:`fluidnb.videodb`). For a source of
+:math:`H \times W` pixels and version :math:`(F, s, \theta)` the canvas is
+
+.. math::
+
+    H_v = \max(1, [s (H |\cos\theta| + W |\sin\theta|)]), \quad
+    W_v = \max(1, [s (W |\cos\theta| + H |\sin\theta|)])
+
+(``[.]`` rounds half away from zero) and version pixel :math:`(r, c)` shows the
+source at the pixel-centre coordinates
+
+.. math::
+
+    p = (r - \tfrac{H_v - 1}{2},\ c - \tfrac{W_v - 1}{2}), \quad
+    q = F R(-\theta)\, p / s, \quad
+    (y, x) = q + (\tfrac{H - 1}{2}, \tfrac{W - 1}{2}),
+
+with :math:`R(\theta) = ((\cos\theta, -\sin\theta), (\sin\theta, \cos\theta))`
+acting on (row, col) vectors -- counter-clockwise on screen for :math:`\theta > 0` --
+and :math:`F = \mathrm{diag}(1, -1)` for a flipped version. A motion vector (dy, dx)
+of the source becomes :math:`u_v = s R(\theta) F u_s` in the version.
+
+Here: the versions' shapes, coordinates, matrices and prefilters, and where whole
+fragments lie in them (:func:`valid_positions`); their pixels and motion are sampled
+by :mod:`fluidnb.videodb.database._augment`.
+
+References
+----------
+.. [1] M. Okabe, K. Anjyo, R. Onai, "Creating fluid animation from a single image
+   using video database", Computer Graphics Forum 30(7) (Pacific Graphics 2011),
+   section 4 and Fig. 4.
+"""
 
 from __future__ import annotations
 

@@ -223,7 +223,7 @@ def _squared_distances(x, c):
     """``sum_i (x_i - c_i)^2`` in float64: x (m, D), c (m, j, D) or (j, D) -> (m, j).
 
     The one place these are computed directly, so that :func:`quantise` and
-    :func:`fluidnb.videodb.reference_quantise` sum every value in the same order.
+    :func:`fluidnb.videodb.database.reference_quantise` sum every value in the same order.
     """
     diff = x[:, None, :] - c
     return (diff * diff).sum(axis=-1)
@@ -243,8 +243,8 @@ def quantise(descriptors, centres):
     -------
     ndarray, shape (...)
         ``argmin_c sum_i (x_i - c_i)^2`` in float64, ties to the lowest index (exactly
-        :func:`fluidnb.videodb.reference_quantise`). uint8 when ``k <= 256``, uint16 up to 65536,
-        else int64.
+        :func:`~fluidnb.videodb.database.reference_quantise`). uint8 when ``k <= 256``,
+        uint16 up to 65536, else int64.
 
     Notes
     -----

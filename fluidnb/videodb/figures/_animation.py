@@ -1,4 +1,13 @@
-"""TODO."""
+r"""The second video-database lesson's figures (``07b_videodb_animation.ipynb``; secs. 5-6).
+
+- :func:`assignment_figure`, :func:`sweep_figure`: which source clip animates each
+  target fragment and its mean motion, for one or several assignments (Eq. 4-6);
+- :func:`rendering_figure`: the rendering's stages (Okabe et al., sec. 6).
+
+Drawn by the same rule as the app's assignment map
+(:mod:`fluidnb.videodb.figures._pictures`); matplotlib's object API only, imported
+when the first figure is drawn.
+"""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""TODO."""
+"""What the lessons' figures share: their checks, a figure without pyplot, axes without ticks."""
 
 from __future__ import annotations
 

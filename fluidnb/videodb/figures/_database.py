@@ -1,30 +1,19 @@
-r"""Teaching figures of the video-database method (Okabe et al., secs. 4-6).
-
-What the lessons (``notebooks/07a_videodb_database.ipynb`` and
-``07b_videodb_animation.ipynb``) draw, as library functions so the notebooks' cells
-stay short and the app can reuse them:
+r"""The first video-database lesson's figures (``07a_videodb_database.ipynb``; sec. 4).
 
 - :func:`clip_fragments_figure`: a clip, its fragment grid, and one fragment's mean
-  image, difference frame, visual words, motion spectra and textureness (Okabe et al., Fig. 2,
-  4-b, 5);
+  image, difference frame, visual words, motion spectra and textureness (Okabe et al.,
+  Fig. 2, 4-b, 5);
 - :func:`fragment_figure`: the same panels for any fragment of a database;
 - :func:`versions_figure`: the 18 augmented versions of a clip (Okabe et al., Fig. 4-a);
 - :func:`retrieval_figure`: a query fragment and its best candidates by histogram
   intersection (Eq. 1);
-- :func:`spectra_figure`: motion power spectra (Eq. 2, Okabe et al., Fig. 6) and textureness
-  (Okabe et al., Fig. 7) of a few fragments side by side;
-- :func:`assignment_figure`, :func:`sweep_figure`: which source clip animates each
-  target fragment and its mean motion, for one or several assignments (Eq. 4-6);
-- :func:`rendering_figure`: the rendering's stages (Okabe et al., sec. 6).
+- :func:`spectra_figure`: motion power spectra (Eq. 2, Okabe et al., Fig. 6) and
+  textureness (Okabe et al., Fig. 7) of a few fragments side by side.
 
-One drawing rule for an assignment, shared with the app's assignment map
-(:class:`fluidnb.widgets.VideoDBApp`): each source clip's colour (:func:`clip_colour`),
-the photo tinted by the clip of each fragment's cell (:func:`clip_map_picture`), and
-each fragment's mean motion as an arrow (:func:`motion_arrows`).
-
-Matplotlib's object API only (no pyplot), so figures can be made in a worker thread and
-outside Jupyter. Matplotlib itself is imported when the first figure is drawn (half a
-second), so that importing :mod:`fluidnb.videodb` and the command line stay quick.
+Library functions, so the notebook's cells stay short. Matplotlib's object API only
+(no pyplot), so figures can be made in a worker thread and outside Jupyter; matplotlib
+itself is imported when the first figure is drawn (half a second), so that importing
+:mod:`fluidnb.videodb` and the command line stay quick.
 """
 
 from __future__ import annotations

@@ -1,4 +1,10 @@
-"""TODO."""
+r"""One drawing rule for an assignment, shared by the lesson's figures and the app's map.
+
+Each source clip's colour (:func:`clip_colour`), the photo tinted by the clip of each
+fragment's cell (:func:`clip_map_picture`), and each fragment's mean motion as an
+arrow (:func:`motion_arrows`): arrays, no matplotlib, so
+:class:`fluidnb.widgets.VideoDBApp` draws them on its canvas as they are.
+"""
 
 from __future__ import annotations
 
@@ -107,7 +113,7 @@ def motion_arrows(assignment, *, gain=None, thin=False):
     segments : ndarray, shape (k, 2, 2)
         Start and end (row, col) in image pixels, for every fragment whose centre lies
         in the image and that moves (speed above
-        :data:`~fluidnb.videodb._retrieval.MIN_MOTION`).
+        :data:`~fluidnb.videodb.assignment._retrieval.MIN_MOTION`).
     gain : float
         The gain used.
     """

@@ -10,18 +10,17 @@ summed and divided, level by level, by the sum of the weights' pyramids (as Open
 ``MultiBandBlender``), and the result is collapsed. Low frequencies are blended over
 wide transitions and high ones over narrow ones, so no seam shows.
 
-- :func:`fragment_weights`: the weights, flat-topped tents over each fragment's cell
-  that sum to one over the canvas;
-- :func:`blend_differences`: the blend (the fast path: phase layers, float32 pyramids);
-- :func:`blend_values`: per-fragment values (a mean motion, say) spread over the canvas
-  with the same weights.
+The weights are :func:`~fluidnb.videodb.rendering.fragment_weights`, flat-topped tents
+over each fragment's cell that sum to one over the canvas
+(:mod:`fluidnb.videodb._common._weights`); :func:`blend_differences` is the blend (the
+fast path: phase layers, float32 pyramids).
 
 The blend's pyramids run in float32 (``precision="float32"`` of
 :func:`fluidnb.fields.laplacian_pyramid` and its kin, compiled or through OpenCV: the
 same Gaussian of ``sigma = 1`` truncated at 4 sigma, the same half-sample-symmetric
 border and the same pixel-centre-aligned bilinear resampling as the float64 pyramids,
-to float32 round-off). :func:`fluidnb.videodb.reference_blend_differences` is the blend written
-per fragment, as one would first write it, with the float64 pyramids.
+to float32 round-off). :func:`~fluidnb.videodb.rendering.reference_blend_differences` is
+the blend written per fragment, as one would first write it, with the float64 pyramids.
 """
 
 from __future__ import annotations
@@ -207,7 +206,7 @@ def blend_differences(diffs, positions, canvas_shape, *, margin, levels=None, fe
     its weight sum keeps the weights a partition of unity at every level, also where
     fewer fragments cover a pixel. The output is zero outside the union of the cores.
 
-    :func:`fluidnb.videodb.reference_blend_differences` is the same blend written one
+    :func:`fluidnb.videodb.rendering.reference_blend_differences` is the same blend written one
     fragment at a time, each fragment extended beyond its data by the fill. It
     differs from this one only where a fragment's coarsest weights reach past its
     tile, which here holds its phase-mates' frames rather than the fill: with up to 3

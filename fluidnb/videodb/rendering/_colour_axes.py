@@ -1,4 +1,11 @@
-"""TODO."""
+r"""Frames in the target's principal colour axes, and back (Heeger & Bergen 1995).
+
+Matching R, G and B independently can mix hues the photo does not have (a white-hot
+flame turned lilac); matching decorrelated axes keeps its colours. So the rendering
+makes each frame straight in the axes of the target's colours inside its matte
+(:func:`colour_axes`), matches it there, and turns it back into RGB as it composites
+it (one compiled pass each).
+"""
 
 from __future__ import annotations
 
@@ -123,7 +130,7 @@ def _advected_in_axes(a, b, wa, fade, detail, d, centre, axes, out):
     """One flow-rendered frame in the colour axes, in one pass (float32).
 
     The cross-fade of the phases (``fade`` 1: ``a``; 0: ``b``; else ``b + wa (a - b)``,
-    :func:`fluidnb.videodb._flow_render._cross_fade`), plus ``detail * d``, in the
+    :func:`fluidnb.videodb.rendering._flow_render._cross_fade`), plus ``detail * d``, in the
     axes as :func:`colours_in_axes`: the numpy steps' operations in their order.
     """
     h, w = d.shape
@@ -149,7 +156,7 @@ def _advected_in_axes(a, b, wa, fade, detail, d, centre, axes, out):
 def _composite_from_axes(x, centre, axes, back, matte, out):
     """Colours back from the axes, over the background through the matte, in [0, 1].
 
-    :func:`frames_from_axes`, then :func:`fluidnb.videodb.composite`'s
+    :func:`frames_from_axes`, then :func:`fluidnb.videodb.rendering.composite`'s
     ``back + matte (x - back)`` and the clip to [0, 1], on the top-left ``out``-sized
     part of the (larger) canvas, in one pass with the numpy steps' float32 operations.
     """

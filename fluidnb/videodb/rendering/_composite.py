@@ -124,7 +124,7 @@ def inpaint_background(image, matte, *, dilate=2):
     fluid in the photograph; the paper's authors cloned them by hand (Photoshop's
     stamp tool). By default they are filled with the photo's own texture: every pixel
     with ``matte > 0``, grown by ``dilate`` pixels to cover the fluid's soft fringe,
-    is filled by exemplar-based completion (:func:`fluidnb.videodb.exemplar_fill`:
+    is filled by exemplar-based completion (:func:`fluidnb.videodb.rendering.exemplar_fill`:
     Wexler et al. 2007 with PatchMatch), so rock continues as rock and sky as sky.
     Telea's diffusion (``cv2.inpaint``), used before, smeared the border's colours
     into streaks across the hole. Measured on the clouds photo's matte (40 % of the

@@ -212,7 +212,7 @@ def stagger(diffs, offsets, *, overlap, rates=None, n_frames=None, mirrors=None)
     r"""Each fragment's difference frames as a loop of its own, started at its offset.
 
     Every fragment's :math:`N` frames become a seamless loop of :math:`L = N -`
-    ``overlap`` frames (:func:`~fluidnb.videodb.loop_crossfade`, per fragment), and
+    ``overlap`` frames (:func:`~fluidnb.videodb.rendering.loop_crossfade`, per fragment), and
     fragment ``p`` then plays frame :math:`(o_p + r_p t) \bmod L` at time :math:`t`
     (linear between frames at fractional times). With all offsets 0 and rates 1
     this is the loop of the whole blended clip (both steps are linear, so looping

@@ -14,7 +14,7 @@ fills, but measured at 320 x 180 with the clouds photo's matte (40 % of the pixe
 2 shared cores): ``INPAINT_FSR_FAST`` 5 s, ``INPAINT_SHIFTMAP`` 32 s (the best
 looking), ``INPAINT_FSR_BEST`` 168 s; at 640 x 360, 38 s and 60 s. scikit-image has only
 the biharmonic fill (a diffusion). The kernels here run in numba;
-:func:`fluidnb.videodb.reference_fill` is the same method with an exhaustive search,
+:func:`fluidnb.videodb.rendering.reference_fill` is the same method with an exhaustive search,
 in numpy, that the tests compare it with.
 """
 

@@ -21,7 +21,7 @@ to move the photo along that motion:
    motion a warp cannot make (spray, flicker), then the cell-wise histogram matching
    and the composite through the matte, as the paper's rendering does.
 
-:func:`fluidnb.videodb.reference_eulerian_loop` is step 2 written out with
+:func:`fluidnb.videodb.rendering.reference_eulerian_loop` is step 2 written out with
 :func:`fluidnb.fields.backward_warp`, one frame and one phase at a time.
 """
 
@@ -64,7 +64,7 @@ def flow_field(assignment):
     Every target fragment's chosen database fragment has a mean motion (its optical
     flow averaged over its pixels and frames, (dy, dx) px/frame); they are spread over
     the canvas with the partition-of-unity weights of the difference frames' blend
-    (:func:`~fluidnb.videodb.fragment_weights`), then smoothed by a Gaussian of one
+    (:func:`~fluidnb.videodb.rendering.fragment_weights`), then smoothed by a Gaussian of one
     stride (:data:`FIELD_SIGMA`, within the fragments' cores): neighbouring fragments
     may move quite differently (the smoke database's slow and fast ones side by side),
     and the sharper field sheared the photo along the line between them into a seam.

@@ -1,14 +1,14 @@
-r"""The animation's appearance: the approximate mean image and per-cell histogram matching.
+r"""Appearance matching (Okabe et al., sec. 6): each frame's histograms matched to the target's.
 
-The blended difference frames :math:`D_i` carry no colour (Okabe et al., sec. 6), so
-each frame is the **approximate mean image** plus :math:`D_i`: the target blurred along
-the assigned motion, standing for the fragments' mean images :math:`A`
-(:func:`motion_blur`). Then each frame's histograms are matched to the target's, cell
-by cell of a uniform grid (Heeger & Bergen 1995), the cells' mappings blended
-bilinearly so no grid seam shows (:func:`match_histograms_cells`).
+The blended difference frames added to the approximate mean image
+(:mod:`fluidnb.videodb.rendering._motion_blur`) need not have the photo's tones, so each
+frame's histograms are matched to the target's, cell by cell of a uniform grid (Heeger
+& Bergen 1995), the cells' mappings blended bilinearly so no grid seam shows
+(:func:`match_histograms_cells`, as CLAHE blends its tiles).
 
-The matching runs in numba kernels; :func:`fluidnb.videodb.reference_match_histograms_cells`
-is the same in plain numpy.
+The matching runs in numba kernels;
+:func:`~fluidnb.videodb.rendering.reference_match_histograms_cells` is the same in plain
+numpy.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ HISTOGRAM_BINS = 256
 # Quantiles that describe each cell's distribution (p = 0, 1/K, ..., 1).
 _QUANTILES = 128
 # Slope of a cell's map beyond the frame's range in that cell (see
-# fluidnb.videodb._reference._maps_np).
+# fluidnb.videodb.rendering._reference._maps_np).
 _SLOPE_RANGE = (0.25, 4.0)
 
 
@@ -83,7 +83,7 @@ def _bilinear_roles(n, centres):
 class _Cells:
     """The checked inputs of a matching, the reference's side and every frame's bins.
 
-    For the reference matching (:func:`fluidnb.videodb.reference_match_histograms_cells`):
+    For the reference matching (:func:`fluidnb.videodb.rendering.reference_match_histograms_cells`):
     the cell grid, its bilinear roles, the cells' mass and the reference's bins of
     :class:`_Matching`, and each frame's bins (:attr:`lo`, :attr:`step`, one row per
     frame). Every image is binned over its own range, per channel, so a frame's
@@ -152,7 +152,7 @@ def match_histograms_cells(frames, reference, weight, *, cell):
 
     The histograms, quantiles, maps and the blend run in numba kernels (compiled on
     first use, a few seconds, then cached): 32 RGB frames of 648 x 360 in about 1 s
-    on 2 shared cores. :func:`fluidnb.videodb.reference_match_histograms_cells` is the
+    on 2 shared cores. :func:`fluidnb.videodb.rendering.reference_match_histograms_cells` is the
     same in numpy.
 
     Parameters
@@ -264,7 +264,7 @@ def _bins(image):
 
 
 # The compiled kernels below follow the numpy functions of
-# fluidnb.videodb._reference (_quantiles_np, _maps_np) operation for operation (same
+# fluidnb.videodb.rendering._reference (_quantiles_np, _maps_np) operation for operation (same
 # sums in the same order), so both paths agree to the last bit or nearly.
 
 

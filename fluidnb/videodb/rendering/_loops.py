@@ -1,4 +1,10 @@
-"""TODO."""
+r"""Every fragment's loop of difference frames played from its offset, mirrored, at its rate.
+
+:func:`~fluidnb.videodb.rendering.stagger` on loops already made (the database's frame
+cache keeps each fragment's :math:`D_i`, cross-faded into a loop) and laid out
+pixel-major as the blend reads them (beyond the paper: neighbours that share a
+fragment start it at different times, :mod:`fluidnb.videodb.rendering._desync`).
+"""
 
 from __future__ import annotations
 
@@ -15,7 +21,7 @@ __all__ = ["play_loops"]
 def play_loops(loops, offsets, *, rates=None, n_frames=None, mirrors=None, frames=None):
     r"""Every fragment's loop played from its offset, mirrored, at its rate, pixel-major.
 
-    What :func:`fluidnb.videodb.stagger` does after making the loops, for loops
+    What :func:`fluidnb.videodb.rendering.stagger` does after making the loops, for loops
     already made (:func:`difference_frames`, kept in the frame cache) and laid out as
     the blend reads them: fragment ``p`` shows frame :math:`(o_p + r_p t) \bmod L` of
     its loop at time :math:`t` (linear between frames at fractional times), flipped

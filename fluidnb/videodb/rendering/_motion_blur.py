@@ -1,4 +1,12 @@
-"""TODO."""
+r"""The approximate mean image (Okabe et al., sec. 6): the target blurred along its motion.
+
+The blended difference frames :math:`D_i` carry no colour, so each frame of the
+paper's rendering is an image standing for the fragments' mean images :math:`A` plus
+:math:`D_i`: the target blurred along the assigned motion with a pseudo shutter, then
+by a Gaussian whose size grows with the motion's magnitude, against noise
+(:func:`motion_blur`). :func:`~fluidnb.videodb.rendering.reference_motion_blur` is the
+same as whole-image warps.
+"""
 
 from __future__ import annotations
 
@@ -161,7 +169,7 @@ def _line_average(img, v, times, weights, row0, row1, out):
     :func:`fluidnb.fields.backward_warp`'s bilinear value (the displacement
     ``t_j v`` in float32, positions in float64 clamped at the border, the weights in
     float32, ``top + fy (bottom - top)``), summed in float64 in the order of ``j``,
-    so the result equals :func:`fluidnb.videodb.reference_motion_blur`'s bit for bit,
+    so the result equals :func:`fluidnb.videodb.rendering.reference_motion_blur`'s bit for bit,
     without its n whole-image warps and temporaries.
     """
     h, w, n_ch = img.shape

@@ -1,35 +1,20 @@
-r"""The video-database method's steps as one would first write them, in numpy (slow).
+r"""The rendering's steps as one would first write them, in numpy (Okabe et al., sec. 6; slow).
 
-Each fast path of :mod:`fluidnb.videodb` (numba kernels, sparse posting lists, matrix
-products in bulk, OpenCV pyramids over phase layers) has its plain version here, in
-the paper's notation, one pixel, one pair or one fragment at a time. They exist so
-that the tests can check every fast path against the method written out literally,
-the benchmarks can show what the optimisation buys, and a reader can find the maths
-in its most readable form. Use the functions of :mod:`fluidnb.videodb` for real work.
+Each fast path of :mod:`fluidnb.videodb.rendering` (numba kernels, OpenCV pyramids over
+phase layers, remaps) has its plain version here, in the paper's notation, one pixel,
+one fragment or one frame at a time; the tests check the fast path against it, and a
+reader finds the maths in its most readable form.
 
-=====================================  =============================================
-plain version                          fast path (tested against it)
-=====================================  =============================================
-:func:`reference_sample_version`       :func:`~fluidnb.videodb.sample_version`
-:func:`reference_transform_vectors`    :func:`~fluidnb.videodb.transform_vectors`
-:func:`reference_fragment_frames`      :meth:`~fluidnb.videodb.VideoDatabase.fragment_frames`
-:func:`reference_pixel_features`       ``pixel_features`` (the build's features, bits)
-:func:`reference_textureness`          :func:`~fluidnb.videodb.textureness` (bits)
-:func:`reference_window_sums`          ``_window_sums`` (bits)
-:func:`reference_dense_sift`           :func:`~fluidnb.videodb.dense_sift`
-:func:`reference_quantise`             :func:`~fluidnb.videodb.quantise`
-:func:`reference_top_k`                :meth:`~fluidnb.videodb.HistogramIndex.top_k`
-:func:`reference_pair_tables`          :func:`~fluidnb.videodb.pair_tables`
-:func:`reference_blend_differences`    :func:`~fluidnb.videodb.blend_differences`
-:func:`reference_layer_blend`          :func:`~fluidnb.videodb.blend_differences` (bits)
-:func:`reference_match_histograms_cells` :func:`~fluidnb.videodb.match_histograms_cells`
-:func:`reference_motion_blur`          :func:`~fluidnb.videodb.motion_blur`
-:func:`reference_eulerian_loop`        :func:`~fluidnb.videodb.eulerian_loop`
-:func:`reference_fill`                 :func:`~fluidnb.videodb.exemplar_fill`
-:func:`reference_alpha_expansion`      :func:`~fluidnb.videodb.alpha_expansion`
-:func:`reference_icm`                  :func:`~fluidnb.videodb.icm`
-:func:`reference_water_flow`           the starter water clips' flows (``_water_flow``)
-=====================================  =============================================
+========================================  ==========================================
+plain version                             fast path (tested against it)
+========================================  ==========================================
+:func:`reference_blend_differences`       :func:`~fluidnb.videodb.rendering.blend_differences`
+:func:`reference_layer_blend`             the same, phase layer by phase layer
+:func:`reference_match_histograms_cells`  :func:`~fluidnb.videodb.rendering.match_histograms_cells`
+:func:`reference_motion_blur`             :func:`~fluidnb.videodb.rendering.motion_blur`
+:func:`reference_eulerian_loop`           :func:`~fluidnb.videodb.rendering.eulerian_loop`
+:func:`reference_fill`                    :func:`~fluidnb.videodb.rendering.exemplar_fill`
+========================================  ==========================================
 
 How closely each pair agrees, and why not bit for bit where it does not, is said in
 each function's docstring.
@@ -93,7 +78,7 @@ def reference_blend_differences(
        the fill is the one that gives identical inputs back exactly (it equals the
        data wherever the fragments agree);
     2. its weight :math:`W^p`: the flat-topped tent over its core of
-       :func:`~fluidnb.videodb.fragment_weights` before the normalisation, 0 off the
+       :func:`~fluidnb.videodb.rendering.fragment_weights` before the normalisation, 0 off the
        core;
     3. the Laplacian pyramid :math:`L_l(D^p)` and the Gaussian pyramid
        :math:`G_l(W^p)` (float64, :mod:`fluidnb.fields`; frames as channels);
@@ -101,7 +86,7 @@ def reference_blend_differences(
     then per level :math:`L_l = \sum_p G_l(W^p) L_l(D^p) / \sum_p G_l(W^p)` (0 where
     no weight reaches), collapsed, and 0 off the cores.
 
-    How :func:`~fluidnb.videodb.blend_differences` differs: it builds the same sums
+    How :func:`~fluidnb.videodb.rendering.blend_differences` differs: it builds the same sums
     from 9 *phase layers* (fragments whose grid positions are equal modulo 3 share one
     canvas and one pyramid), so in a layer the neighbourhood of a fragment's 72 x 72
     tile holds its phase-mates' frames (72 px away) rather than the fill, and it keeps
@@ -115,7 +100,7 @@ def reference_blend_differences(
     5e-4 on independent unit-variance textures. (Extending each fragment by its
     phase layer instead of the fill gives back the fast path to float32 round-off.)
 
-    Arguments and result as :func:`~fluidnb.videodb.blend_differences`.
+    Arguments and result as :func:`~fluidnb.videodb.rendering.blend_differences`.
     """
     pos, shape = _check_positions(positions, canvas_shape)
     m = int(margin)
@@ -172,7 +157,7 @@ def reference_blend_differences(
 
 
 def reference_layer_blend(diffs, positions, canvas_shape, *, margin, levels=None, feather=FEATHER):
-    r"""The phase-layer blend of :func:`~fluidnb.videodb.blend_differences` in numpy (float32).
+    r"""The phase-layer blend of :func:`blend_differences` in numpy (float32).
 
     The fast path's own design (9 phase layers, the fill, OpenCV's float32 pyramids)
     with every step of its own arithmetic written as numpy array operations, one
@@ -182,7 +167,7 @@ def reference_layer_blend(diffs, positions, canvas_shape, *, margin, levels=None
     compiled fill, weighting and normalisation, its weights made once, its layers on
     threads) gives the same frames bit for bit (tested).
 
-    Arguments and result as :func:`~fluidnb.videodb.blend_differences`.
+    Arguments and result as :func:`~fluidnb.videodb.rendering.blend_differences`.
     """
     pos, shape = _check_positions(positions, canvas_shape)
     m = int(margin)
@@ -227,14 +212,14 @@ def reference_layer_blend(diffs, positions, canvas_shape, *, margin, levels=None
 
 
 def reference_motion_blur(image, velocity, *, shutter, denoise):
-    r""":func:`~fluidnb.videodb.motion_blur` as whole-image warps (Okabe et al., sec. 6).
+    r""":func:`~fluidnb.videodb.rendering.motion_blur` as whole-image warps (Okabe et al., sec. 6).
 
     The approximate mean image: the target averaged along its motion, sample by
     sample, each sample a whole image warped by
     :func:`fluidnb.fields.backward_warp` to ``x + t v(x)``, accumulated with the
     trapezoid weights; then the speed-dependent Gaussian blur. The fast path gives the
     same result bit for bit. Arguments and result as
-    :func:`~fluidnb.videodb.motion_blur`.
+    :func:`~fluidnb.videodb.rendering.motion_blur`.
     """
     img = _check_image("image", image)
     v = check_vector_field("velocity", velocity, shape=img.shape[:2]).astype(np.float32)
@@ -400,7 +385,7 @@ def reference_eulerian_loop(image, velocity, n_frames, *, cycle):
         I_t(x) = w_a(t)\, I\big(x + D_{s_a(t)}(x)\big)
             + (1 - w_a(t))\, I\big(x + D_{s_b(t)}(x)\big).
 
-    :func:`~fluidnb.videodb.eulerian_loop` makes every map once and warps with
+    :func:`~fluidnb.videodb.rendering.eulerian_loop` makes every map once and warps with
     OpenCV's ``remap``, whose bilinear weights are rounded to 1/32 of a pixel: the
     two agree to about ``|grad I| / 32`` (checked in the tests to 1e-2 on smooth
     images).
@@ -433,7 +418,7 @@ def reference_eulerian_loop(image, velocity, n_frames, *, cycle):
 def reference_fill(image, hole, *, seed=0):
     r"""Exemplar-based fill with an exhaustive search for every patch's match (slow).
 
-    The completion of :func:`~fluidnb.videodb.exemplar_fill` (Wexler et al. 2007:
+    The completion of :func:`~fluidnb.videodb.rendering.exemplar_fill` (Wexler et al. 2007:
     coarse to fine, match every patch that touches the hole, each hole pixel the mean
     of what the matches say), but each 7 x 7 patch is compared with *every* patch
     wholly outside the hole, in numpy, where the fast path's PatchMatch samples a

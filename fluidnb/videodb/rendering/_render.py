@@ -1,11 +1,14 @@
-r"""Rendering an assignment into an animation (Okabe et al., sec. 6).
+r"""Rendering an assignment into an animation (Okabe et al., sec. 6): the pipeline.
 
-:func:`render` rebuilds every assigned fragment's frames from its source clip, blends
-their difference frames :math:`D_i = F_i - A` (:mod:`fluidnb.videodb._blend`), adds them
-to the approximate mean image and matches the histograms
-(:mod:`fluidnb.videodb._appearance`), and composites the frames through the static or
-moving matte (:mod:`fluidnb.videodb._composite`). The :class:`Animation` it returns keeps
-each stage's picture for the lesson.
+:func:`render` rebuilds every assigned fragment's difference frames
+:math:`D_i = F_i - A` from its source clip (the database's frame cache), plays and
+blends them (:mod:`~fluidnb.videodb.rendering._loops`,
+:mod:`~fluidnb.videodb.rendering._blend`), then makes the frames a run at a time: the
+paper's rendering adds them to the approximate mean image, the flow rendering to the
+photo carried along the motion (:mod:`~fluidnb.videodb.rendering._steps`); both match
+the histograms and composite through the static or moving matte. What the renders of
+one photo share is kept with it (:mod:`~fluidnb.videodb.rendering._shared`). The
+:class:`Animation` it returns keeps each stage's picture for the lesson.
 """
 
 from __future__ import annotations

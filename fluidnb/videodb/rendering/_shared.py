@@ -1,4 +1,10 @@
-"""TODO."""
+r"""What the renders of one photo share, made once and kept while its target lives.
+
+An app renders the same photo again and again (after a re-solve, with other rendering
+settings): the blend's weights and plan, the colour axes and the matching's reference
+side, the advected layer and its grid, and the background behind a moving matte are
+made once per target and kept (read-only) in a weak dictionary.
+"""
 
 from __future__ import annotations
 

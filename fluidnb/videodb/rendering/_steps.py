@@ -1,4 +1,12 @@
-"""TODO."""
+r"""The two renderings' frames after the blend, a run of frames at a time (Okabe et al., sec. 6).
+
+:class:`_BlendedFrames` plays and blends the difference frames a run needs;
+:class:`_PaperFrames` adds them to the approximate mean image (the paper's rendering)
+and :class:`_FlowFrames` to the photo carried along the motion field (the flow
+rendering, beyond the paper); both then match the histograms in the target's colour
+axes and composite through the (moving) matte, each frame from its own inputs, on the
+cores.
+"""
 
 from __future__ import annotations
 

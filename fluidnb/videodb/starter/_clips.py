@@ -1,4 +1,18 @@
-"""TODO."""
+r"""The fluid clips the starter databases are built from, made by fluidnb itself (beyond the paper).
+
+The paper builds its databases from real footage (151 water, 96 fire and 89 smoke
+videos, 640 x 360). No such footage ships with any package registry, so fluidnb makes
+stand-ins, one set per kind of scene, from its own methods and bundled pictures:
+
+- water: water-only crops of the bundled photos moved along flows that change in time
+  (:mod:`fluidnb.videodb.starter._water`);
+- smoke: :mod:`fluidnb.fluid` (Stable Fluids) plumes, and fire:
+  :func:`fluidnb.fire.fire` flames (:mod:`fluidnb.videodb.starter._solver_clips`).
+
+:func:`starter_clips` makes one kind's clips (on threads); :func:`submit_clips` hands
+them to a build as they are made. Nothing here is cached:
+:func:`~fluidnb.videodb.starter_database` caches the databases.
+"""
 
 from __future__ import annotations
 
@@ -48,7 +62,7 @@ def starter_clips(kind, *, quick=False, seed=0, workers=None, progress=None):
     """The fluid clips a starter database of ``kind`` is built from.
 
     Real fluid footage is not available to fluidnb, so these are made by the project
-    itself (see :mod:`fluidnb.videodb._starter_clips`): smoke from the fluid solver,
+    itself (see :mod:`fluidnb.videodb.starter._water`): smoke from the fluid solver,
     fire from the fire method on the bundled fire photo, water by advecting water-only
     textures along known flows (:func:`flow_map_texture`). Each kind holds different
     motions (directions, speeds, turbulence), so that retrieval and the MRF have

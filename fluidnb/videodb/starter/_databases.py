@@ -1,7 +1,7 @@
 """Starter databases: one per kind of scene, made by the project itself, cached.
 
 No real fluid footage ships with any package registry, so fluidnb makes its own
-(:func:`~fluidnb.videodb.starter_clips`): smoke from its fluid solver, fire from its
+(:func:`~fluidnb.videodb.starter.starter_clips`): smoke from its fluid solver, fire from its
 fire method, water by advecting water textures along varied flows. The first call of
 :func:`starter_database` builds the database from those clips (15-30 s on two
 cores; seconds in quick mode) and keeps it in the cache folder

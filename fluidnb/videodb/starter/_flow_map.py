@@ -4,7 +4,7 @@ A texture advected for a long time is stretched and torn by the flow. The flow-m
 technique (Neyret 2003; Vlachos 2010) keeps two phases of the texture, each advected
 from a fresh start every period, cross-faded so that the texture keeps moving with the
 flow and is never older than one period (:func:`flow_map_texture`). The starter water
-database's clips are made this way (:mod:`fluidnb.videodb._starter_clips`): water
+database's clips are made this way (:mod:`fluidnb.videodb.starter._water`): water
 textures moved along known flows, a stand-in for filmed water.
 """
 

@@ -1,4 +1,9 @@
-"""TODO."""
+r"""The starter water clips' flows one frame at a time, in float64 (beyond the paper; slow).
+
+:func:`reference_water_flow` is what the starter clips' ``_water_flow``
+(:mod:`fluidnb.videodb.starter._water`) makes for a whole sequence at once in float32;
+the tests compare the two.
+"""
 
 from __future__ import annotations
 
@@ -18,7 +23,7 @@ def reference_water_flow(spec, shape, n_frames, gen):
     gust) plus, scaled by the envelope, the curl of the eddies' stream function
     (:math:`\cos\theta_k \hat\psi_1 + \sin\theta_k \hat\psi_2`, shifted by
     :math:`k` times the carry) and each wave :math:`A \cos(2\pi (s / L - k / P) + \phi)
-    \hat k_\perp`. :func:`~fluidnb.videodb._starter_clips._water_flow` (the starter
+    \hat k_\perp`. :func:`~fluidnb.videodb.starter._water._water_flow` (the starter
     clips' path) makes the whole sequence at once in float32, each term a product of a
     function of time and one of space, from the same random draws: the two agree to
     float32 round-off.

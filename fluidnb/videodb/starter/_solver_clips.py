@@ -1,4 +1,13 @@
-"""TODO."""
+r"""The starter smoke and fire clips: fluidnb's fluid solver and fire method (beyond the paper).
+
+- smoke: :mod:`fluidnb.fluid` (Stable Fluids) plumes with different sources, winds,
+  gusts, pulses and vorticity, the density rendered as grey smoke over black;
+- fire: :func:`fluidnb.fire.fire` (texture synthesis from the bundled fire photo on a
+  simulated temperature) for flames of different sizes, winds and turbulence.
+
+Both are imported when a clip is made, so that the starter package (and with it
+:mod:`fluidnb.videodb`) imports neither the solver nor the fire method.
+"""
 
 from __future__ import annotations
 

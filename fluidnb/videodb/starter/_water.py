@@ -1,21 +1,14 @@
-"""The fluid clips the starter databases are built from, made by fluidnb itself.
+r"""The starter water clips: water textures advected along flows that change in time.
 
-The paper builds its databases from real footage (151 water, 96 fire and 89 smoke
-videos, 640 x 360). No such footage ships with any package registry, so fluidnb makes
-stand-ins, one set per kind of scene, from its own methods and bundled pictures:
-
-- smoke: :mod:`fluidnb.fluid` (Stable Fluids) plumes with different sources, winds,
-  gusts, pulses and vorticity, the density rendered as grey smoke over black;
-- fire: :func:`fluidnb.fire.fire` (texture synthesis from the bundled fire photo on a
-  simulated temperature) for flames of different sizes, winds and turbulence;
-- water: water-only crops of the bundled photos (cascades, white water, a pool, a lake
-  surface) and the procedural ripples, moved along uniform, shear, swirl and falling
-  flows that change in time -- gusts, eddies carried downstream, swaying waves, choppy
-  in places and calm in others, so that the motion has power beyond its mean as
-  filmed water's does -- by :func:`~fluidnb.videodb.flow_map_texture` (two flow-map
-  phases cross-faded, Neyret 2003).
-
-Nothing here is cached: :func:`fluidnb.videodb.starter_database` caches the databases.
+Water-only crops of the bundled photos (cascades, white water, a pool, a lake surface)
+and the procedural ripples, as seamless textures (:func:`_mosaic`), moved along
+uniform, shear, swirl and falling flows that change in time -- gusts, eddies carried
+downstream, swaying waves, choppy in places and calm in others, so that the motion has
+power beyond its mean as filmed water's does (:func:`_water_flow`) -- by
+:func:`~fluidnb.videodb.starter.flow_map_texture` (two flow-map phases cross-faded,
+Neyret 2003). The recipes are :data:`_WATER`;
+:func:`~fluidnb.videodb.starter.reference_water_flow` makes the flows one frame at a
+time.
 """
 
 from __future__ import annotations

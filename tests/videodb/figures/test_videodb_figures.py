@@ -1,4 +1,4 @@
-"""The lesson's figures (fluidnb.videodb._figures) on a tiny synthetic database.
+"""The lesson's figures (fluidnb.videodb.figures._database) on a tiny synthetic database.
 
 Each figure is checked for what it plots (its images, arrows and curves against the
 database and the assignment they come from), not for its titles or its number of axes.
