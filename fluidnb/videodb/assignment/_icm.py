@@ -85,16 +85,14 @@ def _compiled_icm_sweep(prob, labels):
     return lambda labels: _icm_sweep(unary, w, prob.lam, labels, prob.p, *incident, col, cost)
 
 
-def _icm(prob, labels, max_sweeps, report, sweep=None):
+def _icm(prob, labels, max_sweeps, report):
     """Iterated conditional modes in raster order, sweep after sweep until none changes.
 
-    ``sweep(labels) -> changed`` visits every node once, in place (default
-    :func:`_icm_sweep`, compiled; :func:`~fluidnb.videodb.assignment.reference_icm` passes it
-    written with numpy).
+    Each sweep (:func:`_icm_sweep`, compiled) visits every node once, in place.
     """
     t0 = time.perf_counter()
     labels = labels.copy()
-    sweep = _compiled_icm_sweep(prob, labels) if sweep is None else sweep
+    sweep = _compiled_icm_sweep(prob, labels)
     energies = [prob.energy(labels)]
     sweeps = 0
     for i in range(max_sweeps):

@@ -229,9 +229,11 @@ def pixel_features(stack, colour_mean, flow, positions, *, threshold, n_bins):
     ``stack`` is the grey frames as (Hv, Wv, N) and ``flow`` the flows as (Hv, Wv,
     2 (N - 1)), each pixel's (dy, dx) pairs frame after frame
     (:class:`~fluidnb.videodb.database._augment.VersionSampler`'s layout); the results are
-    :func:`window_features`'s, bit for bit. So are those of the numpy version it
-    replaced (``reference_pixel_features``): its kernels write each stored array once,
-    in its final layout, with numpy's and OpenCV's operations in their order.
+    :func:`window_features`'s, bit for bit. So are those of the numpy and OpenCV
+    version it replaced: its kernels write each stored array once, in its final
+    layout, with numpy's and OpenCV's operations in their order (a database built
+    again is the same database). ``reference_pixel_features`` writes the features per
+    fragment in float64; the tests compare the two to round-off.
     """
     h, w, m = flow.shape
     moving = np.empty((h, w), bool)
@@ -422,7 +424,7 @@ def _cut_fragments(positions, maps, out):
     ``maps`` is the rounded mean image (Hv, Wv, 3), the spectra (NB, 2, Hv / 4, Wv / 4)
     and the textureness (L, Hv / 2, Wv / 2) (the halves as uint16 bits); ``out`` the
     stored arrays (k, 48, 48, 3), (k, NB, 2, 12, 12) and (k, L, 24, 24), written once
-    in their final layout (the fancy-index gathers of ``reference_pixel_features``
+    in their final layout (the fancy-index gathers of the numpy version it replaced
     made (NB, 2, k, 12, 12) and needed a transposed copy).
     """
     mean, spectra, texture = maps

@@ -1,8 +1,14 @@
 r"""The database's steps as one would first write them, in numpy (Okabe et al., sec. 4; slow).
 
-Each fast path of :mod:`fluidnb.videodb.database` has its plain version here, in the
-paper's notation, one pixel or one fragment at a time; the tests check the fast path
-against it, and a reader finds the maths in its most readable form.
+Each fast path of :mod:`fluidnb.videodb.database` (numba kernels, sampling plans,
+features cut from block sums) has its plain version here, in the paper's notation, one
+pixel, one frame or one fragment at a time. They are written from the method, not from
+the fast path's code: this module imports none of the database's kernels or helpers,
+only the grid's sizes and the 18 versions (:mod:`fluidnb.videodb._common._geometry`)
+and :mod:`fluidnb.fields` (pyramids and resampling, tested against their own plain
+versions). So a test comparing a fast path with its plain version fails when the fast
+path is broken (each test says which deliberate breakage it catches); a reader finds
+the maths in its most readable form.
 
 =====================================  =============================================
 plain version                          fast path (tested against it)
@@ -12,7 +18,7 @@ plain version                          fast path (tested against it)
 :func:`reference_fragment_frames`      :meth:`~fluidnb.videodb.VideoDatabase.fragment_frames`
 :func:`reference_pixel_features`       ``pixel_features`` (the build's features)
 :func:`reference_textureness`          :func:`~fluidnb.videodb.database.textureness`
-:func:`reference_window_sums`          ``_window_sums``
+:func:`reference_window_sums`          ``_window_sums`` (bit for bit)
 :func:`reference_dense_sift`           :func:`~fluidnb.videodb.database.dense_sift`
 :func:`reference_quantise`             :func:`~fluidnb.videodb.database.quantise`
 =====================================  =============================================
@@ -28,8 +34,7 @@ import math
 import numpy as np
 from scipy import ndimage as ndi
 
-from ...fields import expand
-from ...fields._pyramid import _laplacian32
+from ...fields import expand, laplacian_pyramid
 from .._common._geometry import (
     FRAGMENT,
     GRID,
@@ -40,10 +45,6 @@ from .._common._geometry import (
     TEXTURE_SIDE,
     VERSIONS,
 )
-from ._features import _flow_blocks, _power, block_mean
-from ._sift import _EPS, BINS, ORIENTATIONS, _check_images
-from ._versions import _TRUNCATE, _window, prefilter_sigma, version_shape
-from ._words import _check_pair, _squared_distances
 
 __all__ = [
     "reference_dense_sift",
@@ -57,21 +58,46 @@ __all__ = [
 ]
 
 
+# ----------------------------------------------------------------- augmentation (sec. 4)
+
+
+def _version(version):
+    r"""The version's flip, scale and angle: :math:`(F, s, \theta)`."""
+    if not 0 <= int(version) < len(VERSIONS):
+        raise ValueError(f"version must be in [0, {len(VERSIONS) - 1}], got {version}")
+    return VERSIONS[int(version)]
+
+
 def reference_sample_version(frames, version, *, origin=(0, 0), size=None):
     r""":func:`sample_version` written out literally, frame by frame and pixel by pixel.
 
-    Each version pixel's coordinates come from the module's formula with explicit
-    matrices, each frame is prefiltered whole with :func:`scipy.ndimage.gaussian_filter`
-    and sampled with :func:`scipy.ndimage.map_coordinates` (order 1, edge clamped).
-    Agrees with the fast path to float32 round-off, not bit for bit.
+    The version :math:`(F, s, \theta)` of an :math:`H \times W` source is the bounding
+    box of the scaled, rotated source, :math:`H_v = \max(1, [s (H |\cos\theta| + W
+    |\sin\theta|)])` and :math:`W_v = \max(1, [s (W |\cos\theta| + H |\sin\theta|)])`
+    (``[.]`` rounds half up); its pixel :math:`(r, c)` shows the source at
+
+    .. math::
+
+        (y, x) = F R(-\theta) \big((r, c) - (\tfrac{H_v - 1}{2}, \tfrac{W_v - 1}{2})\big)
+            / s + (\tfrac{H - 1}{2}, \tfrac{W - 1}{2}),
+
+    each pixel's coordinates from explicit matrices. Each frame is prefiltered whole
+    with a Gaussian of standard deviation :math:`(1/s - 1)/2` when :math:`s < 1`
+    (scikit-image's rule; :func:`scipy.ndimage.gaussian_filter`, 4 sigma, edge
+    clamped) and sampled with :func:`scipy.ndimage.map_coordinates` (order 1, edge
+    clamped). ``origin`` and ``size`` cut a window of the version (default: from
+    ``origin`` to the canvas's end). Agrees with the fast path to float32 round-off,
+    not bit for bit.
     """
     arr = np.asarray(frames, dtype=np.float64)
     h, w = arr.shape[1:3]
-    hv, wv = version_shape((h, w), version)
-    (r0, c0), (hh, ww) = _window(h, w, version, origin, size)
-    flip, s, _ = VERSIONS[version]
-    theta = math.radians(-VERSIONS[version][2])
-    rot = np.array([[math.cos(theta), -math.sin(theta)], [math.sin(theta), math.cos(theta)]])
+    flip, s, angle = _version(version)
+    theta = math.radians(angle)
+    hv = max(1, math.floor(s * (h * abs(math.cos(theta)) + w * abs(math.sin(theta))) + 0.5))
+    wv = max(1, math.floor(s * (w * abs(math.cos(theta)) + h * abs(math.sin(theta))) + 0.5))
+    r0, c0 = (int(v) for v in origin)
+    hh, ww = (hv - r0, wv - c0) if size is None else (int(v) for v in size)
+    rot = np.array([[math.cos(-theta), -math.sin(-theta)], [math.sin(-theta), math.cos(-theta)]])
     mirror = np.diag([1.0, -1.0 if flip else 1.0])
     centre_v = np.array([(hv - 1) / 2, (wv - 1) / 2])
     centre_s = np.array([(h - 1) / 2, (w - 1) / 2])
@@ -80,13 +106,13 @@ def reference_sample_version(frames, version, *, origin=(0, 0), size=None):
         for j in range(ww):
             p = np.array([r0 + i, c0 + j]) - centre_v
             coords[:, i, j] = mirror @ rot @ p / s + centre_s
-    sigma = prefilter_sigma(version)
+    sigma = (1.0 / s - 1.0) / 2.0 if s < 1 else 0.0
     out = np.empty((arr.shape[0], hh, ww, *arr.shape[3:]))
     for t in range(arr.shape[0]):
         for ch in np.ndindex(arr.shape[3:]):
             plane = arr[(t, slice(None), slice(None), *ch)]
             if sigma > 0:
-                plane = ndi.gaussian_filter(plane, sigma, mode="nearest", truncate=_TRUNCATE)
+                plane = ndi.gaussian_filter(plane, sigma, mode="nearest", truncate=4.0)
             out[(t, slice(None), slice(None), *ch)] = ndi.map_coordinates(
                 plane, coords, order=1, mode="nearest"
             )
@@ -95,7 +121,7 @@ def reference_sample_version(frames, version, *, origin=(0, 0), size=None):
 
 def reference_transform_vectors(vectors, version):
     r""":math:`u_v = s R(\theta) F u_s`, one explicit matrix product per vector."""
-    flip, s, angle = VERSIONS[version]
+    flip, s, angle = _version(version)
     theta = math.radians(angle)
     rot = np.array([[math.cos(theta), -math.sin(theta)], [math.sin(theta), math.cos(theta)]])
     mirror = np.diag([1.0, -1.0 if flip else 1.0])
@@ -107,7 +133,7 @@ def reference_transform_vectors(vectors, version):
 
 
 def reference_fragment_frames(db, ids, *, margin=0, grey=False):
-    r""":meth:`~fluidnb.videodb.VideoDatabase.fragment_frames` written out, one fragment at a time.
+    r""":meth:`~fluidnb.videodb.VideoDatabase.fragment_frames` written out, one at a time.
 
     Each fragment's :math:`N` frames are read from its source clip (its own window,
     every time), divided by 255 and, for ``grey``, made grey with the Rec. 709 weights
@@ -135,52 +161,70 @@ def reference_fragment_frames(db, ids, *, margin=0, grey=False):
     return np.stack(out).astype(np.float32) if out else np.zeros(shape, np.float32)
 
 
-def reference_pixel_features(stack, colour_mean, flow, positions, *, threshold, n_bins):
-    """The build's fragment features in numpy and OpenCV, as first written.
+# --------------------------------------------------------- fragment features (secs. 4-5)
 
-    Arguments and result as ``pixel_features`` (:func:`window_features` of
-    pixel-major arrays), which must equal it bit for bit: a database built again is
-    the same database. Here the moving mask and the flow's block means are numpy's
-    mean and OpenCV's area resize, the window sums numpy's integral image
-    (:func:`reference_window_sums`), the textureness the OpenCV pyramid's bands
-    (:func:`reference_textureness`), and each fragment's cells are gathered with
-    fancy indices, then moved to the stored layout.
+
+def reference_pixel_features(stack, colour_mean, flow, positions, *, threshold, n_bins):
+    r"""The build's fragment features, one fragment at a time in float64 (Okabe et al., sec. 4).
+
+    Arguments and result as ``pixel_features`` (:func:`window_features` of pixel-major
+    arrays: ``stack`` the grey frames (H, W, N), ``flow`` each pixel's (dy, dx) pairs
+    frame after frame (H, W, 2 (N - 1))). A pixel moves if its mean flow magnitude
+    over the window exceeds ``threshold``; a fragment is kept if any of its pixels
+    moves. For a kept fragment:
+
+    - ``motion``: per frame pair, the mean flow over its moving pixels (the still
+      pixels count as 0 motion, not as pixels), and ``mean_motion`` its mean;
+    - ``spectra``: per 4 x 4-pixel block of its 12 x 12, the block's mean motion
+      :math:`M_t` (still pixels 0), then :math:`\hat M_f = |\sum_t M_t e^{-2\pi i f t
+      / n}|^2 / n^2` for ``f >= 1`` and the signed mean :math:`\frac1n \sum_t M_t` for
+      ``f = 0`` (Eq. 2), each DFT term summed explicitly;
+    - ``texture``: :func:`reference_textureness` of the window, cut at its 24 x 24
+      blocks; ``mean``: the colour mean image rounded to 8 bits; ``moving``: its share
+      of moving pixels.
+
+    The fast path works on block sums in float32 (an integral image of the blocks,
+    compiled kernels, the textureness on OpenCV's float32 pyramid): the two agree to
+    float32 round-off before the spectra and textureness are stored as float16 (the
+    tests allow one float16 rounding step).
     """
     h, w, m = flow.shape
     n = m // 2
-    # Frame-major (n, H, W, 2) and contiguous: numpy's mean over frames then adds the
-    # frames one after the other, as the build's kernel does.
-    frame_major = np.ascontiguousarray(np.moveaxis(flow.reshape(h, w, n, 2), 2, 0))
-    speed = np.sqrt(frame_major[..., 0] ** 2 + frame_major[..., 1] ** 2)
-    moving = speed.mean(axis=0) > np.float32(threshold)
-    count = reference_window_sums(block_mean(moving.astype(np.float32), SPECTRA_BLOCK), positions)
-    count *= np.float32(SPECTRA_BLOCK**2)
-    keep = count > 0.5
+    f = flow.reshape(h, w, n, 2).astype(np.float64)  # f[y, x, t] = (dy, dx)
+    moving = np.sqrt((f**2).sum(axis=-1)).mean(axis=-1) > threshold
+    f = f * moving[..., None, None]  # a still pixel's motion is 0
+    keep = np.array([moving[r : r + FRAGMENT, c : c + FRAGMENT].any() for r, c in positions])
     if not keep.any():
         return keep, None
-    positions, count = positions[keep], count[keep]
-    blocks = _flow_blocks(frame_major, moving)  # (n, 2, Hb, Wb)
-    sums = reference_window_sums(blocks, positions) * np.float32(SPECTRA_BLOCK**2)  # (n, 2, k)
-    motion = (np.moveaxis(sums, -1, 0) / count[:, None, None]).astype(np.float32)
-    spectra = _power(blocks, n_bins).astype(np.float16)
-    texture = reference_textureness(stack).astype(np.float16)
+    hb, wb = h // SPECTRA_BLOCK, w // SPECTRA_BLOCK
+    blocks = (
+        f[: hb * SPECTRA_BLOCK, : wb * SPECTRA_BLOCK]
+        .reshape(hb, SPECTRA_BLOCK, wb, SPECTRA_BLOCK, n, 2)
+        .mean(axis=(1, 3))
+    )  # (Hb, Wb, n, 2): M_t per block
+    spectra = np.zeros((n_bins, 2, hb, wb))
+    for freq in range(n_bins):
+        term = np.exp(-2j * np.pi * freq * np.arange(n) / n)  # e^{-2 pi i f t / n}
+        dft = (blocks * term[None, None, :, None]).sum(axis=2)  # (Hb, Wb, 2)
+        value = dft.real / n if freq == 0 else np.abs(dft) ** 2 / n**2
+        spectra[freq] = np.moveaxis(value, -1, 0)
+    texture = reference_textureness(stack)
     mean = (np.clip(colour_mean, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
-
-    def cells(block, side):  # index arrays (k, side, side) of each fragment's cells
-        offs = np.arange(side)
-        rows, cols = positions[:, 0] // block, positions[:, 1] // block
-        return rows[:, None, None] + offs[None, :, None], cols[:, None, None] + offs[None, None, :]
-
-    spec = spectra[(slice(None), slice(None), *cells(SPECTRA_BLOCK, SPECTRA_SIDE))]
-    tex = texture[(slice(None), *cells(TEXTURE_BLOCK, TEXTURE_SIDE))]
-    return keep, {
-        "mean": mean[cells(1, FRAGMENT)],
-        "mean_motion": motion.mean(axis=1).astype(np.float32),
-        "motion": motion,
-        "spectra": np.ascontiguousarray(np.moveaxis(spec, 2, 0)),
-        "texture": np.ascontiguousarray(np.moveaxis(tex, 1, 0)),
-        "moving": (count / FRAGMENT**2).astype(np.float32),
-    }
+    out = {name: [] for name in ("mean", "mean_motion", "motion", "spectra", "texture", "moving")}
+    for r, c in np.asarray(positions)[keep]:
+        core = (slice(r, r + FRAGMENT), slice(c, c + FRAGMENT))
+        count = moving[core].sum()
+        motion = f[core].sum(axis=(0, 1)) / count  # (n, 2)
+        br, bc = r // SPECTRA_BLOCK, c // SPECTRA_BLOCK
+        tr, tc = r // TEXTURE_BLOCK, c // TEXTURE_BLOCK
+        out["mean"].append(mean[core])
+        out["motion"].append(motion)
+        out["mean_motion"].append(motion.mean(axis=0))
+        out["spectra"].append(spectra[:, :, br : br + SPECTRA_SIDE, bc : bc + SPECTRA_SIDE])
+        out["texture"].append(texture[:, tr : tr + TEXTURE_SIDE, tc : tc + TEXTURE_SIDE])
+        out["moving"].append(count / FRAGMENT**2)
+    types = {"mean": np.uint8, "spectra": np.float16, "texture": np.float16}
+    return keep, {k: np.array(v).astype(types.get(k, np.float32)) for k, v in out.items()}
 
 
 def reference_window_sums(blocks, positions):
@@ -199,25 +243,39 @@ def reference_window_sums(blocks, positions):
 
 
 def reference_textureness(stack):
-    """:func:`textureness` of the frames as the channels of one (H, W, N) image, in numpy.
+    r""":func:`textureness` of the frames as the channels of one (H, W, N) image, in float64.
 
-    The Laplacian pyramid's bands on OpenCV's steps (``_laplacian32(..., fused=False)``),
-    each band's magnitude summed over the frames by numpy, brought back to the full
-    grid and averaged over 2 x 2 blocks. The library's version fuses the band, its
-    magnitude and the sum in one kernel and must equal this bit for bit.
+    Okabe et al., Fig. 7: per frame :math:`F_i` its 4-level Laplacian pyramid
+    :math:`L_l(F_i)` (:func:`fluidnb.fields.laplacian_pyramid`, float64; the last
+    level the residual), each band's magnitudes summed over the frames, :math:`\sum_i
+    |L_l(F_i)|`, brought back to the full grid by bilinear resampling and averaged
+    over 2 x 2 blocks: (4, H // 2, W // 2). The stored textureness is made on
+    OpenCV's float32 pyramid in one fused kernel per band: the two agree to float32
+    round-off.
     """
     h, w = stack.shape[:2]
-    bands = _laplacian32(np.ascontiguousarray(stack, np.float32), TEXTURE_LEVELS, fused=False)
+    bands = laplacian_pyramid(np.asarray(stack, np.float64), TEXTURE_LEVELS)
     levels = []
     for band in bands:
-        mag = np.abs(band).sum(axis=-1, dtype=np.float32)
-        full = mag.shape == (h, w)
-        levels.append(mag if full else expand(mag, (h, w), sigma=0, precision="float32"))
-    return block_mean(np.stack(levels), TEXTURE_BLOCK).astype(np.float32)
+        mag = np.abs(band).sum(axis=-1)
+        levels.append(mag if mag.shape == (h, w) else expand(mag, (h, w), sigma=0))
+    hb, wb = h // TEXTURE_BLOCK, w // TEXTURE_BLOCK
+    full = np.stack(levels)[:, : hb * TEXTURE_BLOCK, : wb * TEXTURE_BLOCK]
+    return full.reshape(-1, hb, TEXTURE_BLOCK, wb, TEXTURE_BLOCK).mean(axis=(2, 4))
+
+
+# ------------------------------------------------------------ appearance (secs. 4-5, Eq. 1)
 
 
 def reference_dense_sift(image):
-    """The recipe of the module notes, literally: one descriptor, one pixel at a time.
+    """Dense SIFT as the recipe reads, literally: one descriptor, one pixel at a time.
+
+    On the 9 x 9 grid of step 4, each descriptor's 16 x 16 pixels: central-difference
+    gradients; each pixel's magnitude, weighted by a Gaussian window of sigma 8 about
+    the descriptor's centre, shared out bilinearly between the 4 x 4 spatial bins of
+    4 pixels and linearly between the two nearest of 8 orientations; the 128 values
+    normalised, clipped at 0.2, normalised again and quantised to ``min(255,
+    floor(512 v))`` (Lowe 2004).
 
     Slow on purpose (pure Python loops, ~0.1 s a fragment); the tests compare
     :func:`dense_sift` with it. Results agree to within one count of the uint8
@@ -232,15 +290,16 @@ def reference_dense_sift(image):
     -------
     ndarray, shape (9, 9, 128), uint8
     """
-    img = _check_images(image)
-    if img.ndim != 2:
+    img = np.asarray(image)
+    if img.shape != (FRAGMENT, FRAGMENT):
         raise ValueError(f"image must have shape (48, 48), got {img.shape}")
     img = img.astype(np.float32).astype(np.float64)
     gy, gx = np.gradient(img)  # central differences, one-sided at the border
+    eps = float(np.finfo(np.float32).eps)  # keeps a flat patch's zeros zeros
     out = np.zeros((GRID, GRID, 128), np.uint8)
     for ky in range(GRID):
         for kx in range(GRID):
-            hist = np.zeros((BINS, BINS, ORIENTATIONS))
+            hist = np.zeros((4, 4, 8))  # 4 x 4 spatial bins, 8 orientations
             cy, cx = 4 * ky + 7.5, 4 * kx + 7.5  # the descriptor's centre
             for y in range(4 * ky, 4 * ky + 16):
                 for x in range(4 * kx, 4 * kx + 16):
@@ -267,9 +326,9 @@ def reference_dense_sift(image):
                             for o, wo in orient.items():
                                 hist[by, bx, o] += mag * window * wy * wx * wo
             v = hist.ravel()
-            v = v / (np.linalg.norm(v) + _EPS)
+            v = v / (np.linalg.norm(v) + eps)
             v = np.minimum(v, 0.2)
-            v = v / (np.linalg.norm(v) + _EPS)
+            v = v / (np.linalg.norm(v) + eps)
             out[ky, kx] = np.minimum(255, np.floor(512 * v)).astype(np.uint8)
     return out
 
@@ -288,10 +347,13 @@ def reference_quantise(descriptors, centres):
         ``argmin`` over the centres of ``sum_i (x_i - c_i)^2`` in float64 (ties to
         the lowest index, as ``numpy.argmin``).
     """
-    x, c = _check_pair(descriptors, centres)
-    rows = np.asarray(x.reshape(-1, x.shape[-1]), dtype=np.float64)
-    words = [
-        _squared_distances(rows[i : i + 256], c).argmin(axis=1) for i in range(0, len(rows), 256)
-    ]
-    out = np.concatenate(words) if words else np.empty(0, np.int64)
-    return out.reshape(x.shape[:-1])
+    x = np.asarray(descriptors)
+    c = np.asarray(centres, np.float64)
+    if c.ndim != 2 or x.ndim < 1 or x.shape[-1] != c.shape[1]:
+        raise ValueError(f"descriptors must be (..., {c.shape[-1]}), got {x.shape}")
+    rows = x.reshape(-1, x.shape[-1]).astype(np.float64)
+    words = np.empty(len(rows), np.int64)
+    for i in range(0, len(rows), 256):
+        diff = rows[i : i + 256, None, :] - c  # (m, k, D): x_i - c_i
+        words[i : i + 256] = (diff * diff).sum(axis=-1).argmin(axis=1)
+    return words.reshape(x.shape[:-1])

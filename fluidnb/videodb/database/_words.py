@@ -222,8 +222,9 @@ def _check_pair(descriptors, centres):
 def _squared_distances(x, c):
     """``sum_i (x_i - c_i)^2`` in float64: x (m, D), c (m, j, D) or (j, D) -> (m, j).
 
-    The one place these are computed directly, so that :func:`quantise` and
-    :func:`fluidnb.videodb.database.reference_quantise` sum every value in the same order.
+    The one place :func:`quantise` computes them directly (its near-ties), as numpy
+    sums the plain expression: :func:`~fluidnb.videodb.database.reference_quantise`
+    writes the same, so the two sum every value in the same order.
     """
     diff = x[:, None, :] - c
     return (diff * diff).sum(axis=-1)

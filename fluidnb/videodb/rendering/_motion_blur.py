@@ -169,8 +169,8 @@ def _line_average(img, v, times, weights, row0, row1, out):
     :func:`fluidnb.fields.backward_warp`'s bilinear value (the displacement
     ``t_j v`` in float32, positions in float64 clamped at the border, the weights in
     float32, ``top + fy (bottom - top)``), summed in float64 in the order of ``j``,
-    so the result equals :func:`fluidnb.videodb.rendering.reference_motion_blur`'s bit for bit,
-    without its n whole-image warps and temporaries.
+    so the result is :func:`~fluidnb.videodb.rendering.reference_motion_blur`'s (whole-image
+    warps in float64) to float32 round-off, without its n warps and temporaries.
     """
     h, w, n_ch = img.shape
     acc = np.empty(n_ch)

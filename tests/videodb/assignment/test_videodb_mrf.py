@@ -266,7 +266,12 @@ def test_solvers_refuse_bad_inputs():
 @pytest.mark.parametrize("seed", range(6))
 def test_the_compiled_solvers_equal_the_plain_ones_bit_for_bit(seed):
     """alpha_expansion and icm (compiled move terms, compiled sweeps) against the plain
-    numpy versions in _reference: same labels, same energies, same truncated share."""
+    numpy versions in _reference: same labels, same energies, same truncated share.
+
+    Mutations caught: a move's E11 - E10 added to p's cost instead of q's
+    (_move_terms); the truncation's lowering of E11 left out (_move_terms); ICM taking
+    a label that only ties (_icm_sweep); ICM's driver stopping after a sweep that
+    changed something (_icm; the plain ICM has its own loop)."""
     from fluidnb.videodb.assignment import reference_alpha_expansion, reference_icm
 
     gen = np.random.default_rng(seed)
@@ -359,7 +364,9 @@ def realistic_problem(seed, shape=(9, 19), k=100, n_clips=40, lam=0.01):
 
 def test_the_compiled_expansion_equals_the_plain_one_on_a_real_sized_problem():
     """171 nodes, K = 100, the app's scales: labels, energies, sweeps and the truncated
-    share the same from both starts, and solve() the same as the plain steps."""
+    share the same from both starts, and solve() the same as the plain steps.
+
+    Mutation caught: a move's E11 - E10 added to p's cost instead of q's."""
     from fluidnb.videodb.assignment import reference_alpha_expansion, reference_icm
 
     unary, pairwise, edges, lam = realistic_problem(0)

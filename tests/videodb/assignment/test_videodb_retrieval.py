@@ -26,6 +26,8 @@ def same(a, b):
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_kernel_equals_dense_reference(seed):
+    # Mutations caught: a posting list's last entry dropped (_add_sparse); the sign of
+    # dx in the direction filter (_filter).
     gen = np.random.default_rng(10 + seed)
     n, k = [(400, 6), (1500, 40), (60, 3)][seed]
     words, motion = database(seed, n, k)

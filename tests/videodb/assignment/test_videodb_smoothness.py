@@ -55,6 +55,7 @@ def tables_setup(seed=0, k=7):
 
 
 def test_bulk_tables_equal_the_pair_by_pair_definition():
+    # Mutation caught: every entry scaled by the block's area squared (_finish).
     candidates, edges, horizontal, spectra, texture = tables_setup()
     assert horizontal.any()
     assert (~horizontal).any()

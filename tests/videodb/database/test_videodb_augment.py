@@ -96,6 +96,7 @@ def test_vectors_follow_the_coordinate_map(v):
 
 @pytest.mark.parametrize("v", ALL)
 def test_transform_vectors_equals_the_literal_formula(v):
+    # Mutation caught: the sign of sin in the rotation's lower row (version_matrix).
     u = np.random.default_rng(v).normal(size=(4, 5, 2))
     assert np.allclose(transform_vectors(u, v), reference_transform_vectors(u, v), atol=1e-12)
 
@@ -137,6 +138,9 @@ def test_mirror_is_exact():
 
 @pytest.mark.parametrize("v", ALL)
 def test_sampling_equals_the_literal_reference(v):
+    # The plain version has its own canvas, coordinates and prefilter. Mutations
+    # caught: the prefilter's sigma (1/s - 1)/3 instead of /2 (prefilter_sigma); the
+    # flipped versions not mirrored (_coordinates).
     frames = clip((2, 30, 44))
     fast = sample_version(frames, v)
     assert fast.dtype == np.float32

@@ -83,6 +83,7 @@ def test_fragments_prefiltered_together_are_the_ones_prefiltered_alone(db, monke
 
 
 def test_rebuilt_fragments_match_the_reference_to_float32_round_off(db):
+    # Mutation caught: the rebuild's luminance weighting blue as green (_to_planes).
     ids = spread(db, per_version=1)[::2]
     for grey in (True, False):
         fast = db.fragment_frames(ids, margin=12, grey=grey)

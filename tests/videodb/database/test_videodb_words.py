@@ -82,6 +82,7 @@ def test_predict_descends_the_tree_quantise_takes_the_nearest_centre():
 
 
 def test_quantise_equals_brute_force_with_ties():
+    # (The near-tie margin's mutation: the test below.)
     gen = np.random.default_rng(2)
     centres = gen.integers(0, 8, (20, 6)).astype(np.float64)
     centres[7] = centres[3]  # duplicate word: ties go to 3
@@ -109,6 +110,16 @@ def test_quantise_resolves_what_the_matrix_product_cannot():
     xf = x.astype(np.float64)
     naive = ((centres**2).sum(1)[None] - 2 * xf @ centres.T).argmin(axis=1)
     assert not np.array_equal(naive, ref)  # the plain product alone gets some wrong
+    # Descriptors near pairs of centres 1e-4 apart: the float32 scores of a pair often
+    # differ by a rounding step in the wrong order (not only tie), so the margin that
+    # sends near-ties to the direct distances is needed.
+    # Mutation caught: that margin set to 0 (exact float32 ties only).
+    base = gen.uniform(0, 255, (8, 128))
+    centres = np.repeat(base, 2, axis=0)
+    centres[1::2, gen.integers(0, 128, 8)] += 1e-4
+    x = (base[gen.integers(0, 8, 400)] + gen.normal(0, 3, (400, 128))).clip(0, 255)
+    x = x.astype(np.uint8)
+    assert np.array_equal(quantise(x, centres), reference_quantise(x, centres))
 
 
 def test_quantise_works_block_by_block(monkeypatch):

@@ -131,7 +131,11 @@ def test_blend_is_the_per_fragment_blend_where_no_fragments_share_a_phase(
     margin, levels, feather, subset
 ):
     """Up to 3 x 3 fragments every phase layer holds one fragment: the fast path is then
-    Burt & Adelson's blend written per fragment, to float32 round-off."""
+    Burt & Adelson's blend written per fragment, to float32 round-off.
+
+    Mutations caught: the bands weighted by the weight squared (_weigh); the boundary
+    between two cells one pixel off (_common._weights._profile; the plain version has
+    its own weights)."""
     gen = np.random.default_rng(4)
     shape = (96, 96)
     pos = grid(shape)
@@ -290,6 +294,8 @@ def test_blend_is_the_numpy_layer_blend_bit_for_bit(margin, feather, frames, eve
     # The compiled fill, weighting and normalisation and the weights made once give
     # the phase-layer blend written in numpy exactly; fragments missing here and
     # there (every), zero weights far from the cores, margins short and long.
+    # Mutations caught: the fill summed without its tent (_accumulate_windows), the
+    # bands weighted by the weight squared (_weigh), the cell boundary one pixel off.
     from fluidnb.videodb.rendering._blend import _blend, _BlendPlan
     from fluidnb.videodb.rendering._reference import reference_layer_blend
 

@@ -129,6 +129,9 @@ def test_the_fast_loop_agrees_with_the_reference():
     img = np.stack([texture(4, (36, 44), blur=2.5)] * 3, axis=-1)
     yy, xx = np.mgrid[:36, :44]
     v = np.stack([0.4 * np.sin(xx / 6.0), 0.8 + 0.3 * np.cos(yy / 5.0)], axis=-1)
+    # Mutations caught: the phases' weights over the period instead of its half
+    # (loop_phases; the plain version has its own phases), the maps' recurrence
+    # D_{s+1} = D_s(x - v) - v subtracting half the step (_chain).
     for n, cycle in ((8, 8), (10, 4)):  # whole and fractional half-cycles
         fast = eulerian_loop(img, v, n, cycle=cycle)
         ref = reference_eulerian_loop(img, v, n, cycle=cycle)
@@ -329,6 +332,16 @@ def test_the_fast_fill_matches_almost_as_well_as_the_exhaustive_one():
         assert abs(out[hole].std() - img[~hole].std()) < 0.5 * img[~hole].std()
     err = [np.abs(out - img)[hole].mean() for out in (fast, ref)]
     assert err[0] < 1.25 * err[1] + 0.02
+    # Where exact matches exist (periodic textures; a ramp across the hole, matched
+    # above and below it), both find one and fill alike: the same pixels. Mutations
+    # caught: the last step copying the pixel beside each match's centre (an
+    # off-by-one in _complete); every vote divided by one patch too many (_vote: the
+    # ramp's coarse estimate comes out darker, and its matches with it).
+    stripes, checks, hole = _stripes_and_checks()
+    ramp = np.broadcast_to(np.linspace(0, 1, 80, dtype=np.float32), hole.shape)
+    for truth in (stripes, checks, ramp):
+        given = np.where(hole[..., None], 0.5, np.repeat(truth[..., None], 3, axis=2))
+        np.testing.assert_array_equal(exemplar_fill(given, hole), reference_fill(given, hole))
 
 
 def test_the_fill_refuses_a_hole_that_leaves_no_patch():

@@ -248,6 +248,7 @@ def test_water_flow_equals_the_frame_by_frame_reference(recipe):
     # _water_flow makes the whole sequence at once in float32 (products of functions of
     # time and of space, one batched FFT); the reference writes each frame's formula
     # out in float64. Same random draws, so the same flow to float32 round-off.
+    # Mutation caught: the waves' sway added along dy in place of dx (_assemble_flow).
     from fluidnb.videodb.starter._reference import reference_water_flow
 
     spec = next(r for r in _water._WATER if r["name"] == recipe)
