@@ -17,7 +17,7 @@ import argparse
 import time
 
 import numpy as np
-from _timing import best
+from _report import best, header
 
 from fluidnb import data
 from fluidnb.fire import FireParams, neighbourhood_error, synthesize
@@ -35,6 +35,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
     args = parser.parse_args()
+    print(header(__file__))
 
     photo, matte = data.sample("fire", size=128, return_alpha=True)
     target = flame_target()

@@ -46,6 +46,9 @@ sys.path.insert(0, str(ROOT))
 from tests.browser.conftest import _KERNEL_IDLE, CHROMIUM_FLAGS, TOKEN  # noqa: E402
 from tests.browser.helpers import free_port, isolated_env, stop, wait_http  # noqa: E402
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _report import header, loads  # noqa: E402
+
 APP = """\
 import numpy as np
 from fluidnb.widgets import VideoDBApp
@@ -192,6 +195,7 @@ def main():
     parser.add_argument("--rounds", type=int, default=3, help="drags and steps per slider")
     parser.add_argument("--shots", type=Path, help="save screenshots into this folder")
     args = parser.parse_args()
+    print(header(__file__))
     from playwright.sync_api import sync_playwright
 
     base = Path(tempfile.mkdtemp(prefix="fluidnb-bench-app-"))
@@ -248,14 +252,14 @@ def main():
             browser.close()
     finally:
         stop(proc)
-    print("load average after:", os.getloadavg())
+    print("load average after:", " ".join(f"{x:.2f}" for x in loads()))
 
 
 def report(page, args):
     step_map, drag_map, drag_preview = [], [], []
     final_map, final_preview = [], []
     rates = []
-    load = os.getloadavg()
+    load = loads()
     for r in range(args.rounds):
         for name in NAMES:
             # A step: one key press, everything at rest before it.

@@ -27,6 +27,7 @@ import argparse
 from pathlib import Path
 
 import numpy as np
+from _report import header
 from PIL import Image
 from scipy import ndimage
 
@@ -96,6 +97,7 @@ def main():
     parser.add_argument("photos", nargs="*", help="more photos (RGBA cut-outs or fire on black)")
     parser.add_argument("-o", "--output", default="docs/contact/fire_after.png")
     args = parser.parse_args()
+    print(header(__file__))
 
     preset = flame_preset()
     sim = preset.simulate(48, seed=0)

@@ -11,7 +11,8 @@
   :func:`pyramid_histograms`, :func:`intersection` -- visual words and Eq. 1.
 - :func:`clip_fragments`, :func:`build_database`, :func:`add_clips` -- the build;
   :func:`open_database`, :class:`VideoDatabase`, :func:`verify_database`,
-  :class:`FrameCache`, :class:`DatabaseBusy` -- the store, read.
+  :class:`FrameCache`, :class:`DatabaseBusy` -- the store, read; :func:`luminance` --
+  the grey fragments' frames are rebuilt from.
 - ``reference_*`` -- the plain numpy versions the fast paths are tested against.
 """
 
@@ -22,7 +23,7 @@ from ._build import add_clips, build_database
 from ._cut import clip_fragments
 from ._features import motion_spectra, textureness, window_features
 from ._flow import optical_flow
-from ._frames import FrameCache
+from ._frames import FrameCache, luminance
 from ._lock import DatabaseBusy
 from ._reference import (
     reference_dense_sift,
@@ -60,6 +61,7 @@ __all__ = [
     "dense_sift",
     "fit_codebook",
     "intersection",
+    "luminance",
     "motion_spectra",
     "open_database",
     "optical_flow",

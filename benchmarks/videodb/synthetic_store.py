@@ -119,6 +119,8 @@ def synthetic_store(base, path, n_fragments, *, seed=0, log=print):
     """
     import zarr
 
+    # The store's own format, written as a build writes it (the format module's
+    # layout, codecs and checksum), so that open_database reads it as any other.
     from fluidnb.videodb.database._format import (
         CHUNK,
         FORMAT,
@@ -195,7 +197,7 @@ def synthetic_store(base, path, n_fragments, *, seed=0, log=print):
             "base": str(base.path),
             "base_checksums": [c["checksum"] for c in base.clips],
             "seed": seed,
-            "note": "synthesised by benchmarks/_videodb_store.py; frames and mean images "
+            "note": "synthesised by benchmarks/videodb/synthetic_store.py; frames and mean images "
             "are symbolic links to the base database's",
         },
     )
