@@ -8,33 +8,18 @@ fragments' features from RAM against random reads from the zarr store.
 
 from __future__ import annotations
 
-import hashlib
 from pathlib import Path
 
 import numpy as np
 from _report import fastest_median, fm, fmt_s, load, now, table
+
 from videodb._common import PAPER_FRAGMENTS, QUICK_FRAGMENTS, cache_folder
-
-#: The arrays a database holds in memory, in the order of its manifest's checksums
-#: (docs/conventions.md, "Video databases").
-RAM_ARRAYS = ("words", "mean_motion", "motion", "spectra", "texture", "source")
-
-
-def _checksum(arrays):
-    """SHA-256 over one clip's in-memory arrays, as the manifest's checksum is made."""
-    h = hashlib.sha256()
-    for name in RAM_ARRAYS:
-        a = np.ascontiguousarray(arrays[name])
-        h.update(f"{name}{a.shape}{a.dtype}".encode())
-        h.update(a.data)
-    return "sha256:" + h.hexdigest()
 
 
 def paper_store(ctx):
     """Open (making it first if needed) the synthetic paper-sized store."""
-    from videodb.synthetic_store import synthetic_store
-
     from fluidnb.videodb import open_database
+    from videodb.synthetic_store import synthetic_store
 
     n = QUICK_FRAGMENTS if ctx.quick else PAPER_FRAGMENTS
     path = cache_folder() / f"bench-synthetic-{n}"
@@ -45,9 +30,12 @@ def paper_store(ctx):
 
 def run(ctx):
     import zarr
-    from videodb.synthetic_store import disk_usage
 
     from fluidnb.videodb.assignment import histogram_index
+
+    # The manifest's checksums as open_database computes them: the store's format.
+    from fluidnb.videodb.database._format import RAM_ARRAYS, checksum
+    from videodb.synthetic_store import disk_usage
 
     print("\n## A paper-sized store (synthesised from the starter water database)")
     load0 = load()
@@ -64,7 +52,7 @@ def run(ctx):
     t0 = now()
     for c in db.clips:  # what open_database spends on checking, of its open time
         lo, hi = c["first"], c["first"] + c["fragments"]
-        _checksum({k: getattr(db, k)[lo:hi] for k in RAM_ARRAYS})
+        checksum({k: getattr(db, k)[lo:hi] for k in RAM_ARRAYS})
     checksum_s = now() - t0
     t0 = now()
     index = histogram_index(db)
