@@ -42,12 +42,6 @@ __all__ = [
 _VERSION_GAIN = 30.0
 
 
-# ----------------------------------------------------------------------------- checks
-
-
-# --------------------------------------------------------------------------- labels
-
-
 def version_label(version):
     """A short label of an augmented version, e.g. ``"flip 75 % +22.5°"``.
 
@@ -582,9 +576,3 @@ def spectra_figure(db, fragments, *, labels=None, figsize=None):
     grid[0, 0].set_title("mean image A", fontsize=9)
     right.suptitle("textureness (Fig. 7): one colour scale per level", fontsize=9)
     return fig
-
-
-# ---------------------------------------------------------------------- assignment
-
-
-# ----------------------------------------------------------------------- rendering
