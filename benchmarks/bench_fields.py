@@ -10,10 +10,8 @@ scipy's ``ndimage.map_coordinates`` called per channel, for the same warp; sciki
 
 from __future__ import annotations
 
-import platform
-
 import numpy as np
-from _timing import best  # benchmarks/ is on sys.path when run as a script
+from _report import best, header  # benchmarks/ is on sys.path when run as a script
 from scipy import ndimage
 from skimage import transform
 
@@ -78,7 +76,7 @@ def pyramid_cases():
 
 
 def main():
-    print(f"machine: {platform.processor() or platform.machine()}, {platform.python_version()}")
+    print(header(__file__))
     print(f"{'case':<40} {'ours':>9} {'peer':<28} {'peer':>9} {'ratio':>7}")
     for name, ours, peers in [*warp_cases(), *pyramid_cases()]:
         for peer, t in peers.items():

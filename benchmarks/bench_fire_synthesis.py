@@ -23,7 +23,7 @@ import time
 
 import numba
 import numpy as np
-from _timing import best
+from _report import best, header
 
 from fluidnb import data
 from fluidnb.fire import FireParams, neighbourhood_error, synthesize
@@ -42,6 +42,7 @@ def main():
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--no-exhaustive", action="store_true", help="only the goal rows")
     args = parser.parse_args()
+    print(header(__file__))
     goals(args.repeat)
     if args.no_exhaustive:
         return

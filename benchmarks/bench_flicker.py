@@ -20,13 +20,12 @@ Ratios: peer / ours (> 1: we are faster) and paper / ours.
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import time
 
 import numpy as np
 import scipy
 import scipy.fft
+from _report import header, loads, machine
 
 from fluidnb import data
 from fluidnb.flicker import FlickerModel, FlickerParams, flicker, preview
@@ -60,6 +59,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=7)
     args = parser.parse_args()
+    print(header(__file__))
 
     photo = data.sample("stream", size=(512, 512))
     params = FlickerParams()  # T = 64, f0 = 4, convex, beta = 2
@@ -117,10 +117,8 @@ def main():
     )
     print()
     print(
-        f"machine: {os.cpu_count()} cores, {platform.machine()}, "
-        f"Python {platform.python_version()}, "
-        f"numpy {np.__version__}, scipy {scipy.__version__}; load average "
-        f"{', '.join(f'{x:.1f}' for x in os.getloadavg())}"
+        f"machine: {machine()}, numpy {np.__version__}, scipy {scipy.__version__}; "
+        f"load average {', '.join(f'{x:.1f}' for x in loads())}"
     )
 
 

@@ -43,10 +43,11 @@ import argparse
 import contextlib
 import json
 import os
-import platform
 import subprocess
 import sys
 import time
+
+from _report import header, load
 
 SHAPES = [(128, 128), (128, 192)]
 
@@ -351,12 +352,8 @@ def main():
     import numpy as np
 
     load = _load()
-    print(
-        f"# bench_fluid.py -- {platform.processor() or platform.machine()}, "
-        f"{os.cpu_count()} cores, Python {platform.python_version()}, numba "
-        f"{numba.__version__} ({numba.config.NUMBA_NUM_THREADS} threads), "
-        f"load average {load:.1f} at the start"
-    )
+    numba_line = f"numba {numba.__version__} ({numba.config.NUMBA_NUM_THREADS} threads)"
+    print(header(__file__, numba_line) + " at the start")
     cases = fluidnb_cases(args.steps, args.quick)
     peers = None
     exe = os.environ.get("FLUIDNB_PEERS_PYTHON")
@@ -422,8 +419,8 @@ def main():
 
 
 def _load():
-    """The 1-minute load average (NaN where the system has none)."""
-    return os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    """The 1-minute load average (NaN where the system has none): :func:`_report.load`."""
+    return load()
 
 
 def _summary(cases, ms, load, load_end, loads):

@@ -16,10 +16,9 @@ several runs finish in a few seconds (goal < 3 s). Peers, in the same run:
 from __future__ import annotations
 
 import math
-import platform
 
 import numpy as np
-from _timing import best  # benchmarks/ is on sys.path when run as a script
+from _report import best, header  # benchmarks/ is on sys.path when run as a script
 from scipy import ndimage
 
 from fluidnb import data
@@ -60,7 +59,7 @@ def grow_convolve(n, steps, params):
 
 
 def main():
-    print(f"machine: {platform.machine()}, {platform.system()}, numpy {np.__version__}")
+    print(header(__file__, f"numpy {np.__version__}"))
     print()
 
     # 1. 200 x 200 lattice, 200 steps.

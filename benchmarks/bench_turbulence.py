@@ -29,13 +29,13 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import subprocess
 import sys
 import tempfile
 import time
 
 import numpy as np
+from _report import header
 
 # fluidnb is imported inside the functions: the peer part of this script runs in the
 # peers' interpreter, which does not have it.
@@ -140,7 +140,7 @@ def main():
         table1,
     )
 
-    print(f"# {platform.processor() or platform.machine()}, Python {platform.python_version()}")
+    print(header(__file__))
     t0 = time.perf_counter()
     target, source = sample_flows(args.frames)
     print(f"sample pair ({args.frames} frames): {time.perf_counter() - t0:.1f} s (cached after)")

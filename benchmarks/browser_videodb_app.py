@@ -29,7 +29,6 @@ No asserts: it prints fastest / median, with the machine's load average.
 from __future__ import annotations
 
 import argparse
-import os
 import re
 import sys
 import time
@@ -41,6 +40,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from _lab import lab, open_notebook  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _report import header, loads  # noqa: E402
 
 APP = """\
 import numpy as np
@@ -188,6 +190,7 @@ def main():
     parser.add_argument("--rounds", type=int, default=3, help="drags and steps per slider")
     parser.add_argument("--shots", type=Path, help="save screenshots into this folder")
     args = parser.parse_args()
+    print(header(__file__))
     head = 'import os\nos.environ["FLUIDNB_QUICK"] = "1"\n' if args.quick else "import os\n"
     with lab() as (page, url, root):
         open_notebook(page, url, root, "app", [head, APP], timeout=120)
@@ -203,14 +206,14 @@ def main():
         if args.shots:
             args.shots.mkdir(parents=True, exist_ok=True)
             page.screenshot(path=str(args.shots / "bench-app.png"))
-    print("load average after:", os.getloadavg())
+    print("load average after:", " ".join(f"{x:.2f}" for x in loads()))
 
 
 def report(page, args):
     step_map, drag_map, drag_preview = [], [], []
     final_map, final_preview = [], []
     rates = []
-    load = os.getloadavg()
+    load = loads()
     for r in range(args.rounds):
         for name in NAMES:
             # A step: one key press, everything at rest before it.

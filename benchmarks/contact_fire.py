@@ -38,6 +38,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from _report import header
 from PIL import Image
 from scipy import ndimage
 
@@ -167,6 +168,7 @@ def main():
     parser.add_argument("--candle", help="a real candle photo (RGBA stamp)")
     parser.add_argument("-o", "--output", default="docs/contact/fire_after.png")
     args = parser.parse_args()
+    print(header(__file__))
 
     preset = flame_preset()
     sim = simulate(preset.params, 24, shape=preset.shape, seed=0, warmup=preset.warmup)

@@ -31,6 +31,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from _report import header
 
 from fluidnb import as_image
 from fluidnb.fields import resize
@@ -166,6 +167,7 @@ def noise_sheet():
 
 
 def main():
+    print(header(__file__))
     OUT.mkdir(parents=True, exist_ok=True)
     flow_sheet()
     swings = noise_sheet()

@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _report import header
 from PIL import Image
 from skimage import data as skdata
 from skimage.transform import resize
@@ -90,6 +91,7 @@ def main(argv=None):
     parser.add_argument("--width", type=int, default=240, help="tile width in pixels")
     parser.add_argument("--spacing", type=float, default=2.0, help="lattice spacing, px")
     args = parser.parse_args(argv)
+    print(header(__file__))
     rows = []
     for name, centre, radii, starts, rth in SCENES:
         started = time.perf_counter()

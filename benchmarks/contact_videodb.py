@@ -24,7 +24,8 @@ horizon, a stroke left to right), and smoke over the forest path.
 Each row: the photo with its matte's outline and strokes, frames 0, T/3 and 2T/3, and
 an x-t slice (one row of pixels through the matte, time going down: slanted streaks
 are motion). Printed per case: the painted speed, the optical flow of the output
-(OpenCV DIS, preset MEDIUM, between consecutive frames, mean over the matte), its
+(the library's, OpenCV DIS, preset MEDIUM, between consecutive frames, mean over the
+matte: ``benchmarks/videodb/_common.py``'s ``output_motion``), its
 ratio to the painted speed and its angle to the strokes, and the share of
 neighbouring target fragments that play the same database fragment in sync.
 
@@ -35,8 +36,9 @@ Two more sheets (with the new code only):
 
 - ``videodb_clouds_sync.png``: the overview's clouds (480 x 300, its stroke, 100
   candidates), the cloud cropped, two frames per row: the paper's rendering with every
-  fragment in sync (temporal offsets all 0, none mirrored: what the code before issue
-  24 did), the paper's rendering with the offsets and mirrors, and the flow rendering;
+  fragment in sync (no loop: every fragment from its first frame, none mirrored, as the
+  code before issue 24 played them), the paper's rendering with the offsets and
+  mirrors, and the flow rendering;
 - ``videodb_fill.png``: what a moving matte uncovers, filled by Telea's diffusion
   (``cv2.inpaint``, before) and by the exemplar fill (after), on the clouds over rocks
   and on the smoke cut-out over a photo.
@@ -50,22 +52,17 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from _report import header
 from PIL import Image, ImageDraw
+from videodb._common import output_motion
 
 from fluidnb import data, to_uint8
-from fluidnb.videodb import AnimateParams, assign, render, starter_clips, starter_database
+from fluidnb.videodb import AnimateParams, assign, render, starter_database
+from fluidnb.videodb.starter import starter_clips
 
 NEW_API = "rendering" in AnimateParams.specs()
 SIZE = (180, 320)
 THUMB = 160  # pixels per frame on the sheet (kept small: the PNGs are committed)
-
-
-def dis_flow(frames, mask):
-    """Mean (dy, dx) of DIS (MEDIUM) between consecutive frames over ``mask``."""
-    dis = cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM)
-    grey = [cv2.cvtColor(to_uint8(f), cv2.COLOR_RGB2GRAY) for f in frames]
-    flows = [dis.calc(a, b, None)[mask][:, ::-1].mean(axis=0) for a, b in zip(grey, grey[1:])]
-    return np.mean(flows, axis=0)
 
 
 def polygon(shape, points):
@@ -161,20 +158,15 @@ def row(photo, matte, strokes, frames):
 
 def sync_sheet(path):
     """The overview's clouds: in sync, with offsets and mirrors, and the flow rendering."""
-    from unittest import mock
-
-    import fluidnb.videodb._render as R
-
     photo, matte = data.sample("clouds", mode="rgb"), data.region("clouds")
     h, w = matte.shape
     stroke = np.array([(0.5, 0.1), (0.45, 0.9)]) * (h, w)
     params = AnimateParams.for_kind("smoke", candidates=100)
     a = assign(photo, matte, starter_database("smoke"), params, direction=[stroke])
     paper = params.replace(rendering="paper")
-    zeros = lambda ids, positions, length: np.zeros(len(ids), np.int64)  # noqa: E731
-    none = lambda ids, positions, motion: np.full(len(ids), -1, np.int8)  # noqa: E731
-    with mock.patch.object(R, "temporal_offsets", zeros), mock.patch.object(R, "mirror_axes", none):
-        before = render(a, paper)
+    # Every fragment from its first frame, none mirrored, as before issue 24: the
+    # rendering without a loop (loop 0) starts no fragment late (and cross-fades none).
+    before = render(a, paper.replace(loop=0))
     runs = {
         "paper, in sync (before)": before,
         "paper, offsets and mirrors (after)": render(a, paper),
@@ -182,7 +174,7 @@ def sync_sheet(path):
     }
     crop = (slice(20, 180), slice(20, 340))
     rows = []
-    from fluidnb.videodb import sync_share
+    from fluidnb.videodb.rendering import sync_share
 
     for name, anim in runs.items():
         f = anim.clip.frames
@@ -200,7 +192,7 @@ def fill_sheet(path, fresh):
     """Telea's diffusion against the exemplar fill, behind the clouds and a smoke cut-out."""
     from scipy import ndimage as ndi
 
-    from fluidnb.videodb import exemplar_fill
+    from fluidnb.videodb.rendering import exemplar_fill
 
     backdrop = (
         data.sample("lake", size=SIZE, mode="rgb")
@@ -243,6 +235,7 @@ def main():
     parser.add_argument("--sync-output", help="also the clouds' sync sheet (new code only)")
     parser.add_argument("--fill-output", help="also the fill sheet (new code only)")
     args = parser.parse_args()
+    print(header(__file__))
     if args.sync_output:
         sync_sheet(args.sync_output)
     if args.fill_output:
@@ -266,7 +259,7 @@ def main():
         seconds = time.perf_counter() - t0
         frames = anim.clip.frames
         fluid = matte > 0.5
-        flow = dis_flow(frames, fluid)
+        flow = output_motion(frames, fluid)
         mag = float(np.hypot(*flow))
         ratio = "-" if painted is None else f"{mag / painted:.2f}"
         angle = "-"
@@ -277,7 +270,7 @@ def main():
             angle = f"{np.degrees(np.angle(np.exp(1j * (got - want)))):+.0f}"
         sync = "-"
         if NEW_API:
-            from fluidnb.videodb import sync_share
+            from fluidnb.videodb.rendering import sync_share
 
             before = sync_share(a.fragments, a.target.positions)
             after = sync_share(

@@ -36,6 +36,8 @@ import time
 import urllib.request
 from pathlib import Path
 
+from _report import header, load
+
 ROOT = Path(__file__).resolve().parents[1]
 CASES = ("app", "07a", "07b")
 NOTEBOOKS = {
@@ -115,7 +117,7 @@ def case(name, quick):
         env.pop("FLUIDNB_QUICK", None)
     port, token = free_port(), "first-run"
     base = f"http://127.0.0.1:{port}"
-    load0 = os.getloadavg()[0]
+    load0 = load()
     log = open(work / "lab.log", "w")  # noqa: SIM115 - closed below
     t0 = time.perf_counter()
     lab = subprocess.Popen(
@@ -170,7 +172,7 @@ def case(name, quick):
         "lab_up_s": up,
         "ran_s": ran,
         "total_s": total,
-        "load": (load0, os.getloadavg()[0]),
+        "load": (load0, load()),
         "background": [ln for ln in built_log.splitlines() if "built" in ln or "ready" in ln],
     }
 
@@ -189,10 +191,8 @@ def main():
     parser.add_argument("--quick", action="store_true", help="the quick databases and sizes")
     args = parser.parse_args()
     cases = args.case or list(CASES)
-    print(
-        f"# first_run.py -- {os.cpu_count()} cores; {time.strftime('%Y-%m-%d %H:%M')}; "
-        f"{'quick' if args.quick else 'full'} mode; each case from an empty cache"
-    )
+    mode = "quick" if args.quick else "full"
+    print(header(__file__, f"{mode} mode; each case from an empty cache"))
     rows = []
     for name in cases:
         r = case(name, args.quick)

@@ -34,13 +34,15 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import os
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))  # _report (also when loaded by path, as the tests do)
+
+from _report import header, load  # noqa: E402
 
 RUNS = {
     "fluid": ["bench_fluid.py"],
@@ -92,6 +94,7 @@ def main():
     if unknown:
         parser.error(f"--only: unknown {', '.join(unknown)}; choose among {', '.join(RUNS)}")
     args.out.mkdir(parents=True, exist_ok=True)
+    print(header(__file__, f"outputs in {args.out}"))
     with busy(args.busy):
         if args.busy:
             print(f"== {args.busy} other process(es) busy throughout ({BUSY_LOOP!r})", flush=True)
@@ -111,7 +114,7 @@ def run(name, args):
     cmd = [sys.executable, str(HERE / RUNS[name][0]), *RUNS[name][1:]]
     if args.quick:
         cmd.append("--quick")
-    before = os.getloadavg()[0]
+    before = load()
     started = time.monotonic()
     print(f"== {name}: {' '.join(cmd[1:])} (load {before:.1f})", flush=True)
     with (args.out / f"{name}.txt").open("w") as log:
@@ -123,7 +126,7 @@ def run(name, args):
             log.write(line)
         code = proc.wait()
     seconds = time.monotonic() - started
-    return name, code, seconds, before, os.getloadavg()[0]
+    return name, code, seconds, before, load()
 
 
 if __name__ == "__main__":

@@ -93,7 +93,7 @@ def test_opencv_one_thread_inside_and_restored_after():
 def test_quantise_runs_its_products_on_one_blas_thread(two_blas_threads, monkeypatch):
     # quantise's products are followed by fluidnb's own threads (assign's tables):
     # OpenBLAS must not be left spinning on the cores after them.
-    from fluidnb.videodb import _words
+    from fluidnb.videodb.database import _words
 
     counts = []
 

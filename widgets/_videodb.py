@@ -31,8 +31,8 @@ from fluidnb.videodb import (
     prefetch_preview,
     preview_frame,
     render,
-    suggest_kind,
 )
+from fluidnb.videodb.starter import suggest_kind
 
 from ._app import App, _quick_mode
 from ._canvas import DrawingCanvas

@@ -18,7 +18,8 @@ from PIL import Image
 from fluidnb import to_uint8
 from fluidnb.fields import resize
 from fluidnb.sketch import segment_heads
-from fluidnb.videodb import FRAGMENT, STRIDE, clip_colour, clip_map_picture, motion_arrows
+from fluidnb.videodb import FRAGMENT, STRIDE
+from fluidnb.videodb.figures import clip_colour, clip_map_picture, motion_arrows
 
 __all__ = ["AssignmentMap", "energy_html", "energy_svg", "stats_html", "strip_png"]
 

@@ -10,7 +10,7 @@ line every few seconds (dev.py sends it to a log file in the cache).
 if __name__ == "__main__":  # pragma: no cover - run as a process (tests/test_lab_command.py)
     import time
 
-    from ._starter import prebuild_starters
+    from .starter import prebuild_starters
 
     started = time.perf_counter()
     last = [-10.0]

@@ -11,8 +11,8 @@ import dataclasses
 
 from .._progress import Progress
 from .._random import resolve_seed
-from ._assign import assign
-from ._render import render
+from .assignment._assign import assign
+from .rendering._render import render
 
 __all__ = ["animate"]
 

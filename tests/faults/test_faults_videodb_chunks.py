@@ -20,7 +20,7 @@ from fluidnb.videodb import (
     starter_path,
     verify_database,
 )
-from fluidnb.videodb._store import CHUNK, RAM_ARRAYS
+from fluidnb.videodb.database._format import CHUNK, RAM_ARRAYS
 from tests.support.videodb_store import PARAMS, chunk_files, moving_texture, sources
 
 FEW = AnimateParams(candidates=10, loop=2)

@@ -13,7 +13,7 @@ import pytest
 from fluidnb import Clip
 from fluidnb.cli import main
 from fluidnb.videodb import add_clips, build_database, open_database, verify_database
-from fluidnb.videodb._store import folder_state
+from fluidnb.videodb.database._folder import folder_state
 from tests.support.videodb_store import PARAMS, Paused, moving_texture, sources, store_bytes
 
 UP = ("up", moving_texture(5, velocity=(-1, 0)))

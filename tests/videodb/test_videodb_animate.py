@@ -7,15 +7,8 @@ import numpy as np
 import pytest
 from scipy import ndimage as ndi
 
-from fluidnb.videodb import (
-    AnimateParams,
-    DatabaseParams,
-    animate,
-    assign,
-    build_database,
-    cut_target,
-    render,
-)
+from fluidnb.videodb import AnimateParams, DatabaseParams, animate, assign, build_database, render
+from fluidnb.videodb.assignment import cut_target, histogram_index
 
 PARAMS = DatabaseParams(N=8, augment="flip", words=16, codebook_samples=5000)
 
@@ -73,7 +66,7 @@ def test_a_database_fragment_as_target_finds_itself(db):
     # A stored mean image, as a target, ranks its own fragment first: I = 1 (Eq. 1).
     ids = np.array([3, 17, 40])
     words = db.describe(db.mean_images(ids))
-    top = db.index.top_k(words, 5)
+    top = histogram_index(db).top_k(words, 5)
     np.testing.assert_array_equal(top.ids[:, 0], ids)
     assert (top.scores[:, 0] == 324).all()
 
@@ -159,7 +152,7 @@ def test_resolve_recombines_the_kept_tables(db, photo):
     assert b.params.sigma == 1e4
     assert b.params.rho == 0.0
     np.testing.assert_array_equal(b.candidates, a.candidates)
-    from fluidnb.videodb import energy
+    from fluidnb.videodb.assignment import energy
 
     w = b.pairwise()
     assert energy(b.labels, b.unary, w, b.edges, b.params.lam) == pytest.approx(b.solution.energy)
@@ -251,7 +244,7 @@ def test_the_lesson_pictures_are_there(anim, photo):
 def test_render_hands_out_its_frames_as_they_are_made(anim, monkeypatch):
     # What the app streams to its player: runs of final frames, in order, that make
     # up the clip render returns.
-    from fluidnb.videodb import _render
+    from fluidnb.videodb.rendering import _render
 
     monkeypatch.setattr(_render, "CHUNK", 4)
     params = AnimateParams.from_dict(anim.clip.metadata["params"])
@@ -288,7 +281,7 @@ def test_a_render_stopped_between_runs_stops_cleanly(anim, monkeypatch):
     # The next run is blended while the frames of the one before are made: stopping
     # (the app's Cancel) raises at once, and what was handed out is final.
     from fluidnb import Cancelled
-    from fluidnb.videodb import _render
+    from fluidnb.videodb.rendering import _render
 
     monkeypatch.setattr(_render, "CHUNK", 1)
     monkeypatch.setattr(_render, "FIRST_RUN", 1)
@@ -403,12 +396,14 @@ def test_each_weight_pulls_the_solution_towards_what_it_weighs(tmp_path):
 
 def test_prefetch_leaves_render_nothing_to_rebuild(anim, monkeypatch):
     from fluidnb import Cancelled
-    from fluidnb.videodb import _frames, _render, prefetch
+    from fluidnb.videodb import prefetch
+    from fluidnb.videodb.database import _frames
+    from fluidnb.videodb.rendering import _render, _shared
 
     a = anim.assignment
     params = AnimateParams.from_dict(anim.clip.metadata["params"])
     a.db.cache.clear()
-    _render._SHARED.clear()  # what renders keep, as for a photo never rendered
+    _shared._SHARED.clear()  # what renders keep, as for a photo never rendered
 
     def stop(fraction, message):
         raise Cancelled
@@ -422,7 +417,7 @@ def test_prefetch_leaves_render_nothing_to_rebuild(anim, monkeypatch):
 
     with pytest.raises(Cancelled):
         prefetch(a, params, progress=moved_on)
-    assert a.target not in _render._SHARED  # the shared work was not started
+    assert a.target not in _shared._SHARED  # the shared work was not started
     assert prefetch(a, params) == len(np.unique(a.fragments))
 
     def no_reads(*args):
@@ -431,8 +426,9 @@ def test_prefetch_leaves_render_nothing_to_rebuild(anim, monkeypatch):
     monkeypatch.setattr(_frames, "_rebuild_clip", no_reads)
     # Nor anything its frames share: the field and maps of this assignment, the
     # blend's weights, the colour axes (kept with the target, for the next render).
-    for name in ("_flow_plan", "_BlendPlan", "_Matching", "extend_outside"):
-        monkeypatch.setattr(_render, name, no_reads)
+    monkeypatch.setattr(_render, "_flow_plan", no_reads)
+    for name in ("_BlendPlan", "_Matching", "extend_outside"):
+        monkeypatch.setattr(_shared, name, no_reads)
     np.testing.assert_array_equal(render(a, params).clip.frames, anim.clip.frames)
     with pytest.raises(ValueError, match="assignment must be an Assignment"):
         prefetch(anim)

@@ -763,7 +763,7 @@ def test_a_starter_database_built_on_first_use_fills_most_of_the_bar(db, monkeyp
 def test_render_shows_the_first_frames_while_the_rest_are_made(app, monkeypatch):
     # The player gets the clip a few frames at a time (render's on_frames), keeps
     # playing, and the finished clip is the same frames with its metadata.
-    from fluidnb.videodb import _render
+    from fluidnb.videodb.rendering import _render
 
     draw_scene(app)
     app.run(timeout=120)
@@ -788,7 +788,7 @@ def test_render_shows_the_first_frames_while_the_rest_are_made(app, monkeypatch)
 
 
 def test_cancel_while_frames_stream_in_puts_the_last_clip_back(app, monkeypatch):
-    from fluidnb.videodb import _render
+    from fluidnb.videodb.rendering import _render
 
     draw_scene(app)
     first = app.run(timeout=120)
@@ -812,7 +812,7 @@ def test_cancel_while_frames_stream_in_puts_the_last_clip_back(app, monkeypatch)
 def test_a_resolve_rebuilds_the_new_fragments_while_the_values_rest(app, monkeypatch):
     # After the map and the preview, the re-solve's worker rebuilds the fragments the
     # new assignment brings; the render that follows reads none.
-    from fluidnb.videodb import _frames
+    from fluidnb.videodb.database import _frames
 
     draw_scene(app)
     app.run(timeout=120)

@@ -1,0 +1,569 @@
+r"""The flow rendering: the photo itself moved along the assigned motion (beyond the paper).
+
+The paper's rendering (Okabe et al., sec. 6) adds the chosen fragments' difference
+frames :math:`D_i` to a blurred copy of the photo: the photo's own texture never moves,
+and the animation reads as a shimmer over a still picture, slower than the motion the
+assignment chose (measured on the stream with a painted 2 px/frame: 0.59 px/frame).
+Beyond the paper, the flow rendering uses what the assignment knows -- for every target
+fragment, a real fluid clip whose motion matches the strokes and the painted speed --
+to move the photo along that motion:
+
+1. **the motion field** :math:`v(x)` (:func:`flow_field`): the chosen fragments' mean
+   motion, blended across fragment borders with the weights that blend the
+   differences, and rescaled to the painted speed where the user painted one;
+2. **an Eulerian loop** (:func:`eulerian_loop`): the photo advected along :math:`v` in
+   two phases half a cycle apart, cross-faded, each restarted from the photo when its
+   weight is zero (Neyret 2003's advected textures; the looping of Holynski et al.
+   2021, without their network), so frame 0 is the photo where the warp is concerned,
+   the clip loops exactly, and no phase is ever displaced by more than half a cycle's
+   travel (no stretching builds up);
+3. **the detail**: the paper's blended :math:`D_i` added on top, for the small-scale
+   motion a warp cannot make (spray, flicker), then the cell-wise histogram matching
+   and the composite through the matte, as the paper's rendering does.
+
+:func:`fluidnb.videodb.rendering.reference_eulerian_loop` is step 2 written out with
+:func:`fluidnb.fields.backward_warp`, one frame and one phase at a time.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+
+import numpy as np
+from numba import njit
+from scipy import ndimage as ndi
+
+from ..._validation import check_array, check_int, check_range, check_vector_field
+from .._common._weights import fragment_weights
+from ._threads import _each_frame
+
+__all__ = [
+    "FIELD_SIGMA",
+    "MAX_REPEATS",
+    "displacement_maps",
+    "eulerian_loop",
+    "extend_outside",
+    "flow_field",
+    "flow_timing",
+    "loop_phases",
+]
+
+#: Standard deviation in pixels of the Gaussian that smooths the motion field beyond
+#: the blend's weights (:func:`flow_field`): one stride.
+FIELD_SIGMA = 24.0
+
+#: At most this many repeats of the difference frames' loop make one flow-rendered
+#: clip (:func:`flow_timing`): slow motion needs long cycles, but each frame costs.
+MAX_REPEATS = 4
+
+
+def flow_field(assignment):
+    r"""The motion field :math:`v(x)` of the flow rendering, on the target's canvas.
+
+    Every target fragment's chosen database fragment has a mean motion (its optical
+    flow averaged over its pixels and frames, (dy, dx) px/frame); they are spread over
+    the canvas with the partition-of-unity weights of the difference frames' blend
+    (:func:`~fluidnb.videodb.rendering.fragment_weights`), then smoothed by a Gaussian of one
+    stride (:data:`FIELD_SIGMA`, within the fragments' cores): neighbouring fragments
+    may move quite differently (the smoke database's slow and fast ones side by side),
+    and the sharper field sheared the photo along the line between them into a seam.
+
+    Where the user painted a speed, the field keeps its direction and takes the
+    painted speed (our decision: the painted speed is the user's request, and the
+    retrieval's motion filter only keeps fragments within ``max_speed_ratio`` of it,
+    so the fragments' own speed would miss it by up to that factor). The painted
+    speed per fragment (:attr:`Assignment.speed`) is blended with the same weights;
+    fragments without paint keep their own speed, and the two mix smoothly where
+    painted and unpainted fragments meet.
+
+    Parameters
+    ----------
+    assignment : Assignment
+
+    Returns
+    -------
+    ndarray, shape (Hc, Wc, 2), float32
+        (dy, dx) in px/frame on the padded canvas; 0 outside every fragment's core.
+    """
+    target, db = assignment.target, assignment.db
+    canvas = target.canvas.shape[:2]
+    ids = assignment.fragments
+    speed = assignment.speed
+    painted = np.zeros(len(ids), bool) if speed is None else np.isfinite(speed)
+    # One pass over the fragments for every per-fragment value: the mean motion
+    # (dy, dx), whether the user painted a speed there, and that speed.
+    values = np.zeros((len(ids), 4))
+    values[:, :2] = db.mean_motion[ids]
+    values[:, 2] = painted
+    if painted.any():
+        values[:, 3] = np.where(painted, speed, 0.0)
+    acc = np.zeros(canvas + (4,), np.float64)
+    covered = np.zeros(canvas, np.float64)
+    weights = fragment_weights(target.positions, canvas)
+    _spread(np.asarray(target.positions, np.int64), weights, values, acc, covered)
+    inside = (covered > 0.5).astype(np.float32)
+    # Then a Gaussian of one stride within the fragments' cores (normalised
+    # convolution): neighbours that move differently would otherwise shear the photo
+    # along a line between them (a visible seam). The values and their weight are
+    # blurred side by side, each as one call (OpenCV's rounding may depend on how
+    # many channels go together).
+    parts = [acc.astype(np.float32) * inside[..., None], inside]
+    blurred = [None, None]
+
+    def blur(k):
+        blurred[k] = _gaussian(parts[k])
+
+    _each_frame(blur, 2)
+    num, den = blurred[0], blurred[1][..., None]
+    field = np.divide(num, den, out=np.zeros_like(num), where=den > 1e-6) * inside[..., None]
+    v = field[..., :2]
+    if not painted.any():
+        return np.ascontiguousarray(v)
+    # `share` is how much of each pixel painted fragments own, `wanted` their painted
+    # speed averaged over that share.
+    share = field[..., 2]
+    wanted = np.divide(field[..., 3], share, out=np.zeros_like(share), where=share > 1e-6)
+    norm = np.hypot(v[..., 0], v[..., 1])
+    gain = np.divide(wanted, norm, out=np.ones_like(norm), where=norm > 1e-6)
+    gain = 1.0 + share * (gain - 1.0)
+    return (v * gain[..., None]).astype(np.float32)
+
+
+@njit(cache=True, nogil=True)
+def _spread(positions, weights, values, acc, covered):
+    """``acc += w_p v_p`` and ``covered += w_p`` over every fragment's core, in order.
+
+    The float64 products and sums of the numpy loop
+    ``acc[r : r + 48, c : c + 48] += w[..., None] * v``, one pixel at a time.
+    """
+    for p in range(positions.shape[0]):
+        r, c = positions[p, 0], positions[p, 1]
+        for i in range(weights.shape[1]):
+            for j in range(weights.shape[2]):
+                w = weights[p, i, j]
+                for k in range(values.shape[1]):
+                    acc[r + i, c + j, k] += w * values[p, k]
+                covered[r + i, c + j] += w
+
+
+def _gaussian(x):
+    """Gaussian blur of standard deviation :data:`FIELD_SIGMA`, zero outside the canvas."""
+    import cv2
+
+    out = cv2.GaussianBlur(x, (0, 0), FIELD_SIGMA, borderType=cv2.BORDER_CONSTANT)
+    return out.reshape(x.shape)
+
+
+def loop_phases(n_frames, cycle):
+    r"""The two phases' ages and weights of an Eulerian loop, per frame.
+
+    Phase a is the photo advected for :math:`s_a(t)` frames and phase b for
+    :math:`s_b(t)`, both in :math:`[-P/2, P/2]` (a negative age is the photo carried
+    backwards, i.e. the frames that lead up to it):
+
+    .. math::
+
+        s_a(t) = \big((t + P/2) \bmod P\big) - P/2, \qquad
+        s_b(t) = (t \bmod P) - P/2, \qquad
+        w_a(t) = 1 - 2|s_a(t)|/P, \qquad w_b = 1 - w_a,
+
+    so :math:`w_a(0) = 1` with :math:`s_a(0) = 0` (frame 0 is the photo), a phase's
+    weight is 0 when its age jumps from :math:`+P/2` to :math:`-P/2` (it restarts
+    unseen), and both ages grow by one frame per frame in between: both phases move
+    with the flow. :math:`P` is ``n_frames`` divided by the whole number of cycles
+    nearest to ``n_frames / cycle`` (at least one), so the clip loops:
+    :math:`s(t + T) = s(t)`. With one cycle per loop this is Holynski et al.'s
+    (2021) loop of :math:`T` frames, a blend of the photo carried forwards and
+    backwards; with more, Neyret's (2003) two phases.
+
+    Parameters
+    ----------
+    n_frames : int
+        :math:`T`, frames in the loop (>= 2).
+    cycle : float
+        Wanted frames per cycle, :math:`P` (>= 2; rounded as said).
+
+    Returns
+    -------
+    age_a, age_b : ndarray, shape (T,), float64
+        :math:`s_a(t)`, :math:`s_b(t)` in frames.
+    weight_a : ndarray, shape (T,), float64
+        :math:`w_a(t)` in [0, 1] (:math:`w_b = 1 - w_a`).
+
+    Examples
+    --------
+    >>> a, b, w = loop_phases(8, 4)
+    >>> a.tolist()
+    [0.0, 1.0, -2.0, -1.0, 0.0, 1.0, -2.0, -1.0]
+    >>> b.tolist()
+    [-2.0, -1.0, 0.0, 1.0, -2.0, -1.0, 0.0, 1.0]
+    >>> w.tolist()
+    [1.0, 0.5, 0.0, 0.5, 1.0, 0.5, 0.0, 0.5]
+    """
+    n_frames = check_int("n_frames", n_frames, 2)
+    cycle = check_range("cycle", cycle, 2)
+    period = n_frames / max(1, round(n_frames / cycle))
+    t = np.arange(n_frames, dtype=np.float64)
+    half = period / 2
+    age_a = np.mod(t + half, period) - half
+    age_b = np.mod(t, period) - half
+    weight_a = 1.0 - np.abs(age_a) / half
+    return age_a, age_b, np.clip(weight_a, 0.0, 1.0)
+
+
+def flow_timing(velocity, matte, n_frames, *, travel, repeats=True):
+    r"""The flow rendering's clip length and cycle for a motion field.
+
+    Each advected phase of :func:`eulerian_loop` carries the photo for half a cycle
+    :math:`P` either side of its restart, :math:`P v / 2` pixels at speed :math:`v`;
+    the two phases are then that far apart. Where that is less than the texture's
+    grain, the cross-fade from the phase ahead to the phase behind reads as motion
+    backwards and cancels the forward motion (measured with OpenCV's DIS on the
+    stream and the clouds: 3 px keep 2 % of the speed, 6 px 50-70 %, 12 px 80-95 %,
+    24 px 95-100 %). So the cycle is :math:`P = 2\,	ext{travel} / 	ilde v`, with
+    :math:`	ilde v` the median speed over the matte, and the clip is the smallest
+    whole number of repeats :math:`k` of the difference frames' loop (``n_frames``,
+    at most :data:`MAX_REPEATS`) that holds one cycle; a whole number of cycles
+    (the most that are at least :math:`P` long) fills it.
+
+    Parameters
+    ----------
+    velocity : ndarray, shape (H, W, 2)
+        The motion field, px/frame.
+    matte : ndarray, shape (H, W)
+        Where the speed counts (``matte > 0.5``; everywhere if nowhere).
+    n_frames : int
+        :math:`T_D`, frames of the difference frames' loop.
+    travel : float
+        The wanted :math:`P 	ilde v / 2` in pixels (> 0).
+    repeats : bool
+        Allow more than one repeat (False when the differences do not loop).
+
+    Returns
+    -------
+    n_frames : int
+        :math:`T = k\,T_D`.
+    cycle : float
+        :math:`P`, a whole fraction of :math:`T`.
+
+    Examples
+    --------
+    >>> v = np.zeros((8, 8, 2))
+    >>> v[..., 1] = 0.5
+    >>> flow_timing(v, np.ones((8, 8)), 24, travel=16)
+    (72, 72.0)
+    >>> v[..., 1] = 4.0
+    >>> flow_timing(v, np.ones((8, 8)), 24, travel=16)
+    (24, 8.0)
+    """
+    v = check_vector_field("velocity", velocity)
+    n_frames = check_int("n_frames", n_frames, 2)
+    travel = check_range("travel", travel, 0, lo_open=True)
+    inside = np.asarray(matte) > 0.5
+    speed = np.hypot(v[..., 0], v[..., 1])[inside if inside.any() else slice(None)]
+    typical = float(np.median(speed)) if speed.size else 0.0
+    if typical <= 1e-6:
+        return n_frames, float(n_frames)
+    wanted = 2.0 * travel / typical
+    k = min(MAX_REPEATS, max(1, math.ceil(wanted / n_frames))) if repeats else 1
+    total = k * n_frames
+    cycles = max(1, math.floor(total / wanted))
+    return total, total / cycles
+
+
+def _remap(image, displacement, grid):
+    """``image(x + d(x))``, bilinear, clamped at the border (OpenCV's remap)."""
+    import cv2
+
+    mx = grid[1] + displacement[..., 1]
+    my = grid[0] + displacement[..., 0]
+    out = cv2.remap(image, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    return out.reshape(image.shape)
+
+
+def _grid(shape):
+    rows, cols = np.mgrid[: shape[0], : shape[1]].astype(np.float32)
+    return rows, cols
+
+
+def displacement_maps(velocity, steps):
+    r"""Where the content at each pixel was ``s`` frames ago, for ``s = -steps..steps``.
+
+    A steady flow :math:`v` carries content along its streamlines: the content at
+    :math:`x` after :math:`s` frames started at :math:`x + D_s(x)`, with the
+    semi-Lagrangian recurrence :math:`D_0 = 0`,
+    :math:`D_{s+1}(x) = D_s(x - v(x)) - v(x)` (one backtrace per frame, as
+    :func:`fluidnb.fields.advect` moves content) and, backwards in time,
+    :math:`D_{s-1}(x) = D_s(x + v(x)) + v(x)`. Each map is warped once, so a frame
+    samples the photo once, however old its phase (Neyret 2003's flow maps).
+
+    Parameters
+    ----------
+    velocity : ndarray, shape (H, W, 2)
+        (dy, dx) px/frame.
+    steps : int
+        The largest age (>= 0).
+
+    Returns
+    -------
+    ndarray, shape (2 * steps + 1, H, W, 2), float32
+        ``out[steps + s]`` is :math:`D_s`.
+    """
+    v = check_vector_field("velocity", velocity).astype(np.float32)
+    steps = check_int("steps", steps, 0)
+    return _Maps(v, steps).wait(-steps, steps).maps
+
+
+class _Maps:
+    """:func:`displacement_maps` being made, on a thread of its own.
+
+    Each map can be used as soon as it is made (:meth:`wait`): a renderer starts on
+    its first frames while the others are made. The maps of the ages ``first`` are
+    made first (forwards as far as they go, then backwards), then the rest: the first
+    frames of a loop need a young phase and an old one.
+    """
+
+    def __init__(self, v, steps, first=()):
+        h, w = v.shape[:2]
+        self.steps = steps
+        self.maps = np.empty((2 * steps + 1, h, w, 2), np.float32)
+        self.maps[steps] = 0.0
+        self._made = {1: 0, -1: 0}  # steps made forwards and backwards
+        self._error = None
+        self._ready = threading.Condition()
+        early = _reach(first)
+        order = [(1, early[1]), (-1, early[-1]), (1, steps), (-1, steps)]
+        # Not a daemon (even when made by one, an app's worker): the interpreter waits
+        # for it at exit (a few ms) rather than ending the process inside OpenCV, which
+        # aborts it.
+        threading.Thread(target=self._run, args=(v, order), daemon=False).start()
+
+    def _run(self, v, order):
+        def made(sign, s):
+            with self._ready:
+                self._made[sign] = s
+                self._ready.notify_all()
+
+        try:
+            grid = _grid(v.shape[:2])
+            for sign, upto in order:
+                _chain(self.maps, v, grid, self.steps, sign, self._made[sign], upto, made)
+        except BaseException as error:  # handed to whoever waits
+            with self._ready:
+                self._error = error
+                self._ready.notify_all()
+
+    def wait(self, *ages):
+        """Wait until the maps of these ages (fractional: both whole ones around) are made."""
+        need = _reach(ages)
+        with self._ready:
+            while self._error is None and any(self._made[k] < need[k] for k in need):
+                self._ready.wait()
+            if self._error is not None:
+                raise self._error
+        return self
+
+
+def _reach(ages):
+    """The steps forwards (key 1) and backwards (-1) the maps of these ages need."""
+    need = {1: 0, -1: 0}
+    for age in ages:
+        for s in (math.floor(age), math.ceil(age)):
+            if s:
+                sign = 1 if s > 0 else -1
+                need[sign] = max(need[sign], abs(s))
+    return need
+
+
+def _chain(out, v, grid, steps, sign, start, stop, made):
+    """One recurrence of :func:`displacement_maps`: ``out[steps + sign * s]``, s = start+1..stop.
+
+    ``D_{s+1}(x) = D_s(x - v) - v`` (sign 1); backwards ``D_{s-1}(x) = D_s(x + v) + v``
+    (sign -1). Every step samples at the same points ``x - sign v``, so they are
+    worked out once; each map is written in place (the operations of
+    ``_remap(prev, -sign * v, grid) - sign * v``); ``made(sign, s)`` after each.
+    """
+    import cv2
+
+    if stop <= start:
+        return
+    mx = grid[1] + (-sign * v)[..., 1]
+    my = grid[0] + (-sign * v)[..., 0]
+    step = sign * v
+    for s in range(start + 1, stop + 1):
+        d = out[steps + sign * s]
+        cv2.remap(
+            out[steps + sign * (s - 1)], mx, my, cv2.INTER_LINEAR, dst=d,
+            borderMode=cv2.BORDER_REPLICATE,
+        )  # fmt: skip
+        np.subtract(d, step, out=d)
+        made(sign, s)
+
+
+def _at_age(maps, steps, age):
+    """The displacement map of a (possibly fractional) age, linear between whole ones."""
+    lo = math.floor(age)
+    frac = age - lo
+    d = maps[steps + lo]
+    if frac > 1e-9:
+        d = d + np.float32(frac) * (maps[steps + lo + 1] - d)
+    return d
+
+
+def eulerian_loop(image, velocity, n_frames, *, cycle, maps=None, return_phases=False):
+    r"""Move an image along a steady flow in a seamless loop (Eulerian looping).
+
+    Two phases of the image, advected for :math:`s_a(t)` and :math:`s_b(t)` frames
+    (:func:`loop_phases`), are cross-faded:
+
+    .. math::
+
+        I_t(x) = w_a(t)\, I\big(x + D_{s_a(t)}(x)\big) + w_b(t)\, I\big(x + D_{s_b(t)}(x)\big)
+
+    with the displacement maps :math:`D_s` of :func:`displacement_maps` (bilinear,
+    clamped at the border). So :math:`I_0 = I` exactly, :math:`I_T = I_0` (the loop
+    closes), the content moves with :math:`v` between restarts, and no phase is
+    displaced by more than :math:`P/2` frames of travel. Where :math:`v = 0` every
+    frame is the image, bit for bit.
+
+    Parameters
+    ----------
+    image : ndarray, shape (H, W) or (H, W, C)
+        The image (float).
+    velocity : ndarray, shape (H, W, 2)
+        The steady flow (dy, dx) in px/frame.
+    n_frames : int
+        :math:`T`, frames in the loop (>= 2).
+    cycle : float
+        Wanted frames per cycle :math:`P` (>= 2; see :func:`loop_phases`).
+    maps : ndarray, optional
+        :func:`displacement_maps` of ``velocity`` for at least ``ceil(P / 2)`` steps,
+        if already made (the matte and the image share them).
+    return_phases : bool
+        Also return the two phases.
+
+    Returns
+    -------
+    frames : ndarray, shape (T, H, W[, C]), float32
+        :math:`I_t`.
+    phase_a, phase_b : ndarray, shape (T, H, W[, C]), float32
+        With ``return_phases``: :math:`I(x + D_{s_a(t)}(x))` and
+        :math:`I(x + D_{s_b(t)}(x))`.
+
+    References
+    ----------
+    .. [1] F. Neyret, "Advected textures", Proc. ACM SIGGRAPH/Eurographics Symposium
+       on Computer Animation (SCA), pp. 147-153, 2003.
+    .. [2] A. Holynski, B. Curless, S. M. Seitz and R. Szeliski, "Animating pictures
+       with Eulerian motion fields", CVPR 2021.
+
+    Examples
+    --------
+    A uniform flow of one pixel a frame to the right moves the picture by whole
+    pixels, and frame 0 is the picture itself:
+
+    >>> img = np.zeros((4, 12), np.float32)
+    >>> img[:, 2] = 1.0
+    >>> v = np.zeros((4, 12, 2), np.float32)
+    >>> v[..., 1] = 1.0
+    >>> frames = eulerian_loop(img, v, 8, cycle=8)
+    >>> bool(np.array_equal(frames[0], img))
+    True
+    >>> [round(float(x), 2) for x in frames[1, 0, :6]]
+    [0.0, 0.0, 0.0, 0.75, 0.0, 0.0]
+    """
+    img = check_array("image", image, ndim=(2, 3), dtype_kinds="biuf").astype(np.float32)
+    v = check_vector_field("velocity", velocity, shape=img.shape[:2])
+    age_a, age_b, weight_a = loop_phases(n_frames, cycle)
+    steps = math.ceil(max(np.abs(age_a).max(), np.abs(age_b).max()))
+    if maps is None:
+        maps = displacement_maps(v, steps)
+    elif maps.shape[0] < 2 * steps + 1 or maps.shape[1:] != img.shape[:2] + (2,):
+        raise ValueError(
+            f"maps must be displacement_maps(velocity, {steps}) of shape "
+            f"({2 * steps + 1}, {img.shape[0]}, {img.shape[1]}, 2), got {maps.shape}"
+        )
+    phases = np.empty((2, len(age_a)) + img.shape, np.float32) if return_phases else None
+    out = _loop_frames(img, maps, age_a, age_b, weight_a, phases)
+    if return_phases:
+        return out, phases[0], phases[1]
+    return out
+
+
+def _loop_frames(img, maps, age_a, age_b, weight_a, phases=None, *, out=None):
+    """The frames of :func:`eulerian_loop` at the given ages and weights (any run of them).
+
+    Each frame depends only on its own ages and weight, so a renderer may make the
+    loop a few frames at a time. ``phases`` (2, T, ...), if given, receives both
+    phases; ``out`` (T, ...), if given, the frames.
+    """
+    grid = _grid(img.shape[:2])
+    if out is None:
+        out = np.empty((len(age_a),) + img.shape, np.float32)
+    for t, (sa, sb, wa) in enumerate(zip(age_a, age_b, weight_a)):
+        both = phases is not None
+        a, b = _phases(img, maps, sa, sb, wa, grid, both=both)
+        if both:
+            phases[0, t], phases[1, t] = a, b
+        _cross_fade(a, b, wa, out[t])
+    return out
+
+
+def _phases(img, maps, sa, sb, wa, grid, *, both=False):
+    """One frame's two phases ``I(x + D_sa(x))``, ``I(x + D_sb(x))`` of :func:`eulerian_loop`.
+
+    A phase of weight 0 is not sampled (None) unless ``both``.
+    """
+    have = (maps.shape[0] - 1) // 2
+    a = _remap(img, _at_age(maps, have, sa), grid) if wa > 0 or both else None
+    b = _remap(img, _at_age(maps, have, sb), grid) if wa < 1 or both else None
+    return a, b
+
+
+def _cross_fade(a, b, wa, out):
+    """``b + w_a (a - b)`` into ``out``: where both phases agree (v = 0) this is exact."""
+    if wa == 1:
+        out[...] = a
+    elif wa == 0:
+        out[...] = b
+    else:
+        out[...] = b + np.float32(wa) * (a - b)
+    return out
+
+
+def extend_outside(image, matte):
+    r"""The image inside the matte, mirrored into the rest: what the flow may carry in.
+
+    The flow rendering advects the fluid from upstream, which near the matte's edge
+    lies outside it: rock or sky would flow into the water. So the layer that is
+    advected is the image where the matte is above 0, and outside it the image
+    reflected back across the matte's edge (each outside pixel :math:`p` takes the
+    pixel :math:`2b - p` mirrored about its nearest matte pixel :math:`b`, or
+    :math:`b` itself when the mirror point falls outside the matte or the image):
+    the fluid's own texture continues, without the streaks of repeating the edge.
+
+    Parameters
+    ----------
+    image : ndarray, shape (H, W, C)
+    matte : ndarray, shape (H, W)
+        Pixels with ``matte > 0`` are kept.
+
+    Returns
+    -------
+    ndarray, shape (H, W, C), float32
+        Equal to ``image`` wherever ``matte > 0``.
+    """
+    img = np.asarray(image, np.float32)
+    inside = np.asarray(matte) > 0
+    if inside.all() or not inside.any():
+        return img.copy()
+    _, (rows, cols) = ndi.distance_transform_edt(~inside, return_indices=True)
+    h, w = inside.shape
+    yy, xx = np.mgrid[:h, :w]
+    my, mx = 2 * rows - yy, 2 * cols - xx
+    ok = (my >= 0) & (my < h) & (mx >= 0) & (mx < w)
+    my, mx = np.where(ok, my, rows), np.where(ok, mx, cols)
+    ok = inside[my, mx]
+    my, mx = np.where(ok, my, rows), np.where(ok, mx, cols)
+    return img[my, mx]

@@ -1,0 +1,399 @@
+r"""Rendering an assignment into an animation (Okabe et al., sec. 6): the pipeline.
+
+:func:`render` rebuilds every assigned fragment's difference frames
+:math:`D_i = F_i - A` from its source clip (the database's frame cache), plays and
+blends them (:mod:`~fluidnb.videodb.rendering._loops`,
+:mod:`~fluidnb.videodb.rendering._blend`), then makes the frames a run at a time: the
+paper's rendering adds them to the approximate mean image, the flow rendering to the
+photo carried along the motion (:mod:`~fluidnb.videodb.rendering._steps`); both match
+the histograms and composite through the static or moving matte. What the renders of
+one photo share is kept with it (:mod:`~fluidnb.videodb.rendering._shared`). The
+:class:`Animation` it returns keeps each stage's picture for the lesson.
+"""
+
+from __future__ import annotations
+
+import time
+import weakref
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..._clip import Clip
+from ..._image import as_image
+from ..._progress import Progress
+from ..._validation import check_fps, check_shape_match
+from .._common._geometry import FRAGMENT
+from ..assignment._assign import Assignment, _check_params
+from ..database._frames import rebuild_fragments
+from ._blend import MARGIN
+from ._desync import mirror_axes, temporal_offsets
+from ._flow_render import _Maps, flow_field, flow_timing, loop_phases
+from ._shared import (
+    _SHARED,
+    _SHARED_LOCK,
+    _advected_layer,
+    _behind,
+    _blend_plan,
+    _colour_matching,
+    _Later,
+)
+from ._steps import _BlendedFrames, _FlowFrames, _PaperFrames
+
+__all__ = ["CHUNK", "FIRST_RUN", "Animation", "prefetch", "render"]
+
+
+@dataclass(frozen=True, eq=False)
+class Animation:
+    """An animated fluid image and how it was made (Okabe et al., secs. 5-6).
+
+    Attributes
+    ----------
+    clip : Clip
+        The animation (the target's size; the paper's rendering: ``N`` frames, or
+        ``N - loop`` looping; the flow rendering: whole repeats of those).
+    assignment : Assignment
+        The fragments chosen, with the energy per sweep.
+    stages : dict of ndarray
+        The rendering's intermediate pictures, for the lesson. Both renderings:
+        ``"differences"`` the blended difference frames :math:`D_i` (T, H, W),
+        ``"unmatched"`` the frames before histogram matching, ``"matte"`` the
+        (dynamic) matte :math:`B_i` (T, H, W), ``"background"`` the image behind the
+        fluid, ``"offsets"`` each target fragment's temporal offset (P,)
+        (:func:`temporal_offsets`) and ``"mirrors"`` its mirror axis (P,)
+        (:func:`mirror_axes`). The paper's: ``"mean"`` the approximate mean
+        image (H, W, 3). The flow rendering's: ``"velocity"`` the motion field
+        (H, W, 2), ``"phase_a"`` and ``"phase_b"`` the two advected phases
+        (T, H, W, 3), ``"ages"`` and ``"weights"`` their ages (frames) and weights
+        (T, 2), ``"advected"`` their cross-fade (T, H, W, 3). Rendered with
+        ``stages=False`` (:func:`render`), only the pictures of one frame's size and
+        the per-fragment and per-frame numbers are kept.
+    timings : dict
+        Seconds per stage (assignment and rendering).
+    """
+
+    clip: Clip
+    assignment: Assignment
+    stages: dict
+    timings: dict
+
+
+def render(
+    assignment,
+    params=None,
+    *,
+    background=None,
+    fps=24.0,
+    progress=None,
+    on_frames=None,
+    stages=True,
+):
+    r"""Render the animation of an assignment (Okabe et al., sec. 6, or beyond it).
+
+    ``params.rendering`` chooses between the paper's rendering and the flow
+    rendering (the default, beyond the paper). The paper's:
+
+    1. Rebuild every assigned fragment's frames from its source clip (with 12 px of
+       context) and its difference frames :math:`D_i = F_i - A` (luminance); with
+       ``loop``, cross-fade each fragment's end into its start
+       (:func:`loop_crossfade`) and start neighbours that share a database fragment
+       at different times (:func:`temporal_offsets`, :func:`stagger`; beyond the
+       paper);
+    2. blend them with Laplacian pyramids over the overlaps
+       (:func:`blend_differences`);
+    3. add them to the approximate mean image: the target blurred along the assigned
+       motion (:func:`motion_blur`);
+    4. match each frame's histograms to the target's cell by cell
+       (:func:`match_histograms_cells`), in the principal axes of the target's
+       colours (Heeger & Bergen's decorrelation), so no foreign hue appears;
+    5. composite through the matte over the untouched image — for ``tau > 0`` through
+       the dynamic matte :math:`B_i` (:func:`dynamic_matte`) over the background
+       (given, or filled behind the fluid with the photo's texture,
+       :func:`inpaint_background`).
+
+    The flow rendering keeps steps 1, 2, 4 and 5 and replaces 3: the photo itself is
+    moved along the motion field of the chosen fragments (:func:`flow_field`) in a
+    seamless Eulerian loop (:func:`eulerian_loop`, :func:`flow_timing`), and the
+    :math:`D_i`, played at the painted speed, are added on top (``detail``); a
+    moving matte is carried by the same loop.
+
+    Parameters
+    ----------
+    assignment : Assignment
+    params : AnimateParams, optional
+        Rendering settings (rendering, shutter, denoise, cell, tau, loop, travel,
+        detail); default the assignment's.
+    background : array_like, shape (H, W, 3), optional
+        What shows where a moving outline uncovers the scene (``tau > 0``); default
+        the target inpainted under its matte.
+    fps : float
+        Frame rate of the clip.
+    progress : callable, optional
+        ``progress(fraction, message)``; raise :class:`fluidnb.Cancelled` to stop.
+    on_frames : callable, optional
+        ``on_frames(clip, done)``: after the work all frames share, the frames are
+        made in runs (:data:`FIRST_RUN` frames, then :data:`CHUNK` at a time; each
+        frame is made from its own inputs, so the clip is the same however it is
+        cut), and after each run this hears the :class:`~fluidnb.Clip` being made,
+        of which the first ``done`` frames are final (the rest are not made yet). A
+        player can show and play those while the rest are made
+        (:meth:`fluidnb.widgets.FramePlayer.stream`); the returned
+        animation's clip has the same frames.
+
+        The work all frames share is kept for the next render: with the target (the
+        blend's weights, the colour axes, the advected layer, the background behind
+        a moving matte) and, for the last assignment rendered or prefetched
+        (:func:`prefetch`), the flow rendering's motion field and displacement maps
+        (~150 MB at 480 px). The field and the maps are made on threads while the
+        fragments are rebuilt and blended, and each run is blended while the frames
+        of the one before are made.
+    stages : bool
+        Keep every frame's intermediate pictures in :attr:`Animation.stages` (the
+        differences, the frames before matching, the flow rendering's phases...), for
+        the lesson. An app that only plays the clip passes False: at 480 px a
+        96-frame clip's stages take about a gigabyte. The clip is the same.
+
+    Returns
+    -------
+    Animation
+    """
+    if not isinstance(assignment, Assignment):
+        raise ValueError(f"assignment must be an Assignment, got {type(assignment).__name__}")
+    params = assignment.params if params is None else _check_params(params, assignment.db)
+    fps = check_fps(fps)
+    db, target = assignment.db, assignment.target
+    n = db.params.N
+    if params.loop > n // 2:
+        raise ValueError(
+            f"loop must be <= N/2 = {n // 2} frames for this database, got {params.loop}"
+        )
+    h, w = target.shape
+    if background is not None:
+        background = as_image(background, mode="rgb", name="background")
+        check_shape_match("background", background, (h, w))
+    report = Progress(progress)
+    rebuild, setup, making = report.split(0.3, 0.35)
+    clock = dict.fromkeys(("rebuild", "blend"), 0.0)
+
+    t = time.perf_counter()
+    # The flow rendering's motion field and timing, and its displacement maps: they
+    # do not need the fragments' frames, so they are made on threads of their own
+    # while the frames are rebuilt and blended.
+    flow = _Later(_flow_work, assignment, params, n) if params.rendering == "flow" else None
+    rebuild(0.0, f"rebuilding {len(target)} fragments from their source clips")
+    ids = assignment.fragments
+    # Each fragment's D_i = F_i - A, with ``loop`` made a loop of its own (its end
+    # cross-faded into its start; difference_frames): made on the rebuild's threads,
+    # each fragment once, and kept in the database's cache for the next render.
+    looped = _rebuild(assignment, params, rebuild)
+    flow = None if flow is None else flow.value
+    offsets = np.zeros(len(ids), np.int64)
+    mirrors = np.full(len(ids), -1, np.int8)
+    rates = n_frames = None
+    if params.loop:
+        # Beyond the paper: neighbours that share a database fragment start its loop at
+        # different times and mirrored (no tile pattern).
+        offsets = temporal_offsets(ids, target.positions, n - params.loop)
+        mirrors = mirror_axes(ids, target.positions, db.mean_motion[ids])
+        if flow is not None and not np.all(flow["rates"] == 1):
+            # Fragments play at different rates: play all the clip's frames. At rate 1
+            # the blended loop is simply repeated (see _FlowFrames).
+            rates, n_frames = flow["rates"], flow["n_frames"]
+    clock["rebuild"] = time.perf_counter() - t
+
+    setup(0.0, "preparing the frames")
+    loops = [looped[f] for f in ids.tolist()]
+    del looped
+    length = n_frames or (n - params.loop if params.loop else n)  # one loop's frames
+    blended = _BlendedFrames(loops, offsets, rates, mirrors, length, target, clock)
+    if flow is None:
+        frames = _PaperFrames(assignment, params, blended, mirrors, background, clock, stages)
+    else:
+        frames = _FlowFrames(assignment, params, blended, flow, background, clock, stages)
+    # The frames a few at a time (CHUNK): each is made from its own inputs only
+    # (blend, warp, matching, composite), so the clip is the same however it is cut,
+    # the first frames can be shown while the rest are made, and the blend's
+    # pyramids stay small.
+    total = frames.n_frames
+    out = np.empty((total, h, w, 3), np.float32)
+    live = None  # the clip being made, as on_frames sees it (a read-only view of out)
+
+    def hand_out(run):
+        nonlocal live
+        future, t1 = run
+        future.result()
+        if on_frames is not None:
+            if live is None:
+                live = Clip._trusted(out.view(), fps, {})
+            on_frames(live, t1)
+
+    # After the first run, each run is blended here while the frames of the one before
+    # are made on the other threads (both cores busy); the first is handed out as
+    # soon as it is made.
+    pending = None
+    with ThreadPoolExecutor(1) as maker:
+        try:
+            for t0, t1 in _runs(total):
+                making(t0 / total, f"rendering frames {t0 + 1}-{t1} of {total}")
+                d = frames.blend(t0, t1)
+                if pending is not None:
+                    hand_out(pending)
+                pending = (maker.submit(frames.frames, t0, d, out[t0:t1]), t1)
+                if t0 == 0:
+                    hand_out(pending)
+                    pending = None
+            if pending is not None:
+                hand_out(pending)
+                pending = None
+        finally:
+            if pending is not None:
+                pending[0].cancel()  # a cancelled render: what is under way ends
+    making(1.0, "done")
+    return _animation(assignment, params, out, frames.stages, clock, (offsets, mirrors), fps)
+
+
+def prefetch(assignment, params=None, *, progress=None):
+    """Rebuild the fragments :func:`render` will need, and make what it shares, ahead.
+
+    The first step of :func:`render` alone (each chosen fragment's difference frames
+    from its source clip, into the database's frame cache), then the work its frames
+    share (the flow rendering's motion field and displacement maps, the blend's
+    weights, the colour axes, the background behind a moving matte), kept for it: an
+    app calls it while a slider rests, so the render that follows starts with its
+    first frames. What is already made costs nothing.
+
+    Parameters
+    ----------
+    assignment : Assignment
+    params : AnimateParams, optional
+        The rendering settings (their ``loop``); default the assignment's.
+    progress : callable, optional
+        ``progress(fraction, message)`` after each source clip and before the shared
+        work; raise :class:`fluidnb.Cancelled` to stop (what is made so far stays
+        kept).
+
+    Returns
+    -------
+    int
+        How many of the assignment's distinct fragments are now cached.
+    """
+    if not isinstance(assignment, Assignment):
+        raise ValueError(f"assignment must be an Assignment, got {type(assignment).__name__}")
+    params = assignment.params if params is None else _check_params(params, assignment.db)
+    report = Progress(progress)
+    rebuild, shared = report.split(0.9)
+    done = len(_rebuild(assignment, params, rebuild))
+    # What else render makes before its first frames and keeps: the flow rendering's
+    # motion field and maps for this assignment, the target's blend weights, colour
+    # axes, advected layer and (a moving matte) the background behind the fluid. Asked
+    # first whether to go on: an app dragging a slider has moved on by now.
+    shared(0.0, "making what the render's frames share")
+    target = assignment.target
+    if params.rendering == "flow":
+        _flow_work(assignment, params, assignment.db.params.N)
+        _advected_layer(target)
+    _blend_plan(target)
+    _colour_matching(target, params.cell)
+    if params.tau > 0:
+        _behind(target, None)
+    shared(1.0, "ready to render")
+    return done
+
+
+def _rebuild(assignment, params, progress):
+    """Each chosen fragment's loop of :math:`D_i` (render's step 1; cached by the database)."""
+    return rebuild_fragments(
+        assignment.db,
+        assignment.fragments,
+        margin=MARGIN,
+        grey=True,
+        differences=params.loop,
+        progress=progress,
+    )
+
+
+#: Frames :func:`render` makes at a time, after the work all frames share (the clip
+#: is the same whatever it is; :func:`render`'s ``on_frames`` hears of each run). The
+#: first run is :data:`FIRST_RUN` frames: what an app shows first comes sooner.
+CHUNK = 12
+FIRST_RUN = 4
+
+
+def _runs(total):
+    """The runs of frames (t0, t1) :func:`render` makes one after the other."""
+    t0 = 0
+    while t0 < total:
+        t1 = min(t0 + (min(FIRST_RUN, CHUNK) if t0 == 0 else CHUNK), total)
+        yield t0, t1
+        t0 = t1
+
+
+def _animation(assignment, params, out, stages, clock, desync, fps):
+    """The Animation: the clip with its metadata, the stages and the timings."""
+    db = assignment.db
+    stages["offsets"], stages["mirrors"] = desync
+    timings = {**{f"assign_{k}": v for k, v in assignment.timings.items()}, **clock}
+    timings["render"] = sum(clock.values())
+    meta = {
+        "method": "videodb",
+        "params": params.to_dict(),
+        "seed": None,
+        "timings": timings,
+        "database": {
+            "path": str(db.path),
+            "kind": db.kind,
+            "fragments": db.n_fragments,
+        },
+        "energy": float(assignment.solution.energy),
+    }
+    # Trusted: the render's own fresh float32 frames, clipped to [0, 1] (Clip() would
+    # copy and check them again).
+    clip = Clip._trusted(np.ascontiguousarray(out, np.float32), fps, {}).with_metadata(**meta)
+    return Animation(clip=clip, assignment=assignment, stages=stages, timings=timings)
+
+
+def _flow_plan(assignment, params, n):
+    """The flow rendering's field, clip length, cycle and per-fragment playback rates.
+
+    The difference frames of a fragment play faster (or slower) by the factor its
+    motion was rescaled to the painted speed (:func:`flow_field`), so the detail
+    moves with the warp; rates are multiples of 1/k for a clip of k repeats of the
+    loop, so each fragment's loop fits a whole number of times.
+    """
+    velocity = flow_field(assignment)
+    target = assignment.target
+    length = n - params.loop if params.loop else n
+    n_frames, cycle = flow_timing(
+        velocity, target.canvas_matte, length, travel=params.travel, repeats=params.loop > 0
+    )
+    repeats = n_frames // length
+    own = np.linalg.norm(assignment.db.mean_motion[assignment.fragments], axis=1)
+    centre = target.positions + FRAGMENT // 2
+    wanted = np.linalg.norm(velocity[centre[:, 0], centre[:, 1]], axis=1)
+    gain = np.divide(wanted, own, out=np.ones_like(wanted), where=own > 1e-3)
+    rates = np.maximum(1, np.round(gain * repeats)) / repeats
+    return {"velocity": velocity, "n_frames": n_frames, "cycle": cycle, "rates": rates}
+
+
+def _flow_work(assignment, params, n):
+    """:func:`_flow_plan` with its displacement maps (made on a thread: ``plan["maps"]``).
+
+    Kept for the next render of the same assignment with the same loop and travel
+    (the last such only: the maps take ~150 MB at the app's size).
+    """
+    key = (params.loop, params.travel)
+    with _SHARED_LOCK:
+        last = _SHARED.setdefault(assignment.target, {}).get("flow")
+    if last is not None and last[0]() is assignment and last[1] == key:
+        return last[2]
+    plan = _flow_plan(assignment, params, n)
+    ages = loop_phases(plan["n_frames"], plan["cycle"])  # age_a, age_b, weight_a
+    steps = int(np.ceil(max(np.abs(ages[0]).max(), np.abs(ages[1]).max())))
+    # The first run's maps first: its frames wait for no others.
+    first = np.concatenate([age[:FIRST_RUN] for age in ages[:2]])
+    plan.update(ages=ages, maps=_Maps(plan["velocity"], steps, first))
+    plan["velocity"].flags.writeable = False
+    with _SHARED_LOCK:
+        _SHARED.setdefault(assignment.target, {})["flow"] = (weakref.ref(assignment), key, plan)
+    return plan

@@ -1,0 +1,279 @@
+r"""The two renderings' frames after the blend, a run of frames at a time (Okabe et al., sec. 6).
+
+:class:`_BlendedFrames` plays and blends the difference frames a run needs;
+:class:`_PaperFrames` adds them to the approximate mean image (the paper's rendering)
+and :class:`_FlowFrames` to the photo carried along the motion field (the flow
+rendering, beyond the paper); both then match the histograms in the target's colour
+axes and composite through the (moving) matte, each frame from its own inputs, on the
+cores.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .._common._weights import FEATHER, blend_values
+from ._blend import BLEND_LEVELS, MARGIN, _blend
+from ._colour_axes import _advected_in_axes, _composite_from_axes, colours_in_axes, frames_in_axes
+from ._composite import _restore_area, dynamic_matte
+from ._flow_render import _cross_fade, _phases
+from ._loops import play_loops
+from ._motion_blur import motion_blur
+from ._shared import _advected_layer, _behind, _blend_plan, _colour_matching
+from ._threads import _each_frame
+
+__all__ = []
+
+
+def _tick(clock, key, t):
+    """Add the seconds since ``t`` to ``clock[key]``; the time now."""
+    now = time.perf_counter()
+    clock[key] = clock.get(key, 0.0) + now - t
+    return now
+
+
+class _BlendedFrames:
+    """The blended difference frames :math:`D_i` (Hc, Wc) on demand, each made once.
+
+    ``get(idx)`` plays the fragments' loops (:func:`play_loops`: from their offsets,
+    mirrored, at their rates) at the frames ``idx`` not made yet and blends them
+    (:func:`blend_differences`), in one batch. ``length`` frames in all: the clip's
+    (fragments at different rates) or one loop's (the loop is then repeated).
+    """
+
+    def __init__(self, loops, offsets, rates, mirrors, length, target, clock):
+        self.loops, self.offsets, self.rates, self.mirrors = loops, offsets, rates, mirrors
+        self.target, self.clock = target, clock
+        self.positions, self.canvas = target.positions, target.canvas.shape[:2]
+        canvas = self.canvas
+        self.length = length
+        self.done = np.zeros(self.length, bool)
+        self.frames = np.empty((self.length,) + canvas, np.float32)
+        self.plan = None  # the blend's weights (_BlendPlan), kept for the target
+
+    def get(self, idx):
+        idx = np.asarray(idx)
+        todo = np.unique(idx[~self.done[idx]])
+        if len(todo):
+            t = time.perf_counter()
+            # Every fragment's loop played from its offset, mirrored, at its rate (what
+            # stagger does), pixel-major as the blend reads it.
+            played = play_loops(
+                self.loops, self.offsets, rates=self.rates, mirrors=self.mirrors, frames=todo
+            )
+            t = _tick(self.clock, "rebuild", t)
+            if self.plan is None:
+                self.plan = _blend_plan(self.target)
+            # The private entry: these differences were made just above (finite,
+            # checked shape).
+            self.frames[todo] = _blend(
+                played, self.positions, self.canvas, MARGIN, BLEND_LEVELS, FEATHER, self.plan
+            )
+            self.done[todo] = True
+            _tick(self.clock, "blend", t)
+        return self.frames[idx]
+
+
+class _Frames:
+    """What both renderings do with a run of frames after the blend.
+
+    :meth:`blend` blends a run's differences (one batch: :class:`_BlendedFrames`);
+    :meth:`frames` then makes each frame from its own inputs (:meth:`_frame`: the
+    rendering's own steps, then :meth:`_finish`: the matching in the colour axes and
+    the composite) on the cores, straight into the clip. :func:`render` blends the
+    next run while the frames of one are made.
+    """
+
+    def _axes(self, target, cell):
+        """The target's colour axes and the matching to it in them (kept for the target)."""
+        self.centre, self.axes, self.matching = _colour_matching(target, cell)
+
+    def blend(self, t0, t1):
+        """The run's blended differences (T, Hc, Wc) (the loop repeated to the clip's length)."""
+        return self.blended.get(np.arange(t0, t1) % self.blended.length)
+
+    def frames(self, t0, d, out):
+        """Each frame of the run from its differences ``d``, on the cores, into ``out``."""
+        t1 = t0 + len(d)
+        start = time.perf_counter()
+        times = [{} for _ in range(t1 - t0)]
+        _each_frame(lambda i: self._frame(t0 + i, d[i], out[i], times[i]), t1 - t0)
+        # The frames were made side by side: the run's seconds shared out between the
+        # stages by the time each took on its thread.
+        spent = {}
+        for each in times:
+            for k, v in each.items():
+                spent[k] = spent.get(k, 0.0) + v
+        total = sum(spent.values())
+        wall = time.perf_counter() - start
+        for k, v in spent.items():
+            self.clock[k] = self.clock.get(k, 0.0) + (wall * v / total if total > 0 else 0.0)
+
+    def _finish(self, rotated, matte, out):
+        """A frame in the colour axes (Hc, Wc, 3) matched, back in RGB and composited.
+
+        Each frame's histograms matched to the target's cell by cell (Okabe et al.,
+        sec. 6) in the target's principal colour axes, then laid over the background
+        through ``matte`` and clipped, into ``out`` (H, W, 3).
+        """
+        matched = self.matching.match(rotated, np.empty_like(rotated))
+        _composite_from_axes(matched, self.centre, self.axes, self.back, matte, out)
+
+
+class _PaperFrames(_Frames):
+    """The paper's rendering after the blend (steps 3-5 of :func:`render`), by frames."""
+
+    def __init__(self, assignment, params, blended, mirrors, background, clock, keep):
+        db, target = assignment.db, assignment.target
+        h, w = target.shape
+        hc, wc = target.canvas.shape[:2]
+        self.target, self.params, self.blended, self.clock = target, params, blended, clock
+        self.n_frames = n = blended.length
+        ids = assignment.fragments
+        t = time.perf_counter()
+        velocity = blend_values(db.mean_motion[ids], target.positions, (hc, wc))
+        self.approx = motion_blur(
+            target.canvas, velocity, shutter=params.shutter, denoise=params.denoise
+        )
+        t = _tick(clock, "mean", t)
+        self._axes(target, params.cell)
+        if params.tau > 0:
+            per_fragment = db.motion[ids].astype(np.float32)  # (P, N - 1, 2)
+            for axis in (0, 1):  # a mirrored fragment moves mirrored
+                per_fragment[mirrors == axis, :, axis] *= -1
+            motion = blend_values(per_fragment, target.positions, (hc, wc))  # (Hc, Wc, N-1, 2)
+            motion = np.moveaxis(motion, 2, 0)[: n - 1]
+            matte = dynamic_matte(target.canvas_matte, motion, tau=params.tau)
+            back = _behind(target, background)
+        else:
+            matte = target.canvas_matte
+            back = target.canvas
+        self.matte, self.back = matte[..., :h, :w], back[:h, :w]
+        _tick(clock, "composite", t)
+        self.stages = {"mean": np.clip(self.approx[:h, :w], 0, 1), "background": self.back}
+        self.keep = keep
+        if keep:
+            self.stages["differences"] = np.empty((n, h, w), np.float32)
+            self.stages["unmatched"] = np.empty((n, h, w, 3), np.float32)
+            self.stages["matte"] = (
+                self.matte if matte.ndim == 3 else np.broadcast_to(self.matte, (n, h, w))
+            )
+
+    def _frame(self, t, d, out, times):
+        """Frame ``t`` into ``out`` (H, W, 3), from its blended differences ``d`` (Hc, Wc)."""
+        st = self.stages
+        h, w = self.target.shape
+        clock = time.perf_counter()
+        # The frame approx + D_i made straight in the colour axes, with the picture of
+        # it before matching, in one pass.
+        if self.keep:
+            st["differences"][t] = d[:h, :w]
+            rotated, st["unmatched"][t : t + 1] = frames_in_axes(
+                self.approx, d[None], self.centre, self.axes, unmatched=(h, w)
+            )
+        else:
+            rotated = frames_in_axes(self.approx, d[None], self.centre, self.axes)
+        clock = _tick(times, "match", clock)
+        self._finish(rotated[0], self.matte[t] if self.matte.ndim == 3 else self.matte, out)
+        _tick(times, "composite", clock)
+
+
+class _FlowFrames(_Frames):
+    r"""The flow rendering's steps after the blend (beyond the paper; :func:`render`), by frames.
+
+    The motion field's displacement maps, the layer that is advected (the photo
+    extended outside the matte) and the colour axes are made once; each run of frames
+    is then warped (:func:`eulerian_loop`), given its detail, matched and composited.
+    """
+
+    def __init__(self, assignment, params, blended, plan, background, clock, keep):
+        target = assignment.target
+        h, w = target.shape
+        self.target, self.params, self.blended, self.clock = target, params, blended, clock
+        t = time.perf_counter()
+        velocity, self.n_frames = plan["velocity"], plan["n_frames"]
+        n = self.n_frames
+        self.ages = plan["ages"]  # age_a, age_b, weight_a
+        age_a, age_b, weight_a = self.ages
+        self.maps = plan["maps"]  # being made: each frame waits for its own
+        # What flows in across the matte's edge is the fluid's own texture, mirrored.
+        self.layer, self.grid = _advected_layer(target)
+        t = _tick(clock, "advect", t)
+        self._axes(target, params.cell)
+        self.alpha = target.canvas_matte
+        if params.tau > 0:
+            self.area = float(self.alpha.sum(dtype=np.float64))
+            back = _behind(target, background)
+        else:
+            back = target.canvas
+        self.back = back
+        _tick(clock, "composite", t)
+        self.stages = {
+            "velocity": velocity[:h, :w],
+            "weights": np.stack([weight_a, 1.0 - weight_a], axis=1),
+            "ages": np.stack([age_a, age_b], axis=1),
+            "background": back[:h, :w],
+        }
+        self.keep = keep
+        if keep:
+            # The lesson's pictures, written run by run: the phases and their cross-fade
+            # on the canvas (the warp writes them in place), shown cropped.
+            self.phases = np.empty((2, n) + self.layer.shape, np.float32)
+            self.moved = np.empty((n,) + self.layer.shape, np.float32)
+            self.stages.update(
+                phase_a=self.phases[0, :, :h, :w],
+                phase_b=self.phases[1, :, :h, :w],
+                advected=self.moved[:, :h, :w],
+                differences=np.empty((n, h, w), np.float32),
+                unmatched=np.empty((n, h, w, 3), np.float32),
+                matte=(
+                    np.empty((n, h, w), np.float32)
+                    if params.tau > 0
+                    else np.broadcast_to(self.alpha[:h, :w], (n, h, w))
+                ),
+            )
+
+    def _frame(self, t, d, out, times):
+        """Frame ``t`` into ``out`` (H, W, 3), from its blended differences ``d`` (Hc, Wc)."""
+        params, st = self.params, self.stages
+        h, w = self.target.shape
+        clock = time.perf_counter()
+        sa, sb, wa = (x[t] for x in self.ages)
+        # The photo carried by the loop (a phase of weight 0 is not even sampled, unless
+        # the lesson shows it), with the detail D_i on top, in the colour axes.
+        maps = self.maps.wait(sa, sb).maps
+        clock = _tick(times, "field", clock)
+        a, b = _phases(self.layer, maps, sa, sb, wa, self.grid, both=self.keep)
+        detail = np.float32(params.detail)
+        if self.keep:
+            self.phases[0, t], self.phases[1, t] = a, b
+            frame = _cross_fade(a, b, wa, self.moved[t]) + detail * d[..., None]
+            st["differences"][t] = d[:h, :w]
+            np.clip(frame[:h, :w], 0, 1, out=st["unmatched"][t])
+            rotated = colours_in_axes(frame, self.centre, self.axes)
+        else:  # the same operations in one pass
+            rotated = np.empty(self.layer.shape, np.float32)
+            fade = 1 if wa == 1 else (0 if wa == 0 else 2)
+            _advected_in_axes(
+                b if a is None else a, a if b is None else b, np.float32(wa), fade, detail, d,
+                self.centre, self.axes, rotated,
+            )  # fmt: skip
+        clock = _tick(times, "advect", clock)
+        if params.tau > 0:
+            # The outline moves with the fluid by the same loop (frame 0 is alpha, the
+            # loop closes), pulled towards alpha by 1 - tau as the paper's B_i are.
+            carried = _phases(self.alpha, maps, sa, sb, wa, self.grid)
+            carried = _cross_fade(*carried, wa, np.empty(self.alpha.shape, np.float32))
+            matte = np.float32(params.tau) * carried + np.float32(1 - params.tau) * self.alpha
+            np.clip(matte, 0.0, 1.0, out=matte)
+            if t > 0:
+                _restore_area(matte, self.area)
+            if self.keep:
+                st["matte"][t] = matte[:h, :w]
+        else:
+            matte = self.alpha
+        clock = _tick(times, "composite", clock)
+        self._finish(rotated, matte, out)
+        _tick(times, "match", clock)

@@ -1,0 +1,457 @@
+"""The flow rendering (beyond the paper): loop, frame 0, speed; no fragment in sync."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+from scipy import ndimage as ndi
+
+from fluidnb import to_uint8
+from fluidnb.videodb import AnimateParams, DatabaseParams, assign, build_database, render
+from fluidnb.videodb.rendering import (
+    blend_differences,
+    displacement_maps,
+    eulerian_loop,
+    exemplar_fill,
+    extend_outside,
+    flow_field,
+    flow_timing,
+    loop_crossfade,
+    loop_phases,
+    mirror_axes,
+    reference_eulerian_loop,
+    reference_fill,
+    stagger,
+    sync_share,
+    temporal_offsets,
+)
+
+PARAMS = DatabaseParams(N=16, augment="none", words=16, codebook_samples=5000)
+FEW = AnimateParams(candidates=10, loop=4)
+
+
+def texture(seed, shape, blur=1.5):
+    gen = np.random.default_rng(seed)
+    t = ndi.gaussian_filter(gen.random(shape), blur, mode="wrap")
+    return ((t - t.min()) / (t.max() - t.min())).astype(np.float32)
+
+
+def moving(seed, velocity, shape=(96, 120), frames=32):
+    """A periodic texture translated by whole pixels: its flow is ``velocity`` exactly."""
+    base = texture(seed, shape)
+    dy, dx = velocity
+    out = np.stack([np.roll(base, (t * dy, t * dx), axis=(0, 1)) for t in range(frames)])
+    return np.repeat(out[..., None], 3, axis=3)
+
+
+def measured_flow(frames, mask):
+    """Mean (dy, dx) of OpenCV DIS (preset MEDIUM) between consecutive frames in ``mask``."""
+    dis = cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM)
+    grey = [cv2.cvtColor(to_uint8(f), cv2.COLOR_RGB2GRAY) for f in frames]
+    flows = [dis.calc(a, b, None)[mask][:, ::-1].mean(axis=0) for a, b in zip(grey, grey[1:])]
+    return np.mean(flows, axis=0)
+
+
+@pytest.fixture(scope="module")
+def db(tmp_path_factory):
+    # Everything in the database moves right at 1 px/frame (and left, its mirror image
+    # is not built: augment="none"), so the assigned motion is known.
+    clips = [(f"right{i}", moving(i, (0, 1))) for i in range(3)]
+    path = tmp_path_factory.mktemp("flow") / "db"
+    return build_database(clips, path, kind="water", params=PARAMS, seed=0)
+
+
+@pytest.fixture(scope="module")
+def photo():
+    img = np.stack([texture(9, (96, 144), blur=2.0)] * 3, axis=-1) * [0.5, 0.7, 0.9]
+    matte = np.zeros((96, 144), np.float32)
+    matte[12:84, 18:126] = 1.0
+    return img.astype(np.float32), ndi.gaussian_filter(matte, 1.0)
+
+
+@pytest.fixture(scope="module")
+def assignment(db, photo):
+    return assign(*photo, db, FEW)
+
+
+# ------------------------------------------------------------------ the Eulerian loop
+
+
+def test_phases_restart_unseen_and_move_one_frame_a_frame():
+    for n, cycle in ((24, 12), (24, 24), (72, 64), (10, 3)):
+        age_a, age_b, w = loop_phases(n, cycle)
+        assert age_a[0] == 0
+        assert w[0] == 1
+        period = n / max(1, round(n / cycle))
+        assert np.allclose(np.abs(age_a - age_b), period / 2)
+        for age, weight in ((age_a, w), (age_b, 1 - w)):
+            step = np.diff(np.append(age, age[0]))  # the loop: frame T is frame 0
+            jumps = ~np.isclose(step, 1.0)
+            # Ages grow one frame a frame, except at a restart, where the weight is 0
+            # on one side of the jump.
+            ends = np.append(weight, weight[0])
+            assert np.all(np.minimum(ends[:-1], ends[1:])[jumps] < 1 / period + 1e-9)
+
+
+def test_a_zero_flow_gives_the_image_in_every_frame_exactly():
+    img = texture(1, (20, 30))
+    frames = eulerian_loop(img, np.zeros((20, 30, 2)), 12, cycle=6)
+    assert all(np.array_equal(f, img) for f in frames)
+
+
+def test_the_loop_closes_and_frame_zero_is_the_image():
+    img = np.stack([texture(2, (40, 50))] * 3, axis=-1)
+    yy, xx = np.mgrid[:40, :50]
+    v = np.stack([0.3 * np.sin(xx / 9.0), 1.0 + 0.5 * np.cos(yy / 7.0)], axis=-1)
+    once = eulerian_loop(img, v, 12, cycle=6)
+    twice = eulerian_loop(img, v, 24, cycle=6)
+    assert np.array_equal(once[0], img)
+    np.testing.assert_array_equal(twice[12:], once)  # frame T + t is frame t
+    # Seamless: the step from the last frame back to the first is an ordinary step.
+    steps = np.abs(np.diff(np.concatenate([once, once[:1]]), axis=0)).mean(axis=(1, 2, 3))
+    assert steps[-1] < 1.5 * np.median(steps[:-1])
+
+
+def test_a_uniform_flow_moves_the_image_by_its_speed():
+    img = texture(3, (48, 64), blur=1.0)
+    v = np.zeros((48, 64, 2), np.float32)
+    v[..., 1] = 1.0
+    maps = displacement_maps(v, 4)
+    # Away from the left border (where clamping holds the edge), D_s = -s v exactly.
+    for s in range(-4, 5):
+        np.testing.assert_allclose(maps[4 + s][:, 8:-8], np.broadcast_to([0.0, -s], (48, 48, 2)))
+    _frames, a, _ = eulerian_loop(img, v, 8, cycle=8, return_phases=True)
+    np.testing.assert_allclose(a[2][:, 10:], img[:, 8:-2], atol=1e-6)  # 2 px right at age 2
+
+
+def test_the_fast_loop_agrees_with_the_reference():
+    img = np.stack([texture(4, (36, 44), blur=2.5)] * 3, axis=-1)
+    yy, xx = np.mgrid[:36, :44]
+    v = np.stack([0.4 * np.sin(xx / 6.0), 0.8 + 0.3 * np.cos(yy / 5.0)], axis=-1)
+    # Mutations caught: the phases' weights over the period instead of its half
+    # (loop_phases; the plain version has its own phases), the maps' recurrence
+    # D_{s+1} = D_s(x - v) - v subtracting half the step (_chain).
+    for n, cycle in ((8, 8), (10, 4)):  # whole and fractional half-cycles
+        fast = eulerian_loop(img, v, n, cycle=cycle)
+        ref = reference_eulerian_loop(img, v, n, cycle=cycle)
+        assert np.abs(fast - ref).max() < 1e-2  # OpenCV rounds bilinear weights to 1/32
+
+
+def test_the_layer_outside_the_matte_is_the_fluid_mirrored():
+    img = np.zeros((20, 20, 3), np.float32)
+    img[:, :10] = texture(5, (20, 10))[..., None]
+    img[:, 10:] = 1.0  # rock
+    matte = np.zeros((20, 20))
+    matte[:, :10] = 1.0
+    layer = extend_outside(img, matte)
+    assert np.array_equal(layer[:, :10], img[:, :10])
+    # Column 10 + k mirrors column 9 - k (about the nearest fluid pixel, column 9).
+    np.testing.assert_array_equal(layer[:, 10:19], img[:, 8::-1])
+    assert layer.max() < 1.0 or img[:, :10].max() == 1.0  # no rock flows in
+
+
+def test_the_timing_fits_the_travel_in_whole_repeats():
+    v = np.zeros((10, 10, 2))
+    ones = np.ones((10, 10))
+    for speed, n in ((0.25, 24), (0.5, 24), (1.0, 24), (3.0, 24), (1.0, 6)):
+        v[..., 1] = speed
+        total, cycle = flow_timing(v, ones, n, travel=16)
+        assert total % n == 0
+        assert total <= 4 * n
+        assert abs(total / cycle - round(total / cycle)) < 1e-9  # whole cycles
+        if 2 * 16 / speed <= 4 * n:
+            assert cycle * speed / 2 >= 16 - 1e-9  # the phases are at least 16 px apart
+    assert flow_timing(v, ones, 24, travel=16, repeats=False)[0] == 24
+    assert flow_timing(np.zeros((10, 10, 2)), ones, 24, travel=16) == (24, 24.0)
+
+
+# ------------------------------------------------------------------- the rendering
+
+
+def test_the_field_is_the_fragments_motion_or_the_painted_speed(assignment, db, photo):
+    img, matte = photo
+    v = flow_field(assignment)
+    inside = assignment.target.canvas_matte > 0.99
+    np.testing.assert_allclose(v[inside].mean(axis=0), [0.0, 1.0], atol=0.05)
+    painted = assign(img, matte, db, FEW, speed=np.where(matte > 0, 2.0, 0.0))
+    v2 = flow_field(painted)
+    np.testing.assert_allclose(np.hypot(v2[..., 0], v2[..., 1])[inside], 2.0, rtol=1e-4)
+
+
+def test_frame_zero_is_the_photo(assignment, photo):
+    img, matte = photo
+    out = render(assignment, FEW.replace(detail=0.0)).clip.frames
+    assert np.array_equal(out[0][matte == 0], img[matte == 0])  # outside: bit for bit
+    assert np.abs(out[0] - img).max() < 2e-3  # inside: the photo matched to itself
+    # With the difference frames on top, frame 0 differs from the photo by them alone.
+    anim = render(assignment, FEW)
+    d0 = anim.stages["differences"][0]
+    assert np.array_equal(anim.clip.frames[0][matte == 0], img[matte == 0])
+    fluid = matte > 0
+    before = np.clip(img + FEW.detail * d0[..., None], 0, 1)[fluid]
+    assert np.abs(anim.stages["unmatched"][0][fluid] - before).max() < 1e-5
+
+
+def test_the_rendered_clip_loops(assignment):
+    anim = render(assignment, FEW)
+    f = anim.clip.frames
+    steps = np.abs(np.diff(np.concatenate([f, f[:1]]), axis=0)).mean(axis=(1, 2, 3))
+    assert steps[-1] < 1.5 * np.median(steps[:-1])
+
+
+@pytest.mark.parametrize("painted", [None, 2.0])
+def test_the_output_moves_at_the_fragments_or_the_painted_speed(db, photo, painted):
+    img, matte = photo
+    speed = None if painted is None else np.where(matte > 0, painted, 0.0)
+    a = assign(img, matte, db, FEW, speed=speed)
+    inside = matte > 0.99
+    inside[:, :40] = False  # away from the upstream edge, where the mirror flows in
+    flow = measured_flow(render(a).clip.frames, inside)
+    wanted = 1.0 if painted is None else painted
+    speed_out = np.hypot(*flow)
+    assert 0.65 * wanted < speed_out < 1.35 * wanted
+    assert abs(np.degrees(np.arctan2(flow[0], flow[1]))) < 20  # to the right
+
+
+def test_the_rendering_option_round_trips():
+    p = AnimateParams(rendering="paper", travel=20.0, detail=0.5)
+    assert AnimateParams.from_dict(p.to_dict()) == p
+    assert AnimateParams().rendering == "flow"
+    with pytest.raises(ValueError, match="rendering must be one of"):
+        AnimateParams(rendering="fast")
+
+
+# ------------------------------------------------------------------ no fragment in sync
+
+
+def test_neighbours_sharing_a_fragment_get_offsets_a_quarter_loop_apart():
+    gen = np.random.default_rng(0)
+    rows, cols = np.mgrid[:6, :8]
+    pos = np.stack([rows.ravel(), cols.ravel()], axis=1) * 24
+    ids = gen.integers(0, 3, len(pos))
+    off = temporal_offsets(ids, pos, 24)
+    grid = {tuple(p // 24): i for i, p in enumerate(pos)}
+    gaps = []
+    for (r, c), i in grid.items():
+        for dr in (-1, 0, 1):
+            for dc in (-1, 0, 1):
+                j = grid.get((r + dr, c + dc))
+                if j is not None and j != i and ids[i] == ids[j]:
+                    gap = abs(int(off[i]) - int(off[j])) % 24
+                    gaps.append(min(gap, 24 - gap))
+    # At most 4 earlier neighbours each rule out 5 offsets: an eighth of the loop is
+    # always possible, a quarter almost always.
+    assert min(gaps) >= 3
+    assert np.mean(np.array(gaps) >= 6) > 0.8
+    assert sync_share(ids, pos) > 0.2  # before: a third of the neighbours share one
+    assert sync_share(ids, pos, off) == 0.0
+    # A fragment with no twin next to it keeps offset 0 (renders as before).
+    assert temporal_offsets([1, 2, 3], [[0, 0], [0, 24], [0, 48]], 24).tolist() == [0, 0, 0]
+
+
+def test_staggered_loops_are_the_whole_clips_loop_when_not_shifted():
+    gen = np.random.default_rng(1)
+    diffs = gen.standard_normal((4, 8, 72, 72)).astype(np.float32)
+    pos = np.array([[0, 0], [0, 24], [24, 0], [24, 24]])
+    looped = blend_differences(stagger(diffs, np.zeros(4), overlap=2), pos, (96, 96), margin=12)
+    whole = loop_crossfade(blend_differences(diffs, pos, (96, 96), margin=12), overlap=2)
+    np.testing.assert_allclose(looped, whole, atol=1e-5)
+    shifted = stagger(diffs, [0, 3, 0, 5], overlap=2)
+    base = stagger(diffs, np.zeros(4), overlap=2)
+    np.testing.assert_array_equal(shifted[1], np.roll(base[1], -3, axis=0))
+
+
+def test_a_uniform_photo_no_longer_plays_a_fragment_in_sync(db):
+    img = np.full((96, 168, 3), 0.5, np.float32) + 0.2 * texture(7, (96, 168))[..., None]
+    a = assign(img, None, db, AnimateParams(candidates=3, lam=1.0, loop=4))
+    anim = render(a, FEW.replace(rendering="paper"))
+    pos = a.target.positions
+    st = anim.stages
+    assert sync_share(a.fragments, pos) > 0  # the MRF repeats fragments
+    assert sync_share(a.fragments, pos, st["offsets"]) == 0.0
+    assert sync_share(a.fragments, pos, st["offsets"], st["mirrors"]) == 0.0
+    assert (st["mirrors"] >= 0).any()
+    # Everything moves right: mirrored fragments are flipped upside down (axis 0),
+    # which keeps their motion.
+    assert set(st["mirrors"].tolist()) <= {-1, 0}
+
+
+def test_repeated_neighbours_alternate_mirrors_across_their_motion():
+    pos = np.array([[0, 24 * k] for k in range(6)])
+    sideways = np.tile([0.1, 1.0], (6, 1))
+    assert mirror_axes([4] * 6, pos, sideways).tolist() == [-1, 0, -1, 0, -1, 0]
+    upwards = np.tile([-1.0, 0.2], (6, 1))
+    assert mirror_axes([4] * 6, pos, upwards).tolist() == [-1, 1, -1, 1, -1, 1]
+    assert mirror_axes([1, 2, 3, 4, 5, 6], pos, sideways).tolist() == [-1] * 6
+    # The frames of a mirrored fragment are flipped, and only its.
+    gen = np.random.default_rng(4)
+    diffs = gen.standard_normal((2, 8, 6, 6)).astype(np.float32)
+    plain = stagger(diffs, [0, 0], overlap=2)
+    flipped = stagger(diffs, [0, 0], overlap=2, mirrors=[-1, 0])
+    np.testing.assert_array_equal(flipped[0], plain[0])
+    np.testing.assert_array_equal(flipped[1], plain[1][:, ::-1])
+
+
+# ------------------------------------------------------------------ exemplar fill
+
+
+def _stripes_and_checks():
+    yy, xx = np.mgrid[:64, :80]
+    stripes = ((xx // 4) % 2).astype(np.float32)
+    checks = (((yy // 6) + (xx // 6)) % 2).astype(np.float32)
+    hole = np.zeros((64, 80), bool)
+    hole[22:42, 28:52] = True
+    return stripes, checks, hole
+
+
+def test_the_fill_continues_a_texture_where_telea_smears_it():
+    stripes, checks, hole = _stripes_and_checks()
+    for truth in (stripes, checks):
+        rgb = np.repeat(truth[..., None], 3, axis=2)
+        given = np.where(hole[..., None], 0.5, rgb)
+        ours = exemplar_fill(given, hole)
+        telea = cv2.inpaint(to_uint8(given), hole.astype(np.uint8), 3, cv2.INPAINT_TELEA) / 255.0
+        err_ours = np.abs(ours - rgb)[hole].mean()
+        err_telea = np.abs(telea - rgb)[hole].mean()
+        assert err_ours < 0.5 * err_telea  # stripes: 0.0 against 0.4
+        assert np.array_equal(ours[~hole], given[~hole])  # outside: untouched
+
+
+def test_the_fast_fill_matches_almost_as_well_as_the_exhaustive_one():
+    gen = np.random.default_rng(3)
+    img = np.stack([texture(11, (40, 48), blur=1.0)] * 3, axis=-1)
+    img += 0.05 * gen.standard_normal(img.shape).astype(np.float32)
+    hole = np.zeros((40, 48), bool)
+    hole[14:26, 16:30] = True
+    fast = exemplar_fill(img, hole)
+    ref = reference_fill(img, hole)
+    # Both fills reproduce the texture's statistics; the exhaustive one's matches are
+    # the best there are, so ours is at most a little worse at explaining the hole.
+    for out in (fast, ref):
+        assert abs(out[hole].std() - img[~hole].std()) < 0.5 * img[~hole].std()
+    err = [np.abs(out - img)[hole].mean() for out in (fast, ref)]
+    assert err[0] < 1.25 * err[1] + 0.02
+    # Where exact matches exist (periodic textures; a ramp across the hole, matched
+    # above and below it), both find one and fill alike: the same pixels. Mutations
+    # caught: the last step copying the pixel beside each match's centre (an
+    # off-by-one in _complete); every vote divided by one patch too many (_vote: the
+    # ramp's coarse estimate comes out darker, and its matches with it).
+    stripes, checks, hole = _stripes_and_checks()
+    ramp = np.broadcast_to(np.linspace(0, 1, 80, dtype=np.float32), hole.shape)
+    for truth in (stripes, checks, ramp):
+        given = np.where(hole[..., None], 0.5, np.repeat(truth[..., None], 3, axis=2))
+        np.testing.assert_array_equal(exemplar_fill(given, hole), reference_fill(given, hole))
+
+
+def test_the_fill_refuses_a_hole_that_leaves_no_patch():
+    with pytest.raises(ValueError, match="no 7 x 7 patch"):
+        exemplar_fill(np.zeros((10, 10)), np.ones((10, 10)))
+    with pytest.raises(ValueError, match="hole must have the image's height and width"):
+        exemplar_fill(np.zeros((10, 10)), np.ones((10, 11)))
+
+
+def test_a_fragment_played_faster_skips_frames_and_still_loops():
+    gen = np.random.default_rng(2)
+    diffs = gen.standard_normal((2, 12, 4, 4)).astype(np.float32)
+    base = stagger(diffs, [0, 0], overlap=4)  # loops of 8 frames
+    fast = stagger(diffs, [0, 0], overlap=4, rates=[1, 2], n_frames=8)
+    np.testing.assert_array_equal(fast[0], base[0])
+    np.testing.assert_array_equal(fast[1], base[1][np.arange(8) * 2 % 8])  # every other frame
+    half = stagger(diffs, [0, 0], overlap=4, rates=[1, 0.5], n_frames=16)
+    np.testing.assert_allclose(half[1][1], 0.5 * (base[1][0] + base[1][1]), atol=1e-6)
+    np.testing.assert_array_equal(half[1][::2], base[1])
+
+
+def test_the_maps_are_the_recurrence_step_by_step_and_usable_as_made():
+    # Both recurrences on their own threads, each sampling point worked out once and
+    # each map written in place: the maps warp after warp, bit for bit, and a map can
+    # be used as soon as it is made.
+    from fluidnb.videodb.rendering._flow_render import _grid, _Maps, _remap
+
+    yy, xx = np.mgrid[:40, :52]
+    v = np.stack([0.7 * np.sin(xx / 7.0), 1.3 + 0.4 * np.cos(yy / 6.0)], axis=-1)
+    v = v.astype(np.float32)
+    steps = 6
+    grid = _grid((40, 52))
+    expected = np.zeros((2 * steps + 1, 40, 52, 2), np.float32)
+    for sign in (1, -1):
+        for s in range(1, steps + 1):
+            prev = expected[steps + sign * (s - 1)]
+            expected[steps + sign * s] = _remap(prev, -sign * v, grid) - sign * v
+    maps = displacement_maps(v, steps)
+    assert np.array_equal(maps.view(np.uint32), expected.view(np.uint32))
+    made = _Maps(v, steps).wait(-2.5, 1)  # the fractional age: both maps around it
+    for s in (-3, -2, -1, 0, 1):
+        assert np.array_equal(made.maps[steps + s], expected[steps + s])
+    assert displacement_maps(v, 0).shape == (1, 40, 52, 2)
+
+
+def test_what_renders_share_is_kept_and_the_clip_stays_the_same(assignment, monkeypatch):
+    # What renders of one photo share (the blend's weights, the colour axes and the
+    # matching's reference side, the advected layer) is kept with the target; the
+    # motion field and the maps with the last assignment, for its loop and travel.
+    # Renders from what is kept are renders made afresh, bit for bit.
+    from fluidnb.videodb.rendering import _shared
+
+    base = assignment.params
+    other = assignment.resolve(lam=0.0)  # another choice of fragments
+    cases = [
+        (assignment, base),
+        (assignment, base.replace(detail=0.2, cell=24)),
+        (assignment, base.replace(travel=4.0)),
+        (other, base),
+        (assignment, base.replace(tau=0.5)),
+        (assignment, base.replace(rendering="paper")),
+    ]
+    kept = [render(a, p, stages=False).clip.frames for a, p in cases]
+    assert assignment.target in _shared._SHARED
+    shared = _shared._SHARED[assignment.target]
+    assert {"blend", "layer", ("axes", 48), ("axes", 24), "behind"} <= set(shared)
+    flow = shared["flow"][2]
+    assert not flow["velocity"].flags.writeable
+    for (a, p), clip in zip(cases, kept):
+        _shared._SHARED.clear()
+        fresh = render(a, p, stages=False).clip.frames
+        assert np.array_equal(fresh.view(np.uint32), clip.view(np.uint32))
+    assert not np.array_equal(kept[0], kept[2])  # the travel's own field and maps
+    assert not np.array_equal(kept[0], kept[3])
+
+
+def test_a_process_may_end_while_the_maps_are_being_made():
+    # The maps' threads are waited for at exit, also when a daemon thread (an app's
+    # worker) made them: a daemon thread inside OpenCV when the interpreter ends
+    # aborts the process (a script that renders and exits, a kernel shut down after
+    # a prefetch).
+    import subprocess
+    import sys
+
+    code = (
+        "import threading, time\n"
+        "import numpy as np\n"
+        "from fluidnb.videodb.rendering._flow_render import _Maps\n"
+        "v = np.full((384, 480, 2), 0.5, np.float32)\n"
+        "threading.Thread(target=_Maps, args=(v, 400), daemon=True).start()\n"
+        "time.sleep(0.1)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=120)
+    assert done.returncode == 0, done.stderr.decode()[-500:]
+
+
+def test_the_fields_spread_is_the_numpy_loop_bit_for_bit():
+    # flow_field spreads the fragments' values with a compiled loop: the numpy
+    # loop's sums.
+    from fluidnb.videodb.rendering._flow_render import _spread
+
+    gen = np.random.default_rng(4)
+    positions = np.array([(r, c) for r in range(0, 97, 24) for c in range(0, 121, 24)])
+    weights = gen.random((len(positions), 48, 48))
+    values = gen.standard_normal((len(positions), 4))
+    acc, covered = np.zeros((144, 168, 4)), np.zeros((144, 168))
+    _spread(positions, weights, values, acc, covered)
+    want, want_covered = np.zeros_like(acc), np.zeros_like(covered)
+    for (r, c), w, v in zip(positions, weights, values):
+        want[r : r + 48, c : c + 48] += w[..., None] * v
+        want_covered[r : r + 48, c : c + 48] += w
+    assert np.array_equal(acc, want)
+    assert np.array_equal(covered, want_covered)
