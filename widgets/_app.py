@@ -578,12 +578,14 @@ class App(W.VBox):
         """Ask for a fresh preview; returns at once (a worker computes it)."""
         if self._preview_fn is None or self._closed:
             return
-        self._warm_only = False
-        self._previews.request()
+        with self._settle_lock:  # not between _request_warm's check and its request
+            self._warm_only = False
+            self._previews.request()
 
     def _preview_once(self):
-        if self._warm_only:
-            self._warm_only = False
+        with self._settle_lock:
+            warm_only, self._warm_only = self._warm_only, False
+        if warm_only:
             self._warm_up()
             return
         started = time.monotonic()
@@ -602,7 +604,11 @@ class App(W.VBox):
         # A run that started (or finished) meanwhile owns the player now: drop this
         # preview rather than cover the run's result with it -- unless that run is a
         # rest run this very change stopped.
-        if (not self.running or self._superseded) and generation == self._tasks_started:
+        with self._settle_lock:
+            show = (not self._task_active or self._superseded) and (
+                generation == self._tasks_started
+            )
+        if show:
             self.preview_player.clip = clip
             note = clip.metadata.get("note")
             note = f": {note}" if note else ""
@@ -624,10 +630,11 @@ class App(W.VBox):
 
     def _request_warm(self):
         """:meth:`warm` on the preview's worker, with no preview before it."""
-        if self._closed or self._previews.pending():
-            return
-        self._warm_only = True
-        self._previews.request()
+        with self._settle_lock:  # a preview asked for meanwhile must not become a warm-up
+            if self._closed or self._previews.pending():
+                return
+            self._warm_only = True
+            self._previews.request()
 
     def warm(self, params):
         """Get ready for the full result while the values rest (after a preview).
@@ -751,11 +758,14 @@ class App(W.VBox):
                 widget.disabled = False
             self._cancel_button.disabled = True
             self._progress_text.value = ""
-            self._rest_running = self._superseded = False
+            self._rest_running = False
             if self._rest_wanted and not self._closed:
                 self._schedule_rest()  # values changed while it ran
             with self._settle_lock:
-                self._task_active = False
+                # Together: a preview that ends meanwhile sees either a task still
+                # active and superseded, or no task (never an active one that looks
+                # current, whose result would never come: the preview was dropped).
+                self._task_active = self._superseded = False
                 warm, self._warm_pending = self._warm_pending, False
             if warm:
                 self._request_warm()

@@ -313,6 +313,48 @@ def test_a_newer_value_stops_the_full_result_of_the_old_one_quietly():
         app.close()
 
 
+def test_a_preview_that_ends_while_a_superseded_run_winds_down_is_shown():
+    # Seen in the browser under load: the slider held, a preview came while the run
+    # its press stopped was still winding down, and was dropped as if that run's
+    # result would cover it -- the player stayed on the old picture.
+    started = threading.Event()
+    shown, moved = [], []
+
+    def run(params, progress):
+        if params.level == pytest.approx(0.2):
+            started.set()
+            while True:  # slow and cancellable
+                progress(0.5, "working")
+                time.sleep(0.01)
+        return level_clip(params)
+
+    app = App(
+        panel=ParamPanel(Demo), run=run, preview=level_clip, min_interval=0.0, run_on_rest=True
+    )
+    schedule = app._schedule_rest
+
+    def winding_down():  # in the run's worker, after its cancellation, before it ends
+        if not moved and threading.current_thread() is app._thread:
+            moved.append(True)
+            app.panel.controls["level"].value = 0.55  # the held slider moves on
+            app.wait_preview()
+            shown.append(float(app.player.clip.frames[0, 0, 0]))
+        schedule()
+
+    app._schedule_rest = winding_down
+    try:
+        app.settle = 0.05
+        app.panel.controls["level"].value = 0.2
+        assert started.wait(10)
+        app._live.held = True  # pressed: the run of 0.2 is obsolete
+        app.panel.controls["level"].value = 0.4
+        app.wait(timeout=10)
+        assert shown == [pytest.approx(0.55)]
+    finally:
+        app._live.held = False
+        app.close()
+
+
 def test_runs_start_by_themselves_only_in_a_notebook():
     # Scripts and tests press Run themselves: no run starts behind their back.
     app, _ = make_app(preview=level_clip)
