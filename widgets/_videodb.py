@@ -18,10 +18,6 @@ import numpy as np
 from traitlets import Any, Int
 
 from fluidnb import Cancelled, Clip, Progress
-from fluidnb.sketch import (
-    direction_field,
-    quiver_segments,
-)
 from fluidnb.videodb import (
     FRAGMENT,
     STARTER_KINDS,
@@ -35,21 +31,15 @@ from fluidnb.videodb import (
 from fluidnb.videodb.starter import suggest_kind
 
 from ._app import App, _quick_mode
-from ._canvas import DrawingCanvas
 from ._common import hint, plural, row
 from ._panel import ParamPanel
 from ._photo import PhotoInput, load_photo
 from ._player import FramePlayer
-from ._strokes_file import StrokesFile
 from ._videodb_database import DatabaseChoice
+from ._videodb_sketch import SPEED_MAX, FlowSketch
 from ._videodb_views import MAP_WIDTH, AssignmentMap, energy_html, stats_html
 
 __all__ = ["SPEED_MAX", "VideoDBApp"]
-
-#: The speed (px/frame) painted by a full-value brush: the speed layer stores
-#: ``speed / SPEED_MAX`` in [0, 1] (0 = not painted). The starter databases' fragments
-#: move up to ~4 px/frame.
-SPEED_MAX = 5.0
 
 #: The bundled photos offered, and the database each suits.
 PHOTOS = {"stream": "water", "clouds": "smoke", "fire": "fire", "lake": "water"}
@@ -69,7 +59,6 @@ _RETRIEVAL_FIELDS = ("candidates", "max_angle", "max_speed_ratio")
 #: Fields that change the clip but not the assignment.
 _RENDER_FIELDS = ("shutter", "denoise", "cell", "tau", "loop", "rendering", "travel", "detail")
 
-_QUIVER = "rgba(255, 214, 10, 0.95)"
 # Live previews: one frame, FACTOR times smaller than the photo; their cache of
 # difference frames is dropped beyond this many fragments (~9 KB each).
 _PREVIEW_FACTOR = 2
@@ -77,7 +66,7 @@ _PREVIEW_LEVELS = 1  # a plain weighted blend: a quarter faster, no seam shows a
 _PREVIEW_CACHE = 4096
 
 
-class VideoDBApp(App):
+class VideoDBApp(FlowSketch, App):
     r"""Animate a still photo of fluid from a video database (Okabe, Anjyo & Onai 2011).
 
     On the photo (a bundled one or an upload; an RGBA cut-out's alpha is its matte):
@@ -188,8 +177,6 @@ class VideoDBApp(App):
         self.animation = None  #: The last rendered :class:`fluidnb.videodb.Animation`.
         self._base = None  # the assignment of the last retrieval (its tables are reused)
         self._run_version = None  # canvas version the current assignment was made from
-        self._field_key = None
-        self._field = None
         #: Whether new assignments show a preview frame (one frame at half size).
         self.live_preview = True
         self.quiver_segments = 0  #: Arrows of the direction field on the canvas now.
@@ -207,6 +194,7 @@ class VideoDBApp(App):
         self._db_pick, self._db_path = self.databases.pick, self.databases.path
         self._n_label = self.databases.label
 
+        sketch_tools = self._make_sketch_tools()
         canvas = self._make_canvas()
         if params is None:
             params = AnimateParams.for_kind(self.databases.kind)
@@ -214,42 +202,6 @@ class VideoDBApp(App):
         # The candidate slider ends at the database's size (more are refused).
         panel = ParamPanel(params, exclude=_HIDDEN, groups=GROUPS, check=self._db_check)
 
-        self._speed = W.FloatSlider(
-            value=2.0,
-            min=0.25,
-            max=SPEED_MAX,
-            step=0.25,
-            description="speed",
-            readout_format=".2f",
-            tooltip="speed brush value in px/frame (Okabe et al. 2011, Fig. 8-c); 0 = not painted",
-            layout=W.Layout(width="260px"),
-        )
-        self._speed_unit = W.HTML("<span style='opacity:0.7'>px/frame</span>")
-        self._clear_buttons = {
-            layer: W.Button(
-                description=f"Clear {label}",
-                icon="trash",
-                tooltip=f"erase every {label} drawn (undoable)",
-                layout=W.Layout(width="125px"),
-            )
-            for layer, label in (("matte", "matte"), ("flow", "flow"), ("speed", "speed"))
-        }
-        self._show_quiver = W.Checkbox(
-            value=True,
-            description="direction field",
-            indent=False,
-            tooltip="show the strokes' interpolated direction as a quiver",
-            layout=W.Layout(width="130px"),
-        )
-        self._strokes_io = StrokesFile(
-            lambda: self.canvas, "flow", say=lambda *a: self.say(*a), lead=[self._show_quiver]
-        )
-        io_ = self._strokes_io
-        self._strokes_file, self._save_button, self._load_button = (
-            io_.name,
-            io_.save_button,
-            io_.load_button,
-        )
         self._render_button = W.Button(
             description="Render",
             icon="film",
@@ -274,11 +226,6 @@ class VideoDBApp(App):
         self.energy = W.HTML()
         self.stats = W.HTML()
         for wid, cls in [
-            (self._speed, "fluidnb-vdb-speed"),
-            (self._show_quiver, "fluidnb-vdb-show-quiver"),
-            (self._strokes_file, "fluidnb-vdb-strokes-file"),
-            (self._save_button, "fluidnb-vdb-save-strokes"),
-            (self._load_button, "fluidnb-vdb-load-strokes"),
             (self._render_button, "fluidnb-vdb-render"),
             (self._use_speed_button, "fluidnb-vdb-use-speed"),
             (self.energy, "fluidnb-vdb-energy"),
@@ -287,9 +234,6 @@ class VideoDBApp(App):
             wid.add_class(cls)
         if self._rendering is not None:
             self._rendering.add_class("fluidnb-vdb-rendering")
-        for layer, button in self._clear_buttons.items():
-            button.add_class(f"fluidnb-vdb-clear-{layer}")
-            button.on_click(lambda _, layer=layer: self.canvas.clear(layer))
 
         # One layout for every app (App): the canvas and its tools | the clip and the
         # assignment map | the photo, the database and the compact panel (σ, λ, ρ, K
@@ -323,11 +267,7 @@ class VideoDBApp(App):
                     max_width="320px",
                 ),
             ],
-            canvas_tools=[
-                row(self._speed, self._speed_unit),
-                row(*self._clear_buttons.values()),
-                self._strokes_io,
-            ],
+            canvas_tools=sketch_tools,
         )
         self.views = (
             self.titled("clip", self.player, margin="0 0 0.4em 0"),
@@ -340,8 +280,6 @@ class VideoDBApp(App):
         # ---------------------------------------------------------------- wiring
         self._db_pick.on_pick(self._db_picked)
         self._db_path.observe(lambda _: self._show_n(), "value")
-        self._speed.observe(lambda _: self._sync_brush(), "value")
-        self._show_quiver.observe(lambda _: self._update_quiver(), "value")
         self._render_button.on_click(lambda _: self.start_render())
         self._use_speed_button.on_click(lambda _: self.use_result_speed())
         self.panel.observe(self._panel_changed, "params")
@@ -363,39 +301,6 @@ class VideoDBApp(App):
                 raise
             raise ValueError(f"{exc} (one {FRAGMENT} x {FRAGMENT} fragment)") from None
         return np.ascontiguousarray(image, np.float32), alpha
-
-    def _make_canvas(self):
-        # The speed brush's value comes from the app's px/frame slider and the matte
-        # brush always paints "inside": no 0..1 value slider.
-        canvas = DrawingCanvas(
-            self.photo,
-            strokes=["flow"],
-            masks=["matte"],
-            maps=["speed"],
-            display_size=self._display_size,
-            value_slider=False,
-            button_width="88px",
-        )
-        speed = canvas.layers["speed"]
-        speed.color, speed.opacity = (1.0, 1.0, 1.0), 0.95  # grey levels: white = fast
-        canvas.brush_radius = max(2.0, max(self.photo.shape[:2]) / 24)
-        if self.photo_alpha is not None:
-            canvas.set_mask(self.photo_alpha > 0.5, "matte")
-        canvas.select("brush", "matte")
-        return canvas
-
-    def _wire_canvas(self, canvas):
-        # The canvas column as wide as the canvas (with room for the tools), narrower
-        # on a narrower page -- the canvas shrinks with it -- so the clip, the map and
-        # the panel stay beside it (at 1280 px they wrapped under it). 700 px: the
-        # clip-and-map column and the panel, with their margins.
-        widest = max(canvas.canvas.width, 440)
-        self.drawing_width = f"clamp(360px, calc(100% - 700px), {widest}px)"
-        canvas.observe(self._drawing_changed, "version")
-        canvas.observe(lambda _: self._sync_brush(), ["tool", "layer"])
-        self._field_key = self._field = None
-        self._sync_brush()
-        self._update_quiver()
 
     def set_photo(self, photo, matte=None):
         """Use another photo: a bundled name or an image (the drawing starts afresh).
@@ -482,123 +387,12 @@ class VideoDBApp(App):
             self.panel.follow()
 
     # ------------------------------------------------------------------ drawing
-    def select(self, tool, layer=None):
-        """Choose the tool (stroke, brush, eraser, fill) and layer (matte, flow, speed)."""
-        self.canvas.select(tool, layer)
-
-    def _sync_brush(self):
-        c = self.canvas
-        speed = c.layer == "speed" and c.tool in ("brush", "fill")
-        self._speed.layout.display = "" if speed else "none"
-        self._speed_unit.layout.display = "" if speed else "none"
-        c.brush_value = self._speed.value / SPEED_MAX if c.layer == "speed" else 1.0
-
-    def paint_matte(self, points, *, radius=None):
-        """Paint the matte along ``points`` ((row, col) image pixels) with the brush."""
-        self.canvas.paint(points, radius=radius, layer="matte")
-
-    def erase_matte(self, points, *, radius=None):
-        """Erase the matte along ``points`` with the eraser."""
-        self.canvas.paint(points, radius=radius, layer="matte", erase=True)
-
-    def draw_stroke(self, points):
-        """Draw one flow stroke through ``points`` ((row, col)), in the flow's direction."""
-        self.canvas.draw_stroke(points, layer="flow")
-
-    def paint_speed(self, points, speed=None, *, radius=None):
-        """Paint the speed map along ``points`` with ``speed`` px/frame (the slider's)."""
-        if speed is not None:
-            if not 0 < speed <= SPEED_MAX:
-                raise ValueError(f"speed must be in (0, {SPEED_MAX:g}] px/frame, got {speed}")
-            self._speed.value = float(speed)
-        self.canvas.select("brush", "speed")
-        self.canvas.paint(points, radius=radius, value=self._speed.value / SPEED_MAX)
-
-    def set_matte(self, matte):
-        """Replace the matte (bool or > 0.5 inside; undoable)."""
-        self.canvas.set_mask(np.asarray(matte), "matte")
-
-    def set_strokes(self, strokes):
-        """Replace the flow strokes, each an (n, 2) (row, col) array (undoable)."""
-        self.canvas.set_strokes(strokes, "flow")
-
-    def set_speed(self, speed):
-        """Replace the speed map, (H, W) px/frame, 0 = not painted (undoable)."""
-        arr = np.asarray(speed, np.float32)
-        if arr.size and (arr.min() < 0 or arr.max() > SPEED_MAX):
-            raise ValueError(
-                f"speed must lie in [0, {SPEED_MAX:g}] px/frame, got [{arr.min():g}, {arr.max():g}]"
-            )
-        self.canvas.set_map(arr / SPEED_MAX, "speed")
-
-    def matte(self):
-        """The matte a run uses, float32 (H, W) in [0, 1].
-
-        The painted mask; where it covers the photo's own soft alpha (an RGBA
-        cut-out), that alpha's values, so the edge stays soft.
-        """
-        painted = self.canvas.get_mask("matte")
-        m = painted.astype(np.float32)
-        if self.photo_alpha is not None:
-            m = np.where(painted & (self.photo_alpha > 0), self.photo_alpha, m)
-        return m.astype(np.float32)
-
-    def strokes(self):
-        """The flow strokes: a list of (n, 2) (row, col) arrays."""
-        return self.canvas.get_strokes("flow")
-
-    def speed_map(self):
-        """The painted speed in px/frame, float32 (H, W); 0 where not painted."""
-        return self.canvas.get_map("speed") * np.float32(SPEED_MAX)
-
-    def direction_field(self):
-        """The strokes' interpolated unit direction field (H, W, 2) (dy, dx), or None."""
-        strokes = self.strokes()
-        if not strokes:
-            return None
-        key = tuple(s.tobytes() for s in strokes)
-        if key != self._field_key:
-            self._field = direction_field(strokes, self.photo.shape[:2])
-            self._field_key = key
-        return self._field
-
-    def _update_quiver(self):
-        try:
-            field = self.direction_field() if self._show_quiver.value else None
-        except ValueError as exc:
-            self.say(str(exc), "error")
-            field = None
-        if field is None:
-            self.quiver_segments = 0
-            self.canvas.show_segments(None)
-            return
-        matte = self.canvas.get_mask("matte")
-        if matte.any():  # the field matters only where the fluid is
-            field = field * matte[..., None]
-        step = max(8, round(max(self.photo.shape[:2]) / 16))
-        segments = quiver_segments(field, step=step, length=0.7 * step)
-        self.quiver_segments = len(segments)
-        self.canvas.show_segments(segments if len(segments) else None, _QUIVER)
-
     def _drawing_changed(self, change):
         self._update_quiver()
         if self._run_version is not None and change["new"] != self._run_version:
             self._run_version = None
             if not self.running:
                 self.say("the drawing changed since the run: press Run for a new retrieval")
-
-    # ------------------------------------------------------------------ strokes file
-    def save_strokes(self, path=None):
-        """Write the strokes as a ``fluidnb.strokes`` JSON file; returns the path.
-
-        ``path`` (default: the file box's, ``strokes.json``) is a bare file name in the
-        output folder (``fluidnb-output/`` beside the notebook), or a path.
-        """
-        return self._strokes_io.save(path)
-
-    def load_strokes(self, path=None):
-        """Replace the strokes by those of a JSON file (undoable); ValueError if refused."""
-        return self._strokes_io.load(path)
 
     # ------------------------------------------------------------------ run
     def _inputs(self):
