@@ -24,6 +24,7 @@ _COMMAND_MODULES = [
     "fluidnb.cli._turbulence",
     "fluidnb.cli._videodb",
     "fluidnb.cli._animate",
+    "fluidnb.cli._scene",
 ]
 
 

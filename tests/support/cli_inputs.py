@@ -128,4 +128,9 @@ RECIPES = {
         *("--background", d / "background.png", "--candidates", "5", "--loop", "2"),
         *("-o", o / "animate.gif"),
     ],
+    ("scene",): lambda d, o: [
+        *("scene", d / "photo.png", "--water", d / "mask.png", "--clouds", d / "mask.png"),
+        *("--flicker", d / "mask.png", "--fire", d / "mask.png", "--frost", d / "mask.png"),
+        *("--strokes", d / "strokes.json", "--save-scene", o / "scene", "-o", o / "scene.gif"),
+    ],
 }

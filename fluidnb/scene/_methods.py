@@ -1,0 +1,259 @@
+"""Each layer by its own method: the call a method's app makes, on the scene's photo.
+
+Every function here returns the layer as a :class:`LayerClip`: frames the size of the
+photo, what they add or put over the picture, and how they are timed. Nothing here
+composites (that is :mod:`._composite`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage as ndi
+
+from .._clip import Clip
+
+__all__ = ["LayerClip", "default_params", "innermost_point", "run_layer", "seamless_loop"]
+
+#: Seconds of fire a fire layer simulates (its loop, before the cross-fade).
+FIRE_SECONDS = 4.0
+#: Seconds over which a clip that does not loop by itself is cross-faded into its start.
+LOOP_SECONDS = 0.5
+
+
+@dataclass(frozen=True, eq=False)
+class LayerClip:
+    """One layer's animation, ready to composite.
+
+    Attributes
+    ----------
+    colour : ndarray, shape (T, H, W, 3), float32
+        ``replace``: the picture inside the layer's reach; ``light``: the light it
+        adds; ``cover``: the premultiplied colour of what covers (ice).
+    alpha : ndarray, shape (T, H, W) or (H, W), float32
+        How much of the picture under it the layer replaces or covers (0-1); for
+        ``light``, how much of its light reaches each pixel.
+    fps : float
+        Its frames a second.
+    loops : bool
+        Whether it repeats (else it holds its last frame).
+    clip : Clip
+        The method's own clip, as its method returned it.
+    """
+
+    colour: np.ndarray
+    alpha: np.ndarray
+    fps: float
+    loops: bool
+    clip: Clip
+
+    def __len__(self):
+        return len(self.colour)
+
+    @property
+    def duration(self):
+        """Seconds the layer lasts (one loop, or its growth)."""
+        return len(self) / self.fps
+
+
+def default_params(kind):
+    """The parameters a layer of ``kind`` gets when it has none: chosen to look good.
+
+    ``water``/``clouds``: :meth:`AnimateParams.for_kind` of the water/smoke database;
+    ``flicker``: the paper's (:class:`FlickerParams`) at 24 fps over 96 frames (4 s,
+    as long as the other loops); ``fire``: :class:`FireParams` (256 px, 24 fps);
+    ``frost``: :class:`FrostParams` with the target at 96 frames (4 s at 24 fps) and a
+    3-pixel lattice; its gamma is then fitted to the region (:func:`run_layer`).
+    """
+    if kind in ("water", "clouds"):
+        from ..videodb import AnimateParams
+
+        return AnimateParams.for_kind("water" if kind == "water" else "smoke")
+    if kind == "flicker":
+        from ..flicker import FlickerParams
+
+        return FlickerParams(T=96, fps=24.0)
+    if kind == "fire":
+        from ..fire import FireParams
+
+        return FireParams()
+    if kind == "frost":
+        from ..frost import FrostParams
+
+        return FrostParams(target=96, spacing=3.0)
+    raise ValueError(f"kind must be water, clouds, flicker, fire or frost, got {kind!r}")
+
+
+def innermost_point(region):
+    """The (row, col) of the region's pixel farthest from its edge (frost's default start).
+
+    Of several equally deep pixels (a long strip), the one nearest the region's centroid.
+    """
+    inside = np.pad(region > 0.5, 1)
+    depth = ndi.distance_transform_edt(inside)[1:-1, 1:-1]
+    rows, cols = np.nonzero(depth >= depth.max() - 1e-6)
+    ys, xs = np.nonzero(region > 0.5)
+    i = int(np.argmin((rows - ys.mean()) ** 2 + (cols - xs.mean()) ** 2))
+    return np.array([[rows[i], cols[i]]], np.float64)
+
+
+def _reach(region, margin):
+    """The soft weight a ``replace`` layer puts its picture in with.
+
+    The region grown by ``margin`` pixels and feathered, so motion the method carries
+    a little past the painted edge (a cloud's outline, sec. 6 of Okabe et al.) is not
+    cut off.
+    """
+    grown = ndi.grey_dilation(region, size=(2 * margin + 1, 2 * margin + 1))
+    soft = ndi.gaussian_filter(grown, margin / 2) if margin else grown
+    return np.clip(np.maximum(soft, region), 0, 1).astype(np.float32)
+
+
+def run_layer(layer, photo, *, quick=False, progress=None):
+    """Animate one layer on ``photo`` with its method; returns a :class:`LayerClip`.
+
+    Parameters
+    ----------
+    layer : Layer
+    photo : ndarray, shape (H, W, 3), float32
+        The scene's photo at the size it is rendered.
+    quick : bool
+        The small starter databases (tests, CI).
+    progress : callable, optional
+        ``progress(fraction, message)``; raise :class:`fluidnb.Cancelled` to stop.
+    """
+    params = layer.params if layer.params is not None else default_params(layer.kind)
+    run = {
+        "water": _videodb,
+        "clouds": _videodb,
+        "flicker": _flicker,
+        "fire": _fire,
+        "frost": _frost,
+    }[layer.kind]
+    return run(layer, photo, params, quick, progress)
+
+
+def _videodb(layer, photo, params, quick, progress):
+    from ..videodb import animate, starter_database
+
+    db = starter_database("water" if layer.kind == "water" else "smoke", quick=quick)
+    anim = animate(
+        photo,
+        layer.region,
+        db,
+        params,
+        direction=list(layer.strokes) or None,
+        speed=layer.speed,
+        progress=progress,
+    )
+    clip = anim.clip
+    margin = max(2, round(max(photo.shape[:2]) / 24))
+    return LayerClip(_rgb(clip), _reach(layer.region, margin), clip.fps, True, clip)
+
+
+def _flicker(layer, photo, params, quick, progress):
+    from ..flicker import flicker
+
+    clip = flicker(photo, layer.region > 0.5, params, seed=layer.seed, progress=progress)
+    # Outside its mask every frame is the photo: the mask itself is the reach.
+    return LayerClip(_rgb(clip), (layer.region > 0.5).astype(np.float32), clip.fps, True, clip)
+
+
+def _fire(layer, photo, params, quick, progress):
+    from ..data import sample
+    from ..fire import SIMULATION_FPS, fire
+
+    exemplar, matte = sample(layer.exemplar, return_alpha=True)
+    # About FIRE_SECONDS of the flame preset's simulation, then made a seamless loop.
+    n_sim = math.ceil(FIRE_SECONDS * SIMULATION_FPS) + 1
+    result = fire(exemplar, None, params, matte=matte, n_frames=n_sim, seed=layer.seed,
+                  progress=progress)  # fmt: skip
+    clip = result.clip
+    frames = seamless_loop(_rgb(clip), max(1, round(LOOP_SECONDS * clip.fps)))
+    light = _place(frames, layer.region)
+    # Its own region at full strength, and a faint glow a little beyond it.
+    rows, cols = np.nonzero(layer.region > 0.5)
+    extent = max(rows.max() - rows.min(), cols.max() - cols.min()) + 1
+    glow = ndi.gaussian_filter(layer.region, max(1.0, extent / 6))
+    reach = np.clip(np.maximum(layer.region, 0.35 * glow / max(glow.max(), 1e-6)), 0, 1)
+    return LayerClip(light, reach.astype(np.float32), clip.fps, True, clip)
+
+
+def seamless_loop(frames, k):
+    """A clip that loops without a jump: its last ``k`` frames cross-faded into its first.
+
+    Frame :math:`i < k` of the result is :math:`w_i f_i + (1 - w_i) f_{n-k+i}` with
+    :math:`w_i = (i + 1)/(k + 1)`, the others are :math:`f_i`, and the result has
+    :math:`n - k` frames: after its last frame, :math:`f_{n-k-1}`, comes frame 0, almost
+    :math:`f_{n-k}` -- the frame that followed it in the original.
+
+    Examples
+    --------
+    >>> f = np.arange(6, dtype=np.float32)[:, None]
+    >>> [round(float(v), 2) for v in seamless_loop(f, 2).ravel()]  # 4 fades into 0, 5 into 1
+    [2.67, 2.33, 2.0, 3.0]
+    """
+    n = len(frames)
+    if not 0 < k < n:
+        raise ValueError(f"k must be in [1, {n - 1}] (the clip has {n} frames), got {k}")
+    out = np.array(frames[: n - k], np.float32, copy=True)
+    w = ((np.arange(k) + 1) / (k + 1)).astype(np.float32).reshape((k,) + (1,) * (out.ndim - 1))
+    out[:k] = w * frames[:k] + (1 - w) * frames[n - k :]
+    return out
+
+
+def _place(frames, region):
+    """Fire frames (T, s, s, 3) on black scaled into ``region``'s bounding box.
+
+    The flame's own extent (where any frame is bright) is stretched to the box, its
+    base on the box's bottom: a flame fills the region painted for it.
+    """
+    from ..fields import resize
+
+    t, _, _, _ = frames.shape
+    lum = frames.max(axis=(0, 3))
+    ys, xs = np.nonzero(lum > 0.05 * max(float(lum.max()), 1e-6))
+    if not len(ys):
+        ys, xs = np.nonzero(np.ones_like(lum))
+    flame = frames[:, ys.min() : ys.max() + 1, xs.min() : xs.max() + 1]
+    rows, cols = np.nonzero(region > 0.5)
+    r0, r1, c0, c1 = rows.min(), rows.max() + 1, cols.min(), cols.max() + 1
+    out = np.zeros((t, *region.shape, 3), np.float32)
+    for i in range(t):
+        out[i, r0:r1, c0:c1] = resize(flame[i], (r1 - r0, c1 - c0))
+    return np.clip(out, 0, None)
+
+
+def _frost(layer, photo, params, quick, progress):
+    from .._progress import Progress
+    from ..frost import HexLattice, gamma_for_target, grow, render
+
+    report = Progress(progress)
+    mask = layer.region > 0.5
+    starts = layer.starts if layer.starts is not None else innermost_point(layer.region)
+    lattice = HexLattice.from_mask(mask, params.spacing)
+    cells = lattice.snap(starts)
+    if layer.params is None:  # the scene's default: the growth lasts about its target
+        report(0.0, "fitting gamma to the region")
+        fit = gamma_for_target(lattice, cells, params.target, params, seed=layer.seed)
+        params = params.replace(gamma=fit.gamma)
+    grow_report, draw_report = report.split(0.5)
+    result = grow(lattice, cells, params, seed=layer.seed, progress=grow_report)
+    # Drawn on a black and a white plate: the ice's premultiplied colour and its
+    # opacity, so it covers whatever the layers under it show (not only the photo).
+    h, w = photo.shape[:2]
+    black = render(np.zeros((h, w, 3), np.float32), lattice, result)
+    white = render(np.ones((h, w, 3), np.float32), lattice, result)
+    colour = _rgb(black)
+    alpha = np.clip(1.0 - (_rgb(white) - colour).mean(axis=-1), 0, 1)
+    clip = render(photo, lattice, result, progress=draw_report)
+    return LayerClip(colour, alpha.astype(np.float32), clip.fps, False, clip)
+
+
+def _rgb(clip):
+    frames = np.asarray(clip.frames, np.float32)
+    if frames.ndim == 3:
+        frames = np.repeat(frames[..., None], 3, axis=-1)
+    return frames

@@ -1,0 +1,209 @@
+"""A scene: one photo, several methods, one clip."""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from collections import OrderedDict
+
+import numpy as np
+
+from .._clip import Clip
+from .._image import as_image
+from .._progress import Progress
+from .._validation import check_range
+from ._composite import composite, timeline
+from ._layer import Layer
+from ._methods import run_layer
+
+__all__ = ["Scene", "render"]
+
+#: Layer clips a scene keeps (the last ones made), so a change to one layer re-renders
+#: only that layer.
+CACHE_SIZE = 8
+
+
+class Scene:
+    """A photo and an ordered list of animated layers (bottom first).
+
+    Parameters
+    ----------
+    photo : array_like, path or PIL image
+        The picture (RGB; grey is made RGB, an alpha channel is dropped).
+    layers : list of Layer, optional
+    size : int, optional
+        Longest side the scene is rendered at; the photo is shrunk to it (default
+        480; None keeps the photo's size).
+    fps : float
+        The scene's frames a second (every layer is brought to it).
+    duration : float, optional
+        Seconds; default the longest layer's (:func:`fluidnb.scene.timeline`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fluidnb.data import sample
+    >>> from fluidnb.flicker import FlickerParams
+    >>> photo = sample("lake", size=64)
+    >>> water = np.zeros(photo.shape[:2], bool)
+    >>> water[30:, :] = True
+    >>> scene = Scene(photo, [Layer("flicker", water, FlickerParams(T=16, fps=8.0))], size=None)
+    >>> clip = render(scene)  # 16 frames at 8 fps: 2 s at 24 fps
+    >>> clip.n_frames, clip.fps
+    (48, 24.0)
+    >>> bool(np.array_equal(clip.frames[5, :30], scene.photo[:30]))  # outside: the photo
+    True
+    """
+
+    def __init__(self, photo, layers=(), *, size=480, fps=24.0, duration=None):
+        image = as_image(photo)
+        if image.ndim == 2:
+            image = np.repeat(image[..., None], 3, axis=-1)
+        image = np.ascontiguousarray(image[..., :3], np.float32)
+        if size is not None:
+            from ..fields import resize
+
+            size = int(check_range("size", size, 8))
+            f = size / max(image.shape[:2])
+            if f < 1:
+                shape = (max(1, round(image.shape[0] * f)), max(1, round(image.shape[1] * f)))
+                image = np.clip(resize(image, shape), 0, 1).astype(np.float32)
+        self.photo = image
+        self.fps = float(check_range("fps", fps, 0, lo_open=True))
+        self.duration = (
+            None if duration is None else check_range("duration", duration, 0, lo_open=True)
+        )
+        self.layers = []
+        self.cache = OrderedDict()  #: layer key -> LayerClip (the last CACHE_SIZE made)
+        self.renders = 0  #: Layers rendered by their method so far (the cache's misses).
+        for layer in layers:
+            self.add(layer)
+
+    @property
+    def shape(self):
+        """(H, W) of the scene."""
+        return self.photo.shape[:2]
+
+    @property
+    def photo_key(self):
+        """A digest of the photo (part of every layer's cache key)."""
+        return hashlib.sha256(self.photo.tobytes()).hexdigest()[:20]
+
+    def add(self, layer, index=None):
+        """Add a layer (on top, or at ``index``); its region must match the photo."""
+        if not isinstance(layer, Layer):
+            raise ValueError(f"layer must be a fluidnb.scene.Layer, got {type(layer).__name__}")
+        if layer.region.shape != self.shape:
+            from ..fields import resize
+
+            region = np.clip(resize(layer.region, self.shape), 0, 1)
+            changes = {"region": region}
+            f = self.shape[0] / layer.region.shape[0]
+            if layer.strokes:
+                changes["strokes"] = tuple(s * f for s in layer.strokes)
+            if layer.starts is not None:
+                changes["starts"] = layer.starts * f
+            if layer.speed is not None:
+                changes["speed"] = resize(layer.speed, self.shape, order=0) * f
+            layer = layer.replace(**changes)
+        if any(other.name == layer.name for other in self.layers):
+            raise ValueError(f"a layer named {layer.name!r} is already in the scene")
+        self.layers.insert(len(self.layers) if index is None else index, layer)
+        return layer
+
+    def layer(self, name):
+        """The layer called ``name``."""
+        for layer in self.layers:
+            if layer.name == name:
+                return layer
+        raise ValueError(f"no layer named {name!r}; the scene has {[x.name for x in self.layers]}")
+
+    def update(self, name, **changes):
+        """Change a layer's fields (its params, region, ...); only it re-renders."""
+        i = self.layers.index(self.layer(name))
+        self.layers[i] = self.layers[i].replace(**changes)
+        return self.layers[i]
+
+    def remove(self, name):
+        """Remove the layer called ``name``."""
+        self.layers.remove(self.layer(name))
+
+    def move(self, name, index):
+        """Put the layer called ``name`` at position ``index`` (0: bottom)."""
+        layer = self.layer(name)
+        self.layers.remove(layer)
+        self.layers.insert(index, layer)
+
+    def __repr__(self):
+        h, w = self.shape
+        names = ", ".join(f"{x.name} ({x.kind})" for x in self.layers) or "no layers"
+        return f"Scene({w}x{h}, {self.fps:g} fps: {names})"
+
+
+def render(scene, *, quick=None, progress=None):
+    """Render a scene: each visible layer by its method (cached), composited in order.
+
+    Parameters
+    ----------
+    scene : Scene
+    quick : bool, optional
+        The small starter databases for water and clouds (default: on when
+        ``FLUIDNB_QUICK`` is set).
+    progress : callable, optional
+        ``progress(fraction, message)``; raise :class:`fluidnb.Cancelled` to stop.
+
+    Returns
+    -------
+    Clip
+        ``scene.fps`` frames a second, as long as ``scene.duration`` or the longest
+        layer; metadata ``method="scene"``, ``layers`` (name, kind, method, frames,
+        fps, seconds it took or ``"cached"``) and ``timings``.
+    """
+    import os
+
+    if quick is None:
+        quick = bool(os.environ.get("FLUIDNB_QUICK"))
+    visible = [layer for layer in scene.layers if layer.visible]
+    if not visible:
+        raise ValueError("the scene has no visible layer: add one (or show a hidden one)")
+    report = Progress(progress)
+    parts = report.split(*[(i + 1) / (len(visible) + 1) for i in range(len(visible))])
+    clips, info = [], []
+    photo_key = scene.photo_key
+    for layer, part in zip(visible, parts):
+        key = layer.key(photo_key, scene.shape)
+        if key in scene.cache:
+            scene.cache.move_to_end(key)
+            clips.append(scene.cache[key])
+            seconds = "cached"
+        else:
+            part(0.0, f"{layer.name}: {layer.method}")
+            started = time.perf_counter()
+            clips.append(run_layer(layer, scene.photo, quick=quick, progress=part))
+            seconds = round(time.perf_counter() - started, 2)
+            scene.renders += 1
+            scene.cache[key] = clips[-1]
+            while len(scene.cache) > CACHE_SIZE:
+                scene.cache.popitem(last=False)
+        c = clips[-1]
+        info.append(
+            {"name": layer.name, "kind": layer.kind, "method": layer.method,
+             "frames": len(c), "fps": c.fps, "loops": c.loops, "seconds": seconds}
+        )  # fmt: skip
+    last = parts[-1]  # the compositing
+    started = time.perf_counter()
+    n, indices = timeline(clips, scene.fps, scene.duration)
+    blends = [layer.blend for layer in visible]
+    frames = np.empty((n, *scene.shape, 3), np.float32)
+    for t in range(n):
+        frames[t] = composite(scene.photo, clips, blends, indices, t)
+    last(1.0, "composited")
+    return Clip(
+        frames,
+        fps=scene.fps,
+        metadata={
+            "method": "scene",
+            "layers": info,
+            "timings": {"composite": round(time.perf_counter() - started, 3)},
+        },
+    )

@@ -1,0 +1,341 @@
+"""A scene: several methods on one photo (issue 38) -- compositing, timing, caching, files."""
+
+import json
+
+import numpy as np
+import pytest
+from scipy import ndimage as ndi
+
+from fluidnb.data import sample
+from fluidnb.fire import FireParams
+from fluidnb.flicker import FlickerParams
+from fluidnb.frost import FrostParams
+from fluidnb.scene import (
+    SCENE_VERSION,
+    Layer,
+    LayerClip,
+    Scene,
+    composite,
+    frame_index,
+    innermost_point,
+    load_scene,
+    render,
+    save_scene,
+    seamless_loop,
+    timeline,
+)
+
+# Small and quick: every layer in a few seconds on 2 cores.
+FLICKER = FlickerParams(T=16, fps=8.0)
+FIRE = FireParams(output_size=48, interval=4)
+FROST = FrostParams(spacing=3.0, gamma=0.05, target=40, max_frames=60)
+
+
+@pytest.fixture(scope="module")
+def photo():
+    return sample("lake", size=96)  # a photo no method was tuned on: 96 x 54
+
+
+def _box(shape, rows, cols):
+    h, w = shape
+    m = np.zeros((h, w), bool)
+    m[int(rows[0] * h) : int(rows[1] * h), int(cols[0] * w) : int(cols[1] * w)] = True
+    return m
+
+
+@pytest.fixture(scope="module")
+def regions(photo):
+    shape = photo.shape[:2]
+    return {
+        "flicker": _box(shape, (0.45, 0.65), (0.0, 1.0)),
+        "fire": _box(shape, (0.5, 0.7), (0.7, 0.8)),
+        "frost": _box(shape, (0.0, 0.4), (0.0, 0.3)),
+    }
+
+
+@pytest.fixture(scope="module")
+def rendered(photo, regions):
+    scene = Scene(
+        photo,
+        [
+            Layer("flicker", regions["flicker"], FLICKER),
+            Layer("fire", regions["fire"], FIRE, seed=1),
+            Layer("frost", regions["frost"], FROST, seed=2),
+        ],
+        size=None,
+    )
+    return scene, render(scene)
+
+
+# ---------------------------------------------------------------- held-out checks
+def test_outside_every_region_each_frame_is_the_photo(photo, regions, rendered):
+    _, clip = rendered
+    anywhere = regions["flicker"] | regions["frost"]
+    # The fire's glow reaches a little beyond its region: a margin of its size.
+    anywhere |= ndi.binary_dilation(regions["fire"], iterations=12)
+    outside = ~anywhere
+    assert outside.sum() > 0.2 * outside.size
+    for frame in clip.frames:
+        assert np.array_equal(frame[outside], photo[outside])
+
+
+def test_each_layer_does_what_its_method_does(photo, regions, rendered):
+    _, clip = rendered
+    f = clip.frames
+    # Flicker: the water's brightness changes from frame to frame.
+    water = regions["flicker"]
+    assert np.abs(f[1:, water] - f[:-1, water]).mean() > 1e-3
+    # Frost grows: ever more of its region differs from the photo, and it holds.
+    frost = regions["frost"]
+    covered = [(np.abs(fr[frost] - photo[frost]).max(axis=-1) > 0.05).mean() for fr in f]
+    assert covered[0] < 0.05 < covered[-1]
+    assert np.all(np.diff(covered) > -0.02)
+    # Fire adds light: its region is brighter than the photo, and it flickers.
+    fire = regions["fire"]
+    gain = [float((fr[fire] - photo[fire]).mean()) for fr in f]
+    assert min(gain) >= 0
+    assert np.mean(gain) > 0.02
+    assert np.std(gain) > 1e-3
+
+
+def test_clip_metadata_names_every_layer_and_the_scene_length(rendered):
+    scene, clip = rendered
+    layers = clip.metadata["layers"]
+    assert [x["name"] for x in layers] == ["flicker", "fire", "frost"]
+    assert clip.fps == scene.fps == 24.0
+    longest = max(x["frames"] / x["fps"] for x in layers)
+    assert len(clip) == int(np.ceil(longest * 24 - 1e-9))
+
+
+# ---------------------------------------------------------------- caching
+def test_changing_one_layer_re_renders_only_that_layer(photo, regions):
+    scene = Scene(
+        photo,
+        [Layer("flicker", regions["flicker"], FLICKER), Layer("frost", regions["frost"], FROST)],
+        size=None,
+    )
+    first = render(scene)
+    assert scene.renders == 2
+    again = render(scene)
+    assert scene.renders == 2  # nothing changed: both from the cache
+    assert np.array_equal(first.frames, again.frames)
+    assert [x["seconds"] for x in again.metadata["layers"]] == ["cached", "cached"]
+    scene.update("flicker", params=FLICKER.replace(kappa=0.5))
+    changed = render(scene)
+    assert scene.renders == 3
+    assert [x["seconds"] == "cached" for x in changed.metadata["layers"]] == [False, True]
+    assert not np.array_equal(first.frames, changed.frames)
+
+
+def test_a_hidden_layer_is_kept_but_not_rendered(photo, regions):
+    scene = Scene(photo, [Layer("flicker", regions["flicker"], FLICKER, visible=False)], size=None)
+    with pytest.raises(ValueError, match="no visible layer"):
+        render(scene)
+    scene.add(Layer("frost", regions["frost"], FROST))
+    clip = render(scene)
+    assert [x["name"] for x in clip.metadata["layers"]] == ["frost"]
+    assert np.array_equal(clip.frames[-1][regions["flicker"]], scene.photo[regions["flicker"]])
+
+
+# ---------------------------------------------------------------- compositing, exact
+def _layer(colour, alpha, fps=24.0, loops=True):
+    colour = np.asarray(colour, np.float32)
+    return LayerClip(colour, np.asarray(alpha, np.float32), fps, loops, None)
+
+
+def test_replace_cover_and_light_follow_their_formulas():
+    rng = np.random.default_rng(0)
+    base = rng.random((4, 5, 3), dtype=np.float32) * 0.5
+    c = rng.random((1, 4, 5, 3), dtype=np.float32) * 0.5
+    a = rng.random((1, 4, 5), dtype=np.float32)
+    idx = [np.zeros(1, int)]
+    out = composite(base, [_layer(c, a)], ["replace"], idx, 0)
+    np.testing.assert_allclose(
+        out, (1 - a[0, ..., None]) * base + a[0, ..., None] * c[0], atol=1e-6
+    )
+    out = composite(base, [_layer(c * a[..., None], a)], ["cover"], idx, 0)
+    np.testing.assert_allclose(
+        out, (1 - a[0, ..., None]) * base + a[0, ..., None] * c[0], atol=1e-6
+    )
+    out = composite(base, [_layer(c, a)], ["light"], idx, 0)
+    np.testing.assert_allclose(out, base + a[0, ..., None] * c[0], atol=1e-6)
+    # Light saturates at white; nothing leaves [0, 1].
+    bright = composite(
+        np.full((4, 5, 3), 0.9, np.float32), [_layer(c + 0.5, a * 0 + 1)], ["light"], idx, 0
+    )
+    assert bright.max() == 1.0
+    # Where a layer's weight is 0 (and light black), the picture is untouched, bit for bit.
+    zero = composite(base, [_layer(c, a * 0)], ["replace"], idx, 0)
+    assert np.array_equal(zero, base)
+    # Order matters: water over fire hides the fire's light where it replaces.
+    full = np.ones((1, 4, 5), np.float32)
+    water, fire = _layer(c, full), _layer(c + 0.3, full)
+    top = composite(base, [fire, water], ["light", "replace"], idx * 2, 0)
+    np.testing.assert_allclose(top, c[0], atol=1e-6)
+    with pytest.raises(ValueError, match="blend"):
+        composite(base, [water], ["multiply"], idx, 0)
+
+
+def test_loops_repeat_and_growth_holds_its_last_frame():
+    loop = _layer(np.zeros((6, 1, 1, 3)), np.zeros((1, 1)), fps=12.0, loops=True)
+    grow = _layer(np.zeros((10, 1, 1, 3)), np.zeros((1, 1)), fps=24.0, loops=False)
+    n, (a, b) = timeline([loop, grow], 24.0)
+    assert n == 12  # the loop's 0.5 s and the growth's 10 frames: the longer, 0.5 s
+    assert a.tolist() == [0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5]
+    assert b.tolist() == [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 9, 9]
+    n, (a, _) = timeline([loop, grow], 24.0, duration=1.0)
+    assert n == 24
+    assert a[12:].tolist() == a[:12].tolist()  # the loop repeats
+    assert frame_index(np.arange(3), 8.0, grow).tolist() == [0, 3, 6]
+
+
+def test_seamless_loop_fades_the_end_into_the_start():
+    rng = np.random.default_rng(3)
+    f = rng.random((20, 3, 3), dtype=np.float32)
+    out = seamless_loop(f, 5)
+    assert len(out) == 15
+    assert np.array_equal(out[5:], f[5:15])  # untouched after the fade
+    # The step from the last frame back to the first is as small as an ordinary step
+    # into the fade (frame 0 is mostly f[15], which followed f[14]).
+    w = 1 / 6
+    np.testing.assert_allclose(out[0], w * f[0] + (1 - w) * f[15], atol=1e-6)
+    with pytest.raises(ValueError, match="k must be"):
+        seamless_loop(f, 20)
+
+
+def test_frost_starts_at_the_regions_innermost_point():
+    m = np.zeros((30, 40), bool)
+    m[5:25, 10:20] = True
+    r, c = innermost_point(m)[0]
+    assert 13 <= r <= 16
+    assert 14 <= c <= 15
+
+
+# ---------------------------------------------------------------- the video database
+def test_water_from_the_video_database_moves_and_stays_in_reach(photo, regions, monkeypatch):
+    monkeypatch.setenv("FLUIDNB_QUICK", "1")  # the quick starter database, cached
+    water = _box(photo.shape[:2], (0.45, 0.7), (0.0, 1.0))
+    scene = Scene(photo, [Layer("water", water, strokes=[[[40, 5], [40, 90]]])], size=None)
+    clip = render(scene)
+    f = clip.frames
+    assert np.abs(f[1:, water] - f[:-1, water]).mean() > 1e-3  # the water moves
+    far = ~ndi.binary_dilation(water, iterations=12)
+    assert all(np.array_equal(fr[far], photo[far]) for fr in f)
+
+
+# ---------------------------------------------------------------- scene files
+def test_a_scene_file_round_trips(tmp_path, photo, regions):
+    soft = ndi.gaussian_filter(regions["flicker"].astype(np.float32), 2)
+    speed = np.zeros(photo.shape[:2], np.float32)
+    speed[30:, :] = 2.5
+    scene = Scene(
+        photo,
+        [
+            Layer("water", soft, strokes=[[[40, 5], [40, 90]]], speed=speed, name="lake"),
+            Layer("fire", regions["fire"], FIRE, seed=4),
+            Layer("frost", regions["frost"], FROST, starts=[[5, 5]], visible=False),
+        ],
+        size=None,
+        fps=12.0,
+        duration=2.0,
+    )
+    folder = save_scene(scene, tmp_path / "s")
+    back = load_scene(folder)
+    assert (back.fps, back.duration, back.shape) == (12.0, 2.0, scene.shape)
+    assert np.abs(back.photo - scene.photo).max() <= 0.5 / 255 + 1e-6
+    for a, b in zip(scene.layers, back.layers):
+        assert (a.name, a.kind, a.params, a.seed, a.visible) == (
+            b.name,
+            b.kind,
+            b.params,
+            b.seed,
+            b.visible,
+        )
+        assert np.abs(a.region - b.region).max() <= 0.5 / 255 + 1e-6
+        assert [s.tolist() for s in a.strokes] == [s.tolist() for s in b.strokes]
+    np.testing.assert_allclose(back.layers[0].speed, speed, atol=2.5 / 65535)
+    assert back.layers[2].starts.tolist() == [[5.0, 5.0]]
+    # A bool region comes back exactly: the same cache key, the same clip.
+    assert back.layers[1].key(back.photo_key, back.shape) != ""
+    assert np.array_equal(back.layers[1].region, scene.layers[1].region)
+
+
+def _saved(tmp_path, photo, regions):
+    scene = Scene(photo, [Layer("flicker", regions["flicker"], FLICKER, name="sea")], size=None)
+    folder = save_scene(scene, tmp_path / "s")
+    return folder, json.loads((folder / "scene.json").read_text())
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda d, f: d.update(version=SCENE_VERSION + 1), "version 2; this fluidnb reads 1 to 1"),
+        (lambda d, f: d.update(format="other"), "is not a fluidnb scene"),
+        (lambda d, f: d["layers"][0].update(kind="lava"), "layer 'sea': kind must be one of"),
+        (lambda d, f: d["layers"][0].update(params={"T": 3}), "layer 'sea': "),
+        (lambda d, f: d["layers"][0].update(params={"nope": 1}), "layer 'sea': .*nope"),
+        (
+            lambda d, f: (f / "sea.region.png").unlink(),
+            "layer 'sea': region file 'sea.region.png' is missing",
+        ),
+        (
+            lambda d, f: d["layers"][0].update(region="../x.png"),
+            "region must be a file name in the scene folder",
+        ),
+        (
+            lambda d, f: (f / "sea.region.png").write_bytes(b"not a png"),
+            "layer 'sea': region file .* cannot be read",
+        ),
+        (lambda d, f: d["layers"][0].update(strokes=[[[1, 2, 3]]]), "layer 'sea': "),
+        (lambda d, f: d.update(layers={}), "layers must be a list"),
+    ],
+)
+def test_bad_scene_files_get_one_line_naming_the_layer_and_field(
+    tmp_path, photo, regions, change, message
+):
+    folder, data = _saved(tmp_path, photo, regions)
+    change(data, folder)
+    (folder / "scene.json").write_text(json.dumps(data))
+    with pytest.raises(ValueError, match=message) as err:
+        load_scene(folder)
+    assert "\n" not in str(err.value)
+
+
+def test_corrupt_and_missing_scene_json(tmp_path):
+    with pytest.raises(ValueError, match=r"has no scene\.json"):
+        load_scene(tmp_path)
+    (tmp_path / "scene.json").write_text("{" * 100_000)
+    with pytest.raises(ValueError, match="scene file"):
+        load_scene(tmp_path)
+
+
+# ---------------------------------------------------------------- bad input
+def test_layers_refuse_bad_input_naming_the_field(photo, regions):
+    with pytest.raises(ValueError, match="kind must be one of"):
+        Layer("lava", regions["fire"])
+    with pytest.raises(ValueError, match="region is empty"):
+        Layer("fire", np.zeros((5, 5)))
+    with pytest.raises(ValueError, match=r"region must lie in \[0, 1\]"):
+        Layer("fire", np.full((5, 5), 2.0))
+    with pytest.raises(ValueError, match="region"):
+        Layer("fire", np.full((5, 5), np.nan))
+    with pytest.raises(ValueError, match="each stroke"):
+        Layer("water", regions["fire"], strokes=[[[1, 2, 3], [4, 5, 6]]])
+    with pytest.raises(ValueError, match="speed must have the region's shape"):
+        Layer("water", regions["fire"], speed=np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="params must be a parameter object"):
+        Layer("fire", regions["fire"], params={"weight": 1})
+    scene = Scene(photo, [Layer("fire", regions["fire"])], size=None)
+    with pytest.raises(ValueError, match="already in the scene"):
+        scene.add(Layer("fire", regions["fire"]))
+    with pytest.raises(ValueError, match="no layer named 'sky'"):
+        scene.update("sky", seed=1)
+
+
+def test_a_region_of_another_size_is_scaled_with_its_points(photo):
+    big = np.zeros((108, 192), bool)  # twice the photo's size
+    big[60:100, 20:60] = True
+    scene = Scene(photo, size=None)
+    layer = scene.add(Layer("frost", big, starts=[[80, 40]]))
+    assert layer.region.shape == scene.shape
+    assert layer.starts.tolist() == [[40.0, 20.0]]
