@@ -113,3 +113,24 @@ def test_bad_stream_arguments_name_the_parameter(kwargs, match):
         FrameStream(lambda: iter(()), **kwargs)
     with pytest.raises(ValueError, match="blocks must be a callable"):
         FrameStream([], n_frames=1, shape=(1, 1), fps=1)
+
+
+def test_a_streamed_frost_writes_the_frames_of_the_in_memory_one(tmp_path, monkeypatch):
+    from fluidnb.frost import FrostParams, HexLattice, _render, grow, render
+
+    lattice = HexLattice.hexagon(8, spacing=4)
+    grown = grow(lattice, [lattice.center_cell()], FrostParams(beta=0.5), seed=2)
+    clip = render(None, lattice, grown, every=7)
+    stream = render(None, lattice, grown, every=7, stream=True)
+    stream.save(tmp_path / "frost.npz")
+    frames, fps, metadata = read(tmp_path / "frost.npz")
+    assert np.array_equal(frames, clip.frames)
+    assert fps == clip.fps
+    assert metadata["frames"] == clip.metadata["frames"]
+    assert clip.frames[1:].std(axis=0).max() > 0.05  # the ice grows: frames differ
+    # A clip too large to hold is refused with the way out; a stream of it is made.
+    monkeypatch.setattr(_render, "_MAX_BYTES", clip.frames.nbytes // 2)
+    with pytest.raises(ValueError, match=r"every=14.*stream=True"):
+        render(None, lattice, grown, every=7)
+    render(None, lattice, grown, every=7, stream=True).save(tmp_path / "big.npz")
+    assert np.array_equal(read(tmp_path / "big.npz")[0], clip.frames)
