@@ -17,11 +17,13 @@ if TYPE_CHECKING:  # what __getattr__ below provides, for readers and tools
     from ._params import Params, ParamSpec, param
     from ._progress import Cancelled, CancelToken, Progress, TextProgress, progress_bar
     from ._random import resolve_seed, rng
+    from ._stream import FrameStream
 
 __all__ = [
     "CancelToken",
     "Cancelled",
     "Clip",
+    "FrameStream",
     "ParamSpec",
     "Params",
     "Progress",
@@ -54,6 +56,7 @@ __all__ = [
 _NAMES = {
     "Clip": "_clip",
     "load_clip": "_clip",
+    "FrameStream": "_stream",
     "as_image": "_image",
     "as_mask": "_image",
     "to_uint8": "_image",

@@ -138,6 +138,21 @@ def test_to_uint8_rounds_and_clips():
     ]
 
 
+def test_to_uint8_in_slabs_equals_the_whole_array_formula():
+    # Larger than one slab (issue 39: converted through one scratch array), with a
+    # strided view, a 0-d value and an empty array.
+    from fluidnb._image import _SLAB
+
+    rng = np.random.default_rng(4)
+    clip = (rng.random((3, 301, 457, 3), dtype=np.float32) * 1.4 - 0.2).astype(np.float32)
+    assert clip.size > 2 * _SLAB
+    want = (np.clip(clip, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+    assert np.array_equal(to_uint8(clip), want)
+    assert np.array_equal(to_uint8(clip[:, ::2, 1:-1]), want[:, ::2, 1:-1])
+    assert to_uint8(np.float32(0.5)) == 128
+    assert to_uint8(np.zeros((0, 4), np.float32)).shape == (0, 4)
+
+
 # ---------------------------------------------------------------- issue 37: hostile and huge files
 
 

@@ -64,9 +64,12 @@ def _flicker(args):
     if flow is not None and params.mapping != "flow":
         params = params.replace(mapping="flow")  # --flow alone means the flow mapping
     photo.note(args.prog)
-    clip = flicker(image, mask, params, flow=flow, seed=args.seed, progress=TextProgress())
-    out = clip.with_metadata(**photo.metadata()).save(args.output)
-    print(f"wrote {out} ({len(clip)} frames, {clip.fps:g} fps, seed {clip.metadata['seed']})")
+    # Streamed: the frames go to the file a few at a time as they are made.
+    frames = flicker(
+        image, mask, params, flow=flow, seed=args.seed, stream=True, progress=TextProgress()
+    )
+    out = frames.with_metadata(**photo.metadata()).save(args.output)
+    print(f"wrote {out} ({len(frames)} frames, {frames.fps:g} fps, seed {frames.metadata['seed']})")
     return 0
 
 

@@ -178,7 +178,16 @@ def _frost(args):
         optimise = result.to_dict()
     grown = grow(lattice, starts, params, seed=seed, progress=TextProgress())
     print(f"beta = {params.beta:.6g}: {grown.message}")
-    clip = render(image, lattice, grown, every=args.every, size=args.size, progress=TextProgress())
+    # Streamed: the frames go to the file a few at a time as they are drawn.
+    clip = render(
+        image,
+        lattice,
+        grown,
+        every=args.every,
+        size=args.size,
+        stream=True,
+        progress=TextProgress(),
+    )
     extra = {"seed": seed, "n_cells": lattice.n_cells, **photo.metadata()}
     if optimise is not None:
         extra["optimise"] = optimise

@@ -18,8 +18,10 @@ which is not even, complex ones), and then each frame's height
 are made in aligned blocks of ``_BLOCK``: a matrix product's rounding depends on how
 many rows it has, and computing a single frame through its block makes
 :meth:`FlickerModel.frame` bit-identical to the same frame of the whole clip. With
-noise, the normalisation needs the whole loop (its RMS, or its peak), so the heights of
-all frames are made at once (one product, the fastest way) and kept.
+noise, the normalisation needs the whole loop (its RMS from a sample of the region's
+pixels, its peak from one pass over the blocks); the heights are then made again block
+by block as the frames are made, so no table of the whole loop is held and a stream
+(:meth:`FlickerModel.stream`) holds a few frames at a time (issue 39).
 
 :func:`fluidnb.flicker._reference.flicker_reference` is the same model written out
 literally (one 3-D spectrum, one 3-D inverse DFT); the tests check this one against it.
@@ -38,8 +40,10 @@ from .._clip import Clip
 from .._image import as_image, as_mask
 from .._progress import Progress
 from .._random import resolve_seed, rng
+from .._stream import FrameStream, timed
 from .._validation import check_int, check_range
 from ._flow import as_velocity
+from ._kernels import shade_relight, soft_heights
 from ._params import FlickerParams
 from ._shading import _lambert_frame, _Relight, _Work, feather_weights, light_vector
 from ._spectrum import (
@@ -49,7 +53,6 @@ from ._spectrum import (
     noise_spectrum,
     phase_spectrum,
     region_weights,
-    soft_clip,
     temporal_frequencies,
     temporal_signals,
 )
@@ -234,7 +237,29 @@ class _Scene:
         self.relighter = _Relight(self.image[self.window], self.reference, p.k * weight)
 
     def render(self, slopes, out):
-        """Frames ``out`` (n, h, w[, 3]) of the window from pre-scaled heights (n, h, w)."""
+        """Frames ``out`` (n, h, w[, 3]) of the window from pre-scaled heights (n, h, w).
+
+        Compiled, one pass a frame (:func:`._kernels.shade_relight`); the numpy
+        version, :meth:`render_reference`, is what the tests compare it with.
+        """
+        relight = self.relighter
+        light = self.light.astype(np.float32)
+        for i in range(slopes.shape[0]):
+            frame = out[i] if out.ndim == 4 else out[i][..., None]
+            shade_relight(
+                slopes[i],
+                light,
+                relight.kw,
+                relight.offset,
+                relight.cap,
+                relight.can_go_negative,
+                relight.planes,
+                frame,
+            )
+        return out
+
+    def render_reference(self, slopes, out):
+        """:meth:`render` in numpy: :func:`_lambert_frame`, then ``_Relight.frame``."""
         work = _Work(slopes.shape[1:])
         shading = np.empty(slopes.shape[1:], np.float32)
         factor = np.empty(slopes.shape[1:], np.float32)
@@ -437,47 +462,83 @@ class FlickerModel:
         self.timings["synthesis"], clock = now - clock, now
 
         self.normalisation = 1.0
-        self._table = None
         self._cache = {}
         self._rest = None
-        # Im(B g) = Re B Im g + Im B Re g, with A folded in.
+        # Im(B g) = Re B Im g + Im B Re g, with A folded in; one set per noise region.
         self._coefficients = self._make_coefficients(params.A)
-        if params.beta > 0:
-            # The random phases can add up anywhere in the loop, so the scale needs every
-            # frame: one product for all of them (the fastest way to make them), kept,
-            # so the frames are not computed twice.
+        self._region_coefficients = [
+            self._make_coefficients(params.A, signals) for signals in self._region_signals
+        ]
+        self._noisy = params.beta > 0
+        if self._noisy:
+            # The random phases can add up anywhere in the loop, so the scale needs the
+            # whole loop: its RMS from a sample of the region's pixels (a ratio of
+            # averages needs no more), its peak from one pass over every frame. The
+            # heights themselves are made again block by block as frames are made, so
+            # no (T, h w) table of the whole loop is ever held (at 1920 px it was 0.6 GB).
             report(0.8, "noise normalisation")
-            table = self._coefficients @ self._basis  # (T, h * w): A Im I_out
-            if self._blend is not None:
-                table *= self._blend[0]
-                for signals, weight in zip(self._region_signals[1:], self._blend[1:]):
-                    part = self._make_coefficients(params.A, signals) @ self._basis
-                    part *= weight
-                    table += part
             inside = np.flatnonzero(scene.mask[self.window].ravel())
             if params.noise_norm == "peak":
-                part = table if len(inside) == table.shape[1] else table[:, inside]
-                peak = max(float(part.max()), -float(part.min())) if part.size else 0.0
+                peak = self._peak(inside)
                 self.normalisation = peak / params.A if peak > 0 else 1.0
-                table *= np.float32(1.0 / self.normalisation)
             else:
-                self.normalisation = self._rms_ratio(table, inside)
-                # Heights relative to C in units of A, then bent smoothly into (-1, 1).
-                # (As a ratio of RMS the normalisation is in units of A already.)
-                scale, A = np.float32(1.0 / (params.A * self.normalisation)), np.float32(params.A)
-                for row in table:  # a frame at a time: its passes stay in the cache
-                    row *= scale
-                    soft_clip(row, _KNEE, out=row)
-                    row *= A
-            self._table = table
-        # The shading kernel's input (pre-scaled slopes) is ``table * slope_scale``, or,
-        # without a table, a product with coefficients that have it folded in.
+                self.normalisation = self._rms_ratio(inside)
+        # The shading kernel's input (pre-scaled slopes) is the heights times this, or,
+        # without noise, a product with coefficients that have it folded in.
         self._slope_scale = np.float32(scene.slope_scale)
         self._slope_coefficients = self._make_coefficients(params.A * scene.slope_scale)
         self.timings["normalise"] = time.perf_counter() - clock
         report(1.0, "ready")
 
-    def _rms_ratio(self, table, inside):
+    def _raw_heights(self, t0, t1, columns=slice(None)):
+        r""":math:`A \, \mathrm{Im}\, I_{out}` of frames t0..t1 before normalisation, (n, m).
+
+        With ``noise_regions > 1`` the regions' independent heights blended by their
+        weights (Notes of the class).
+        """
+        basis = self._basis if isinstance(columns, slice) else self._basis[:, columns]
+        rows = self._region_coefficients[0][t0:t1] @ basis
+        if self._blend is not None:
+            rows *= self._blend[0, columns]
+            for coefficients, weight in zip(self._region_coefficients[1:], self._blend[1:]):
+                part = coefficients[t0:t1] @ basis
+                part *= weight[columns]
+                rows += part
+        return rows
+
+    def _heights(self, t0, t1):
+        r"""Heights relative to C of frames t0..t1 of one aligned block, (n, h * w).
+
+        With noise, :math:`A \, \mathrm{Im}\, I_{out}` divided by
+        :attr:`normalisation` (and, for ``"rms"``, bent by :func:`soft_clip`).
+        """
+        if not self._noisy:
+            return self._coefficients[t0:t1] @ self._basis
+        rows = self._raw_heights(t0, t1)
+        p = self.params
+        if p.noise_norm == "peak":
+            rows *= np.float32(1.0 / self.normalisation)
+            return rows
+        # Heights relative to C in units of A, then bent smoothly into (-1, 1). (As a
+        # ratio of RMS the normalisation is in units of A already.)
+        # (row *= scale; soft_clip(row, _KNEE, out=row); row *= A, compiled: one pass.)
+        scale, A = np.float32(1.0 / (p.A * self.normalisation)), np.float32(p.A)
+        soft_heights(rows, scale, np.float32(_KNEE), A)
+        return rows
+
+    def _peak(self, inside):
+        r"""The peak of :math:`|A \, \mathrm{Im}\, I_{out}|` over the region and the loop."""
+        peak = 0.0
+        if not len(inside):
+            return peak
+        everywhere = len(inside) == self._basis.shape[1]
+        for t0 in range(0, self.params.T, _BLOCK):
+            rows = self._raw_heights(t0, min(t0 + _BLOCK, self.params.T))
+            part = rows if everywhere else rows[:, inside]
+            peak = max(peak, float(part.max()), -float(part.min()))
+        return peak
+
+    def _rms_ratio(self, inside):
         """RMS of the noisy heights over that of the same mapping without noise.
 
         Both over the whole loop and the region: every pixel of it up to
@@ -493,8 +554,9 @@ class FlickerModel:
         turns = np.mod(np.outer(self.bins, np.arange(T)), T)
         quiet_signals = np.exp(2j * np.pi * turns / T)
         quiet = self._make_coefficients(self.params.A, quiet_signals) @ self._basis[:, inside]
+        noisy = self._raw_heights(0, T, inside)
         target = float(np.sqrt(np.mean(np.square(quiet, dtype=np.float64))))
-        actual = float(np.sqrt(np.mean(np.square(table[:, inside], dtype=np.float64))))
+        actual = float(np.sqrt(np.mean(np.square(noisy, dtype=np.float64))))
         return actual / target if target > 0 and actual > 0 else 1.0
 
     @classmethod
@@ -570,30 +632,28 @@ class FlickerModel:
     def _slopes(self, t0, t1):
         """The shading kernel's input for frames t0..t1 of one aligned block, (n, h * w).
 
-        Without noise a product over the bins (its rounding depends on the number of
-        rows, hence whole aligned blocks); with noise a scaled copy of the table's rows.
+        Made by whole aligned blocks (a matrix product's rounding depends on its number
+        of rows), so any frame alone is bit-identical to the same frame of the clip.
+        Without noise one product with the slope scale folded in; with noise the
+        normalised heights, scaled.
         """
-        if self._table is not None:
-            return self._table[t0:t1] * self._slope_scale
+        if self._noisy:
+            rows = self._heights(t0, t1)
+            rows *= self._slope_scale
+            return rows
         return self._slope_coefficients[t0:t1] @ self._basis
 
     def _row(self, which, t):
         """Frame ``t`` (any integer: period T), (h, w): heights relative to C or slopes."""
         t = int(t) % self.params.T
-        if self._table is not None:
-            if which == "height":
-                return self._table[t].reshape(self.alpha.shape).copy()
-            return (self._table[t] * self._slope_scale).reshape(self.alpha.shape)
         b = t // _BLOCK
         key = (which, b)
         if key not in self._cache:
-            t0, t1 = b * _BLOCK, (b + 1) * _BLOCK
+            t0, t1 = b * _BLOCK, min((b + 1) * _BLOCK, self.params.T)
             # Keep one block of each kind: playing the frames in order reuses it.
             self._cache = {k: v for k, v in self._cache.items() if k[0] != which}
-            if which == "height":
-                self._cache[key] = self._coefficients[t0:t1] @ self._basis
-            else:
-                self._cache[key] = self._slopes(t0, t1)
+            make = self._heights if which == "height" else self._slopes
+            self._cache[key] = make(t0, t1)
         return self._cache[key][t - b * _BLOCK].reshape(self.alpha.shape)
 
     def _check_t(self, t):
@@ -708,29 +768,66 @@ class FlickerModel:
         t = self._check_t(t)
         return self._scene.frame_from(self._row("slope", t))
 
-    def frames(self, progress=None):
-        """All ``T`` frames, shape (T, H, W[, 3]), float32 in [0, 1]."""
-        report = Progress(progress)
+    def _render(self, report, out=None):
+        """Make the frames in order; yields them a few at a time, (n, H, W[, 3]).
+
+        Heights come an aligned block of ``_BLOCK`` frames at a time (one matrix
+        product); the shading runs on the pool's threads a few frames at a time
+        (``_per_yield``), the next few while the caller takes the last ones (writes
+        them, encodes them). With ``out`` (T, H, W[, 3]) the frames are written into it
+        and the views yielded; without, each few are a new array. Either way the same
+        code makes the same frames.
+        """
         scene = self._scene
         T = self.params.T
-        out = scene.empty_clip(T)
         h, w = self.alpha.shape
+        per = self._per_yield()
         blocks = self._n_blocks
         with ThreadPoolExecutor(_THREADS, thread_name_prefix="fluidnb-flicker") as pool:
-            rows = self._slopes(0, min(_BLOCK, T))
+            pending = None
             for b in range(blocks):
                 t0, t1 = b * _BLOCK, min((b + 1) * _BLOCK, T)
                 report(b / blocks, f"frames {t0 + 1}-{t1}")
-                # Written straight into the clip (a strided view when the window is a
-                # box inside the image).
-                target = out[(slice(t0, t1), *self.window)]
-                running = scene.submit(rows.reshape(t1 - t0, h, w), target, pool)
-                if b + 1 < blocks:  # the next block's heights while this one is shaded
-                    rows = self._slopes(t1, min(t1 + _BLOCK, T))
-                for f in running:
-                    f.result()
+                # The next block's heights while the last frames are still shaded.
+                rows = self._slopes(t0, t1).reshape(t1 - t0, h, w)
+                for s0 in range(t0, t1, per):
+                    s1 = min(s0 + per, t1)
+                    frames = scene.empty_clip(s1 - s0) if out is None else out[s0:s1]
+                    # Shaded straight into the frames (a strided view when the window is
+                    # a box inside the image).
+                    target = frames[(slice(None), *self.window)]
+                    running = scene.submit(rows[s0 - t0 : s1 - t0], target, pool)
+                    if pending is not None:
+                        yield _finished(*pending)
+                    pending = (running, frames)
+            yield _finished(*pending)
+
+    def _per_yield(self):
+        """Frames shaded and handed on at a time: about 32 MB, and work for every thread."""
+        h, w = self.shape
+        size = h * w * (3 if self._scene.image.ndim == 3 else 1) * 4
+        return int(min(_BLOCK, max(_THREADS, (32 << 20) // size)))
+
+    def frames(self, progress=None):
+        """All ``T`` frames, shape (T, H, W[, 3]), float32 in [0, 1]."""
+        report = Progress(progress)
+        out = self._scene.empty_clip(self.params.T)
+        for _ in self._render(report, out):
+            pass
         report(1.0, "done")
         return out
+
+    def _metadata(self, timings):
+        return {
+            "method": "flicker",
+            "params": self.params.to_dict(),
+            "seed": self.seed,
+            "timings": timings,
+            "bins": len(self.bins),
+            "normalisation": self.normalisation,
+            "velocity": None if self.velocity is None else self.velocity.tolist(),
+            "pixel_size": self._scene.pixel_size,
+        }
 
     def clip(self, progress=None):
         """The whole loop as a :class:`fluidnb.Clip` with method, params, seed and timings."""
@@ -738,18 +835,46 @@ class FlickerModel:
         frames = self.frames(progress)
         timings = {**self.timings, "render": time.perf_counter() - started}
         return Clip._trusted(frames, float(self.params.fps), {}).with_metadata(
-            method="flicker",
-            params=self.params.to_dict(),
-            seed=self.seed,
-            timings=timings,
-            bins=len(self.bins),
-            normalisation=self.normalisation,
-            velocity=None if self.velocity is None else self.velocity.tolist(),
-            pixel_size=self._scene.pixel_size,
+            **self._metadata(timings)
+        )
+
+    def stream(self, progress=None):
+        """The loop as a :class:`fluidnb.FrameStream`: the frames of :meth:`clip`, made in order.
+
+        Saved (``model.stream().save("out.mp4")``), a few frames are held at a time
+        beside the model, never the whole loop: the way to a file at full size.
+
+        Returns
+        -------
+        FrameStream
+            ``T`` frames; the metadata of :meth:`clip`, ``timings["render"]`` the
+            seconds spent making the frames (not writing them).
+        """
+        timings = dict(self.timings)
+
+        def blocks():
+            report = Progress(progress)
+            timings["render"] = 0.0
+            yield from timed(self._render(report), timings, "render")
+            report(1.0, "done")
+
+        return FrameStream(
+            blocks,
+            n_frames=self.params.T,
+            shape=self.shape,
+            color=self._scene.image.ndim == 3,
+            fps=float(self.params.fps),
+            metadata=lambda: self._metadata(timings),
         )
 
 
-def flicker(image, mask=None, params=None, *, flow=None, seed=None, progress=None):
+def _finished(futures, frames):
+    for f in futures:
+        f.result()
+    return frames
+
+
+def flicker(image, mask=None, params=None, *, flow=None, seed=None, stream=False, progress=None):
     r"""Animate a photo with flicker ("yuragi") from its spatio-temporal spectrum.
 
     The method of Yamamoto & Sakamoto [1]_: the luminance is a pseudo-height whose
@@ -772,12 +897,17 @@ def flicker(image, mask=None, params=None, *, flow=None, seed=None, progress=Non
     seed : None, int or numpy.random.Generator
         For the noise; same seed, same frames. ``None`` draws one and records it in
         the clip's metadata.
+    stream : bool
+        Return a :class:`fluidnb.FrameStream` of the same frames instead of the
+        clip: they are made as it is saved, a few at a time, so a file of a
+        full-size photo needs memory for a few frames, not the loop
+        (docs/conventions.md, "Streams").
     progress : callable, optional
         ``progress(fraction, message)``; raising :class:`fluidnb.Cancelled` stops it.
 
     Returns
     -------
-    Clip
+    Clip or FrameStream
         ``T`` frames that loop seamlessly; metadata ``method="flicker"``, ``params``,
         ``seed``, ``timings`` (seconds per stage), ``bins`` (the number of distinct
         temporal frequencies) and ``normalisation``.
@@ -815,6 +945,8 @@ def flicker(image, mask=None, params=None, *, flow=None, seed=None, progress=Non
     """
     first, second = Progress(progress).split(0.4)
     model = FlickerModel(image, mask, params, flow=flow, seed=seed, progress=first)
+    if stream:
+        return model.stream(progress=second)
     return model.clip(progress=second)
 
 

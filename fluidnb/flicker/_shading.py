@@ -261,11 +261,14 @@ class _Relight:
         if image.ndim == 3:
             # One channel at a time: a long inner loop over pixels is several times
             # faster than broadcasting the factor along a length-3 last axis.
-            self.channels = list(np.ascontiguousarray(np.moveaxis(image, -1, 0), np.float32))
+            #: The photo channel-first, (C, h, w) float32 (C = 1 for grey).
+            self.planes = np.ascontiguousarray(np.moveaxis(image, -1, 0), np.float32)
+            self.channels = list(self.planes)
             top = self.channels[0]
             for channel in self.channels[1:]:
                 top = np.maximum(top, channel)
         else:
+            self.planes = np.ascontiguousarray(image[None], np.float32)
             top = image.astype(np.float32)
         # The largest factor that keeps every channel <= 1 (inf for black pixels).
         with np.errstate(divide="ignore"):

@@ -28,6 +28,7 @@ def frost(
     every=1,
     size=None,
     return_result=False,
+    stream=False,
     progress=None,
 ):
     r"""Animate frost growing over a painted region of an image from start points.
@@ -57,6 +58,10 @@ def frost(
         Longest side of the output (default: the image's size).
     return_result : bool
         Also return the :class:`FrostResult` (per-cell freeze frames, for re-timing).
+    stream : bool
+        Return a :class:`fluidnb.FrameStream` of the same frames instead of the clip
+        (``render(..., stream=True)``): drawn as it is saved, a few at a time, for a
+        file at full size. Its ``timings`` are the growth's and the drawing's.
     progress : callable, optional
         ``progress(fraction, message)``; raise :class:`fluidnb.Cancelled` to stop.
 
@@ -119,13 +124,14 @@ def frost(
     result = grow(lattice, cells, params, seed=seed, progress=grow_report)
     timings["grow"] = result.seconds
     t0 = time.perf_counter()
-    clip = render(img, lattice, result, every=every, size=size, progress=draw_report)
-    timings["render"] = time.perf_counter() - t0
-    timings["total"] = time.perf_counter() - started
+    clip = render(img, lattice, result, every=every, size=size, stream=stream, progress=draw_report)
+    if not stream:  # a stream times its drawing as it draws (render's metadata)
+        timings["render"] = time.perf_counter() - t0
+        timings["total"] = time.perf_counter() - started
+        extra["timings"] = timings
     clip = clip.with_metadata(
         params=params.to_dict(),
         seed=seed,
-        timings=timings,
         n_cells=lattice.n_cells,
         start_cells=lattice.points[cells].tolist(),
         **extra,

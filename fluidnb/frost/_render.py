@@ -38,9 +38,9 @@ import time
 import numpy as np
 from scipy import ndimage
 
-from .._clip import Clip
 from .._image import as_image
 from .._progress import Progress
+from .._stream import FrameStream
 from .._validation import check_fps, check_int, check_range
 from ._lattice import ROW, HexLattice
 from ._reiter import FrostResult
@@ -545,6 +545,7 @@ def render(
     size=None,
     look=None,
     frames=None,
+    stream=False,
     progress=None,
 ):
     """Draw the frost growing as ice on the image: one clip frame per simulation step.
@@ -571,12 +572,17 @@ def render(
     frames : int, optional
         Last simulation frame to draw (default: the end frame, or the last simulated
         frame if the run never ended).
+    stream : bool
+        Return a :class:`fluidnb.FrameStream` of the same frames instead of the clip:
+        they are drawn as it is saved, a few at a time, so a file at full size needs
+        memory for a few frames, not every step (docs/conventions.md, "Streams"). A
+        clip held in memory is refused beyond 2 GiB of frames; a stream is not.
     progress : callable, optional
         ``progress(fraction, message)``.
 
     Returns
     -------
-    Clip
+    Clip or FrameStream
         RGB frames, metadata ``method="frost"``, ``end_frame``, ``every``.
 
     Examples
@@ -600,7 +606,7 @@ def render(
     every = check_int("every", every, 1)
     fps = result.params.fps if fps is None else check_fps(fps)
     look = FrostLook() if look is None else _check_look(look)
-    report = Progress(progress)
+    Progress(progress)  # a bad callback is refused now, not at the first frame
     started = time.perf_counter()
 
     shape = _out_shape(lattice, size)
@@ -614,12 +620,12 @@ def render(
         steps.append(last)
 
     need = len(steps) * shape[0] * shape[1] * 3 * 4
-    if need > _MAX_BYTES:
+    if need > _MAX_BYTES and not stream:
         fewer = int(np.ceil(need / _MAX_BYTES)) * every
         raise ValueError(
             f"the clip would hold {len(steps)} frames of {shape[1]}x{shape[0]} "
-            f"({need / 2**30:.1f} GiB); draw every {_ordinal(fewer)} step (every={fewer}) "
-            "or use a smaller size"
+            f"({need / 2**30:.1f} GiB); draw every {_ordinal(fewer)} step (every={fewer}), "
+            "use a smaller size, or stream it to a file (stream=True)"
         )
     base = _base(image, lattice, shape)
     surface = _Surface(base, lattice, look)
@@ -627,24 +633,46 @@ def render(
     freeze[freeze < 0] = np.inf
     # One scale of thickness for the whole clip: that of the last frame drawn.
     thickness = _Thickness(lattice, look, ice_mass(result, last))
-    out = np.empty((len(steps), *shape, 3), np.float32)
-    out[:] = base  # pixels outside the region never change
-    for n, t in enumerate(steps):
-        age = t - freeze  # frames since each cell froze (negative: not yet)
-        cover = np.clip(age / look.fade + 1.0, 0.0, 1.0).astype(np.float32)  # fades in
-        thick = thickness(ice_mass(result, t))
-        surface.compose(out[n], cover, thick)
-        report((n + 1) / len(steps), f"frame {t}")
-    np.clip(out, 0.0, 1.0, out=out)
-    metadata = {
-        "method": "frost",
-        "params": result.params.to_dict(),
-        "seed": result.seed,
-        "end_frame": result.end_frame,
-        "every": every,
-        "frames": steps,
-        "timings": {"grow": result.seconds, "render": time.perf_counter() - started},
-        "message": result.message,
-    }
-    # Frames are a fresh array owned here: hand them over without another copy.
-    return Clip._trusted(out, float(fps) / every, {}).with_metadata(**metadata)
+    setup = time.perf_counter() - started
+    timings = {"grow": result.seconds, "render": setup}
+    # Frames a block: about 32 MB of them (at 1920 px four frames).
+    per = max(1, min(len(steps), (32 << 20) // (shape[0] * shape[1] * 3 * 4)))
+
+    def blocks():
+        report = Progress(progress)
+        timings["render"] = setup  # each pass times itself
+        for b0 in range(0, len(steps), per):
+            clock = time.perf_counter()
+            out = np.empty((min(per, len(steps) - b0), *shape, 3), np.float32)
+            out[:] = base  # pixels outside the region never change
+            for i, t in enumerate(steps[b0 : b0 + len(out)]):
+                age = t - freeze  # frames since each cell froze (negative: not yet)
+                cover = np.clip(age / look.fade + 1.0, 0.0, 1.0).astype(np.float32)  # fades in
+                surface.compose(out[i], cover, ice_thickness(t))
+                report((b0 + i + 1) / len(steps), f"frame {t}")
+            np.clip(out, 0.0, 1.0, out=out)
+            timings["render"] += time.perf_counter() - clock
+            yield out
+
+    def ice_thickness(t):
+        return thickness(ice_mass(result, t))
+
+    frames_of = FrameStream(
+        blocks,
+        n_frames=len(steps),
+        shape=shape,
+        color=True,
+        fps=float(fps) / every,
+        metadata=lambda: {
+            "method": "frost",
+            "params": result.params.to_dict(),
+            "seed": result.seed,
+            "end_frame": result.end_frame,
+            "every": every,
+            "frames": steps,
+            "timings": dict(timings),
+            "message": result.message,
+        },
+    )
+    # The clip is the stream collected: one code path, the same frames.
+    return frames_of if stream else frames_of.clip()

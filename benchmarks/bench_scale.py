@@ -1,0 +1,191 @@
+"""Every method's command line at 480, 960 and 1920 px: time, peak memory, growth (issue 39).
+
+    .venv/bin/python benchmarks/bench_scale.py [--methods flicker frost fire animate]
+        [--sizes 480 960 1920] [--rounds 1] [--quick]
+
+The inputs are the bundled samples resized to each width (Lanczos), with their drawn
+regions resized alike, written as PNG files the way a user would give them:
+
+- ``flicker``: the "stream" photo and its water region, the paper's defaults (64
+  frames), to MP4;
+- ``frost``: the "leaf" photo, a centred region of two thirds of each side, one
+  start point in its middle, 240 simulation steps drawn every 4th (61 frames), to
+  MP4 (a fixed number of frames, so the cost is per pixel);
+- ``fire``: the "fire" photo (portrait: the width is its longer side) and its alpha
+  as a painted matte, the flame preset simulated, to MP4;
+- ``animate`` (the video database): the "stream" photo and its region, ``--db water``
+  (``--quick``: the small starter database), to ``.npz``, as the issue measured it.
+
+Each run is a child process (``python -c "fluidnb.cli.main"``, what the ``fluidnb``
+command runs); its wall time, its CPU time and its peak resident memory come from
+:func:`os.wait4`, the child's own ``resource`` usage (its encoder, a grandchild, is
+counted in it). Rounds are interleaved (every method and size once per round) and the
+median is reported. The growth factor is the median time (CPU time, memory) at a size
+over that at half the width: 4x the pixels, so linear cost gives 4x (the goal allows 4.4x).
+The goals of issue 39 are printed beside the 1920-px column.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from _report import fmt_s, header, load, table  # benchmarks/ is on sys.path when run
+from PIL import Image
+
+from fluidnb import data, to_uint8
+
+METHODS = ("flicker", "frost", "fire", "animate")
+SIZES = (480, 960, 1920)
+#: (seconds, GB) the issue asks of each method at 1920 px on a quiet 2-core machine.
+GOALS = {"flicker": (8.0, 2.0), "frost": (None, 3.0), "fire": (None, 3.0), "animate": (45.0, 3.0)}
+_MAIN = "import sys; from fluidnb.cli import main; sys.exit(main(sys.argv[1:]))"
+
+
+def _save(folder, name, image):
+    path = folder / f"{name}.png"
+    Image.fromarray(to_uint8(image)).save(path)
+    return str(path)
+
+
+def _sized(name, width):
+    """A bundled photo resized so its width (its longer side for a portrait) is ``width``."""
+    h, w = data.sample(name).shape[:2]
+    if h > w:  # the fire photo stands upright: scale its longer side
+        return round(w * width / h), width
+    return (round(h * width / w), width)
+
+
+def arguments(method, width, folder, quick=False):
+    """The command line of ``method`` at ``width`` px (its input files written to ``folder``)."""
+    out = folder / f"{method}{width}"
+    if method == "flicker":
+        size = _sized("stream", width)
+        photo = _save(folder, f"stream{width}", data.sample("stream", size=size))
+        mask = _save(folder, f"stream{width}_region", data.region("stream", size=size))
+        return ["flicker", photo, "--mask", mask, "--seed", "1", "-o", f"{out}.mp4"]
+    if method == "frost":
+        size = _sized("leaf", width)
+        photo = _save(folder, f"leaf{width}", data.sample("leaf", size=size))
+        h, w = size
+        region = np.zeros(size, np.float32)
+        region[h // 6 : h - h // 6, w // 6 : w - w // 6] = 1.0
+        mask = _save(folder, f"leaf{width}_region", region)
+        start = f"{w // 2},{h // 2}"
+        args = ["frost", photo, "--region", mask, f"--start={start}", "--seed", "1"]
+        return args + ["--max-frames", "240", "--every", "4", "-o", f"{out}.mp4"]
+    if method == "fire":
+        size = _sized("fire", width)
+        photo, alpha = data.sample("fire", size=size, return_alpha=True)
+        photo_path = _save(folder, f"fire{width}", photo)
+        matte = _save(folder, f"fire{width}_matte", alpha)
+        return ["fire", photo_path, "--matte", matte, "--seed", "1", "-o", f"{out}.mp4"]
+    if method == "animate":
+        size = _sized("stream", width)
+        photo = _save(folder, f"stream{width}", data.sample("stream", size=size))
+        mask = _save(folder, f"stream{width}_region", data.region("stream", size=size))
+        args = ["animate", photo, "--matte", mask, "--db", "water", "--seed", "1"]
+        return args + (["--quick"] if quick else []) + ["-o", f"{out}.npz"]
+    raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+
+
+def run(args):
+    """(wall s, CPU s, peak GB, error or None) of one child ``fluidnb ARGS``."""
+    started = time.perf_counter()
+    with tempfile.TemporaryFile() as log:
+        child = subprocess.Popen(
+            [sys.executable, "-c", _MAIN, *args], stdout=log, stderr=subprocess.STDOUT
+        )
+        _, status, usage = os.wait4(child.pid, 0)
+        child.returncode = os.waitstatus_to_exitcode(status)
+        wall = time.perf_counter() - started
+        error = None
+        if child.returncode != 0:
+            log.seek(0)
+            text = log.read().decode(errors="replace").replace("\r", "\n").strip()
+            error = text.splitlines()[-1] if text else f"exit {child.returncode}"
+    # ru_maxrss is in kilobytes on Linux.
+    return wall, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1e6, error
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n", 1)[0])
+    parser.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
+    parser.add_argument("--sizes", nargs="+", type=int, default=list(SIZES))
+    parser.add_argument("--rounds", type=int, default=1, help="interleaved rounds (median)")
+    parser.add_argument("--quick", action="store_true", help="animate: the small database")
+    opts = parser.parse_args(argv)
+    print(header(__file__, f"{opts.rounds} round(s), sizes {opts.sizes}"))
+    results = {(m, s): [] for m in opts.methods for s in opts.sizes}
+    errors = {}
+    loads_seen = []
+    with tempfile.TemporaryDirectory(prefix="bench_scale_") as tmp:
+        folder = Path(tmp)
+        commands = {(m, s): arguments(m, s, folder, opts.quick) for m, s in results}
+        for r in range(opts.rounds):
+            for key, args in commands.items():
+                if key in errors:
+                    continue
+                before = load()
+                wall, cpu, gb, error = run(args)
+                loads_seen.append(max(before, load()))
+                print(
+                    f"round {r + 1} {key[0]:8s} {key[1]:5d} px: {fmt_s(wall)} wall, "
+                    f"{fmt_s(cpu)} CPU, {gb:.2f} GB, load {before:.1f}"
+                    + (f"  FAILED: {error}" if error else ""),
+                    flush=True,
+                )
+                if error:
+                    errors[key] = error
+                else:
+                    results[key].append((wall, cpu, gb))
+
+    def median(key, i):
+        values = [v[i] for v in results[key]]
+        return statistics.median(values) if values else None
+
+    headers = ["method"]
+    for i, s in enumerate(opts.sizes):
+        headers.append(f"{s} px: time (CPU), peak")
+        if i:
+            headers.append(f"growth {opts.sizes[i - 1]}->{s}: time, CPU, memory")
+    headers.append("goal at the largest size")
+    rows = []
+    for m in opts.methods:
+        row = [m]
+        for i, s in enumerate(opts.sizes):
+            key = (m, s)
+            if key in errors:
+                row.append(f"failed: {errors[key][:60]}")
+            else:
+                row.append(
+                    f"{fmt_s(median(key, 0))} ({fmt_s(median(key, 1))}), {median(key, 2):.2f} GB"
+                )
+            if i:
+                prev = (m, opts.sizes[i - 1])
+                if results[key] and results[prev]:
+                    row.append(
+                        f"{median(key, 0) / median(prev, 0):.2f}x, "
+                        f"{median(key, 1) / median(prev, 1):.2f}x, "
+                        f"{median(key, 2) / median(prev, 2):.2f}x"
+                    )
+                else:
+                    row.append("-")
+        seconds, gb = GOALS[m]
+        row.append(" and ".join(x for x in (seconds and f"<= {seconds:g} s", f"<= {gb:g} GB") if x))
+        rows.append(row)
+    table(headers, rows)
+    if loads_seen:
+        print(f"load average during the runs: {min(loads_seen):.1f}-{max(loads_seen):.1f}")
+    return 1 if errors else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
