@@ -242,8 +242,9 @@ class Choice:
         """The option a value names: a letter, ``"(b)"``, or the option's text."""
         if isinstance(value, str):
             text = value.strip().strip("().").strip().lower()
-            if text in self.options:
-                return text
+            for key in self.options:
+                if text == key.lower():
+                    return key
             for key, option in self.options.items():
                 if text and text == _plain(option).strip().lower():
                     return key
@@ -252,8 +253,8 @@ class Choice:
     def __call__(self, value):
         key = self.letter(value)
         if key is None:
-            letters = ", ".join(f'"{k}"' for k in self.options)
-            return False, f"Answer with one of the letters {letters} (as a string)."
+            keys = ", ".join(f'"{k}"' for k in self.options)
+            return False, f"Answer with one of {keys} (as a string)."
         if key in self.answer:
             return True, ""
         return False, self.why.get(key, "That is not the best of the options: think again.")

@@ -1,0 +1,269 @@
+"""Every number a lesson's text states is recomputed here, or said where it comes from (issue 40).
+
+Each notebook's Markdown is read for numbers. Every number must lie inside one of this
+file's claims for that notebook, and each claim says what its numbers are:
+
+- ``measured(text, value, ...)``: computed by the library here, compared with what the
+  text states (``value()`` returns the text's numbers in order; ``None`` skips one);
+- ``constant(text, value)``: a default or constant of the code (``FrostParams().gamma``);
+- ``arithmetic(text, value)``: follows from other numbers by arithmetic, recomputed;
+- ``fact(text, holds)``: a claim in words ("less than half as much"), ``holds()`` true;
+- ``stated(text, why)``: not recomputable here -- quoted from the ``"paper"``, a
+  ``"setting"`` the text asks the reader to make (``test_lesson_questions.py`` checks
+  those lie on the app's sliders), an ``"example"`` or ``"definition"`` the text makes
+  up, or a ``"timing"`` of this machine (benchmarks measure those, tests never time).
+
+The claim's text must occur in the notebook as written, so a claim cannot outlive its
+sentence; a number in the text that no claim covers fails the coverage test. Generic
+references (Eq. (3), Fig. 4, section 5, notebook 04, years) and the numbers 0 and 1 are
+not claims. In formulas ($...$) only values a formula states ("= 0.036", "\\approx 0.7")
+count; a formula's own constants ($1/f^2$, $\\pi/2$) do not.
+"""
+
+import functools
+import json
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+NUM = re.compile(r"(?<![\w.])\d+(?:[.,]\d+)*(?:e-?\d+)?")
+GENERIC = [
+    r"Eqs?\.\s*\(\d+\)(?:\s*[-–,]\s*\(\d+\))*(?:\s*(?:and|or)\s*\(\d+\))?",
+    r"Eqs?\.\s*\d+(?:\s*[-–]\s*\d+)?",
+    r"\(\d+\)\s*[-–]\s*\(\d+\)",
+    r"\\tag\{\d+\}",
+    r"\(\d+\)(?=\s*\$\$|\s*\\qquad|\s*$)",
+    r"Figs?\.\s*\d+(?:[-–]\d+)?(?:-[a-d])?(?:\s*(?:and|,)\s*\d+)*",
+    r"Tables?\s+\d+(?:[-–]\d+)?(?:\s*and\s*\d+)?",
+    r"[Ss]ections?\s+\d+(?:\.\d+)*(?:[a-e])?(?:\s*(?:[-–,]|and)\s*\d+)*",
+    r"[Ss]ec\.\s*\d+(?:\.\d+)*",
+    r"^#+\s*\d+[a-e]?\.",
+    r"^\s*\d+\.\s",
+    r"\[\d+\]",
+    r"\b(?:19|20)\d\d\b",
+    r"\b0\d[ab]?_\w+",
+    r"notebook\s+0\d",
+    r"lesson\s+0\d[ab]?",
+    r"[Ee]xercise\s+\d+",
+    r"\((?:q|ex|warm|step)\d+\)",
+    r"[A-Za-z]+\d+\w*",
+    r"\b\d-D\b",
+    r"\d+\s*\(\d+\)",
+    r"`[^`]*`",
+]
+
+
+@dataclass
+class Claim:
+    text: str
+    kind: str
+    value: object = None
+    rtol: float = 0.0
+    atol: float = 0.0
+    why: str = ""
+    slow: bool = False
+    numbers: list = field(default_factory=list)
+
+
+def measured(text, value, rtol=0.05, atol=0.0, slow=False):
+    return Claim(text, "measured", value, rtol, atol, slow=slow)
+
+
+def constant(text, value, rtol=1e-9, atol=1e-12):
+    return Claim(text, "constant", value, rtol, atol)
+
+
+def arithmetic(text, value, rtol=0.01, atol=0.0):
+    return Claim(text, "arithmetic", value, rtol, atol)
+
+
+def fact(text, holds, slow=False):
+    """A claim in words ("less than half as much"): ``holds()`` must be True."""
+    return Claim(text, "fact", holds, slow=slow)
+
+
+def stated(text, why):
+    assert why in {"paper", "setting", "example", "definition", "timing"}, why
+    return Claim(text, "stated", why=why)
+
+
+# ------------------------------------------------------------------ the lessons
+
+
+def flicker_params(**kw):
+    from fluidnb.flicker import FlickerParams
+
+    return FlickerParams(**kw)
+
+
+def convex_span():
+    from fluidnb.flicker import temporal_frequencies
+
+    fc = temporal_frequencies((64, 64), flicker_params(T=64, mapping="convex"))
+    return [64, 4, int(fc.min()), int(fc.max())]
+
+
+CLAIMS = {}
+
+CLAIMS["01_drawing_tools.ipynb"] = [
+    stated("at most 256 colours", "definition"),
+    stated("With `speed` = 3 and 32 frames", "example"),
+    stated("Press **Run** with 120 frames", "setting"),
+    stated("$0.6w$ with a brush of radius $0.12h$", "definition"),  # the canvas cell's paint
+]
+
+
+def soft_clip_knee():
+    """Where the soft clip stops being the identity, in units of A (measured)."""
+    from fluidnb.flicker import soft_clip
+
+    u = np.linspace(0, 1, 10001)
+    return float(u[np.argmax(np.abs(soft_clip(u) - u) > 1e-9)])
+
+
+def swing(norm, size, T, beta=2.0):
+    """RMS of H - C over the loop, in units of A (section 7's printed numbers)."""
+    from fluidnb import data
+    from fluidnb.flicker import FlickerModel
+
+    p = flicker_params(T=T, noise_norm=norm, beta=beta)
+    m = FlickerModel(data.sample("stream", size=size), params=p, seed=0)
+    H = np.stack([m.height(t) for t in range(T)]) - p.C
+    return float(np.sqrt(np.mean(H**2)) / p.A)
+
+
+def peak_below_half():
+    return all(
+        swing("peak", size, T) < 0.5 * swing("rms", size, T, beta=0.0)
+        for size, T in ((96, 16), (384, 64))
+    )
+
+
+CLAIMS["02_flicker.ipynb"] = [
+    fact("the clip swings less than half as much as without\nnoise", peak_below_half),
+    stated("In the paper $H$ runs from 0 to 255", "paper"),
+    constant(
+        "so 255 becomes 1 and the paper's 128 becomes $128/255 \\approx 0.502$",
+        lambda: [255, 128, flicker_params().C],
+        rtol=0.002,
+    ),
+    stated("the paper takes $A = C = 128$ (of 255)", "paper"),
+    stated("Set `azimuth` to 315", "setting"),
+    measured(
+        "With $T = 64$ and $f_0 = 4$, the convex surface spans $f_c = 4 \\dots 31$",
+        convex_span,
+        rtol=0,
+    ),
+    arithmetic("*above* $T/2 = 32$", lambda: [64 / 2]),
+    arithmetic(
+        "a wheel filmed at 64\nframes per turn that turns 40 times per loop looks like it "
+        "turns backwards 24 times",
+        lambda: [64, 40, 64 - 40],
+    ),
+    arithmetic(
+        "for a 512 x 512 photo and\n$T = 64$ that is 16 million complex numbers",
+        lambda: [512, 512, 64, 512 * 512 * 64 / 1e6],
+        rtol=0.06,
+    ),
+    constant("($\\beta = 2$)", lambda: [flicker_params().beta]),
+    stated("the frame 0.5 s later (b), and 0.5 s after that", "setting"),
+    constant(
+        "(the paper: 8, so $f_0 = 4$ is 0.5 Hz)",
+        lambda: [flicker_params().fps, flicker_params().f0, 4 * 8 / 64],
+    ),
+    stated("$T = 64$ frames at 8 fps with $f_0 = 4$", "paper"),
+    stated("A pixel of brightness 0.75 with the paper's $A = C = 128/255$", "example"),
+    stated("Move `beta` from 4 down to 0.5", "setting"),
+    stated("$\\beta = 0.1$", "setting"),
+    stated("keep 0.5 Hz", "paper"),
+    measured("knee at $0.7A$", soft_clip_knee, rtol=0.01),
+]
+
+
+# ------------------------------------------------------------------ machinery
+
+
+@functools.cache
+def markdown(notebook):
+    cells = json.loads((ROOT / "notebooks" / notebook).read_text(encoding="utf-8"))["cells"]
+    return ["".join(c["source"]) for c in cells if c["cell_type"] == "markdown"]
+
+
+def tokens(md):
+    """(position, number) for every number of a Markdown cell that needs a claim."""
+    md = re.sub(r"```.*?```", lambda m: " " * len(m.group()), md, flags=re.S)
+    skip = [m.span() for pat in GENERIC for m in re.finditer(pat, md, flags=re.M)]
+    maths = [m.span() for m in re.finditer(r"\$\$.*?\$\$|\$[^$]+\$", md, flags=re.S)]
+    out = []
+    for m in NUM.finditer(md):
+        if m.group() in {"0", "1"} or any(a <= m.start() < b for a, b in skip):
+            continue
+        inside = [a for a, b in maths if a <= m.start() < b]
+        if inside:
+            # In a formula, a value it states counts ("= 0.036", "\\approx 0.7", "$0.7A$"),
+            # its own constants do not ("2\\pi", "x^4", "1/f^2").
+            before = md[max(inside[0], m.start() - 12) : m.start()]
+            after = md[m.end() : m.end() + 1]
+            stating = re.search(r"(=|\\approx|\\ge|\\le|<|>|\\sim|\\times|\\dots)\s*-?\s*$", before)
+            if not (stating or before.strip("$ ") == "") or after in {"\\", "^", "_", "/"}:
+                continue
+        out.append((m.start(), m.group()))
+    return out
+
+
+def number(token):
+    return float(token.replace(",", ""))
+
+
+CASES = [(nb, c) for nb, claims in CLAIMS.items() for c in claims if c.kind != "stated"]
+
+
+@pytest.mark.parametrize("notebook", CLAIMS)
+def test_every_claim_is_in_its_lesson(notebook):
+    text = "\n".join(markdown(notebook))
+    missing = [c.text for c in CLAIMS[notebook] if c.text not in text]
+    assert missing == [], f"{notebook}: claims whose text is gone: {missing}"
+
+
+@pytest.mark.parametrize("notebook", CLAIMS)
+def test_every_number_of_a_lesson_has_a_claim(notebook):
+    loose = []
+    for md in markdown(notebook):
+        covered = []
+        for claim in CLAIMS[notebook]:
+            start = md.find(claim.text)
+            while start >= 0:
+                covered.append((start, start + len(claim.text)))
+                start = md.find(claim.text, start + 1)
+        for pos, tok in tokens(md):
+            if not any(a <= pos < b for a, b in covered):
+                line = md[md.rfind("\n", 0, pos) + 1 : md.find("\n", pos) % (len(md) + 1)]
+                loose.append(f"{tok!r} in: {line.strip()[:90]}")
+    assert loose == [], f"{notebook}: numbers no claim covers:\n" + "\n".join(loose)
+
+
+def params_of(case):
+    notebook, claim = case
+    marks = [pytest.mark.slow] if claim.slow else []
+    return pytest.param(notebook, claim, marks=marks, id=f"{notebook[:3]}{claim.text[:40]!r}")
+
+
+@pytest.mark.parametrize(("notebook", "claim"), [params_of(c) for c in CASES])
+def test_the_numbers_the_text_states_are_what_the_code_gives(notebook, claim):
+    if claim.kind == "fact":
+        assert claim.value(), f"{notebook}: no longer true: {claim.text!r}"
+        return
+    stated = [number(t) for _, t in tokens(claim.text)]
+    got = claim.value()
+    got = [got] if np.isscalar(got) else list(got)
+    assert len(got) == len(stated), f"{claim.text!r}: {len(stated)} numbers, {len(got)} values"
+    for want, have in zip(stated, got):
+        if have is None:
+            continue
+        assert abs(want - have) <= max(claim.atol, claim.rtol * abs(have)), (
+            f"{notebook}: the text says {want:g} in {claim.text!r}, the code gives {have:.4g}"
+        )
