@@ -184,6 +184,129 @@ CLAIMS["02_flicker.ipynb"] = [
 ]
 
 
+def notebook_sizes(notebook="04_fluid_solver.ipynb"):
+    """The quick and full sizes a notebook's set-up cell chooses: {name: (quick, full)}."""
+    cells = json.loads((ROOT / "notebooks" / notebook).read_text(encoding="utf-8"))["cells"]
+    code = "\n".join("".join(c["source"]) for c in cells if c["cell_type"] == "code")
+    found = re.findall(r"^(\w+) = (\d+) if QUICK else (\d+)", code, flags=re.M)
+    return {name: (int(q), int(f)) for name, q, f in found}
+
+
+def enstrophy(shape, frames, epsilon):
+    """Section 4's curve: the total squared vorticity per frame (seed 7)."""
+    from fluidnb.fluid import FluidParams, curl, simulate
+
+    sim = simulate(FluidParams(epsilon=epsilon), frames, shape=shape, seed=7)
+    return np.array([np.sum(curl(v) ** 2) for v in sim.velocity])
+
+
+def levels_off_in_full_mode():
+    """Over the last tenth of the full clip it grows by under a tenth of its value."""
+    n, frames = (notebook_sizes()[k][1] for k in ("N", "FRAMES"))
+    e = enstrophy((n, n), frames, 0.4)
+    return e[-1] < 1.1 * e[-1 - frames // 10]
+
+
+def rising_steeply_in_quick_mode():
+    """In quick mode: still growing by over a tenth in the last tenth, and with
+    confinement above without."""
+    n, frames = (notebook_sizes()[k][0] for k in ("N", "FRAMES"))
+    on, off = enstrophy((n, n), frames, 0.4), enstrophy((n, n), frames, 0.0)
+    return on[-1] > 1.1 * on[-1 - frames // 10] and bool(np.all(on[5:] > off[5:]))
+
+
+def neumann_eigenvalues():
+    """The 1-D Laplacian with two solid walls has eigenvalues 2 - 2 cos(pi k / W)."""
+    w = 9
+    L = 2 * np.eye(w) - np.eye(w, k=1) - np.eye(w, k=-1)
+    L[0, 0] = L[-1, -1] = 1
+    lam = np.sort(np.linalg.eigvalsh(L))
+    return np.allclose(lam, np.sort(2 - 2 * np.cos(np.pi * np.arange(w) / w)))
+
+
+def inverse_cube_grows_by_3c_dt():
+    """x^-3 grows by 3 c dt in one cooling step (c = C_r / (T_max - T_amb))."""
+    from fluidnb.fluid import FluidParams, cool
+
+    p = FluidParams(C_r=0.3, T_amb=0.1)
+    T = np.array([[1.0, 0.7], [0.4, 0.2]])
+    x0 = (T - p.T_amb) / 0.9
+    x1 = (cool(T, p, dt=2.0) - p.T_amb) / 0.9
+    return np.allclose(x1**-3 - x0**-3, 3 * (p.C_r / 0.9) * 2.0)
+
+
+CLAIMS["04_fluid_solver.ipynb"] = [
+    stated("Barba's *12 steps to Navier-Stokes*", "paper"),
+    stated(
+        "about 50 minutes (the seven steps 25, the ten questions 10, the six exercises 15",
+        "timing",
+    ),
+    constant(
+        "uses a 48 × 48 grid and 40 frames",
+        lambda: [notebook_sizes()["N"][0]] * 2 + [notebook_sizes()["FRAMES"][0]],
+    ),
+    constant(
+        "the full sizes (128 × 128, 120 frames)",
+        lambda: [notebook_sizes()["N"][1]] * 2 + [notebook_sizes()["FRAMES"][1]],
+    ),
+    constant(
+        "*In quick mode* (48 × 48, 40 frames)",
+        lambda: [notebook_sizes()["N"][0]] * 2 + [notebook_sizes()["FRAMES"][0]],
+    ),
+    constant(
+        "in 40 frames the gas has not reached the lid",
+        lambda: [notebook_sizes()["FRAMES"][0]],
+    ),
+    stated("(H, W, 2) array", "definition"),
+    stated("(H, W, 2) force", "definition"),
+    stated("5-point Laplacian", "definition"),
+    arithmetic(
+        "In 1-D with $u = 0.3$ px/frame",
+        lambda: [step2_a()],
+    ),
+    constant("and `epsilon * dt` above 2.", lambda: [max_epsilon_dt()]),
+    constant("refuses `epsilon * dt` above 2.)", lambda: [max_epsilon_dt()]),
+    fact("$\\lambda_k = 2 - 2\\cos(\\pi k/W)$", neumann_eigenvalues),
+    fact("$x^{-3}$ grows by $3c\\,\\Delta t$", inverse_cube_grows_by_3c_dt),
+    fact(
+        "in full mode it levels off by the end of the clip",
+        levels_off_in_full_mode,
+        slow=True,
+    ),
+    fact(
+        "left the source after 40 frames: the two pictures differ only at the rims",
+        rising_steeply_in_quick_mode,
+    ),
+    constant("left the source after 40 frames", lambda: [notebook_sizes()["FRAMES"][0]]),
+    arithmetic("a cell half as hot\ncools 16 times slower", lambda: [0.5**-4]),
+    constant(
+        "the paper's 128 × 128 grid",
+        lambda: list(flame_shape()),
+    ),
+    stated("(above 20 % of the", "definition"),
+    stated("Try `epsilon` = 0, 0.2, 0.8, 1.5", "example"),
+]
+
+
+def step2_a():
+    """The weight step2's check expects: u dt / dx."""
+    from fluidnb.lessons import fluid
+
+    return fluid.step2.checker.checkers["a"].expected
+
+
+def flame_shape():
+    from fluidnb.fluid import flame_preset
+
+    return flame_preset().shape
+
+
+def max_epsilon_dt():
+    from fluidnb.fluid._params import MAX_EPSILON_DT
+
+    return MAX_EPSILON_DT
+
+
 # ------------------------------------------------------------------ machinery
 
 

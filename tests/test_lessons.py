@@ -139,3 +139,12 @@ def test_questions_names_the_lessons():
     assert all(isinstance(q, Question) for q in questions("drawing"))
     with pytest.raises(ValueError, match="lesson must be one of"):
         questions("nope")
+
+
+def test_a_parts_question_with_every_part_blank_is_unanswered():
+    from fluidnb.lessons import BLANK, fluid
+
+    assert fluid.ex6.check(taller=BLANK, why=BLANK).status == "unanswered"
+    half = fluid.ex6.check(taller=True, why=BLANK)
+    assert half.status == "incorrect"
+    assert "why=..." in str(half)

@@ -536,7 +536,12 @@ class Question:
         Feedback
             Truthy when correct.
         """
-        if (not answer and not named) or (len(answer) == 1 and _is_blank(answer[0])):
+        blank_parts = bool(named) and all(_is_blank(v) for v in named.values())
+        if (
+            (not answer and not named)
+            or (len(answer) == 1 and _is_blank(answer[0]))
+            or (blank_parts and not answer)
+        ):
             return Feedback("unanswered", self._how(), self.name)
         ok, note = self._call(answer, named)
         if ok:
