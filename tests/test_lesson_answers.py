@@ -108,3 +108,65 @@ def test_q9_the_same_seed_gives_the_same_clip():
     b = simulate(BASE, 10, shape=(24, 24), seed=a.seed)
     assert np.array_equal(a.temperature, b.temperature)
     assert lesson.q9.check(equal=True, why="a")
+
+
+# ------------------------------------------------------------------ 03_frost
+
+
+def test_frost_ex1_an_off_centre_start_keeps_its_mirror_and_loses_the_turn():
+    from fluidnb.frost import FrostParams, HexLattice, grow
+    from fluidnb.lessons import frost
+
+    hexa = HexLattice.hexagon(11, spacing=1.0)
+    ax = hexa.axial[: hexa.n_cells] - hexa.axial[hexa.center_cell()]
+    index = {tuple(a): i for i, a in enumerate(ax.tolist())}
+    ff = grow(hexa, [index[(5, 0)]], FrostParams(), frames=66).freeze_frame
+    turn = np.array([index[(-r, q + r)] for q, r in ax.tolist()])
+    mirror = np.array([index[(q + r, -r)] for q, r in ax.tolist()])
+    assert not np.array_equal(ff, ff[turn])
+    assert np.array_equal(ff, ff[mirror])
+    assert frost.ex1.check(rotation=False, mirror=True)
+
+
+def test_frost_ex2_the_smallest_h_that_converges_lies_in_the_accepted_range():
+    from fluidnb.frost import optimise_beta, reference_setup
+    from fluidnb.lessons import frost
+
+    lat, starts, p = reference_setup(0.0)
+
+    def converges(h):
+        return optimise_beta(
+            lat, starts, 130, p, beta0=0.25, seed=0, method="steepest", eta=1e-6, h=h
+        ).converged
+
+    lo, hi = frost.ex2.checker.range
+    assert not converges(0.002)
+    assert converges(0.003)
+    assert lo <= 0.003 <= hi
+    assert not lo <= 0.002
+
+
+def test_frost_ex3_the_predicted_eta_converges_in_one_step():
+    from fluidnb.frost import grow, optimise_beta, reference_setup
+    from fluidnb.lessons import frost
+
+    lat, starts, p = reference_setup(0.0)
+    e = [grow(lat, starts, p.replace(beta=b), seed=0).end_frame for b in (0.28, 0.32)]
+    eta = 1 / (2 * ((e[1] - e[0]) / 0.04) ** 2)
+    assert frost.ex3.check(eta)
+    res = optimise_beta(lat, starts, 130, p, beta0=0.25, seed=0, method="steepest", eta=eta, h=0.02)
+    assert res.converged
+    assert len(res.steps) <= 3  # step 0 plus one or two updates
+
+
+def test_frost_q11_a_blob_without_a_start_never_ends_and_gamma_cannot_help():
+    from fluidnb.frost import FrostParams, HexLattice, estimate_end_frame, gamma_for_target
+
+    yy, xx = np.mgrid[0:120, 0:160]
+    region = ((yy - 58) / 36) ** 2 + ((xx - 83) / 58) ** 2 <= 1
+    blob = ((yy - 110) / 8.4) ** 2 + ((xx - 80) / 64) ** 2 <= 1
+    two = HexLattice.from_mask(region | blob, 6.0)
+    starts = [[58, 64], [48, 112]]
+    assert "never ends" in str(estimate_end_frame(two, starts, FrostParams()))
+    with pytest.raises(ValueError, match="add a start point in every piece"):
+        gamma_for_target(two, starts, 72, FrostParams(), seed=0)

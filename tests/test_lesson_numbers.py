@@ -307,6 +307,249 @@ def max_epsilon_dt():
     return MAX_EPSILON_DT
 
 
+def frost_params(**kw):
+    from fluidnb.frost import FrostParams
+
+    return FrostParams(**kw)
+
+
+def frost_sizes(name):
+    return notebook_sizes("03_frost.ipynb")[name]
+
+
+def frames_per_ring():
+    """Fig. 3's growth at the paper's values: frames per ring of cells (80 frames)."""
+    from fluidnb.frost import HexLattice, grow
+
+    lat = HexLattice.hexagon(6, spacing=24.0)
+    r = grow(lat, [lat.center_cell()], frost_params(), frames=80, seed=3)
+    hops = lat.hops([lat.center_cell()])
+    return 80 / hops[r.freeze_frame >= 0].max()
+
+
+def twenty_rings():
+    from fluidnb.frost import HexLattice, estimate_end_frame
+
+    lat = HexLattice.hexagon(20)
+    est = estimate_end_frame(lat, [lat.center_cell()], frost_params())
+    return [lat.hops([lat.center_cell()]).max(), round(est.rings), est.ring_frames]
+
+
+def end_frame(radius, beta):
+    from fluidnb.frost import HexLattice, grow
+
+    lat = HexLattice.hexagon(radius)
+    return grow(lat, [lat.center_cell()], frost_params(beta=beta)).end_frame
+
+
+def reference_tables():
+    """331 cells; beta = 0.25 ends near 160 at gamma 0.036 (rth 0) and 0.19 (rth 0.8)."""
+    from fluidnb.frost import grow, reference_setup
+
+    ends, gammas = [], []
+    for rth in (0.0, 0.8):
+        lat, starts, p = reference_setup(rth)
+        ends.append(grow(lat, starts, p.replace(beta=0.25), seed=0).end_frame)
+        gammas.append(p.gamma)
+    return lat.n_cells, ends, gammas
+
+
+def reference_slope():
+    """dT_sim/dbeta of reference_setup(0.0) between beta = 0.28 and 0.32, frames per unit."""
+    from fluidnb.frost import grow, reference_setup
+
+    lat, starts, p = reference_setup(0.0)
+    e = [grow(lat, starts, p.replace(beta=b), seed=0).end_frame for b in (0.28, 0.32)]
+    return abs(e[1] - e[0]) / 0.04
+
+
+def eta_between_3_and_4():
+    eta = 1 / (2 * reference_slope() ** 2) * 1e6
+    return [reference_slope(), 3.0 if 3 <= eta <= 4 else eta, 4.0 if 3 <= eta <= 4 else eta]
+
+
+def symmetry_breaks(radius, frames):
+    """Ice cells whose 60-degree image differs, for r_th = 0, 0.4, 0.8 (seed 3)."""
+    from fluidnb.frost import HexLattice, grow
+
+    lat = HexLattice.hexagon(radius, spacing=6.0)
+    axial = lat.axial[: lat.n_cells] - lat.axial[lat.center_cell()]
+    where = {tuple(a): i for i, a in enumerate(axial.tolist())}
+    turn = np.array([where[(-r, q + r)] for q, r in axial.tolist()])
+    out = []
+    for rth in (0.0, 0.4, 0.8):
+        frozen = grow(lat, [lat.center_cell()], frost_params(rth=rth), frames=frames, seed=3)
+        frozen = frozen.freeze_frame >= 0
+        out.append(int((frozen != frozen[turn]).sum()))
+    return out
+
+
+def side_branches_in_full_mode():
+    breaks = symmetry_breaks(frost_sizes("R_BIG")[1], frost_sizes("FRAMES_BIG")[1])
+    return breaks[0] == 0 and breaks[1] > 0 and breaks[2] > 0
+
+
+def no_side_branches_in_quick_mode():
+    return symmetry_breaks(frost_sizes("R_BIG")[0], frost_sizes("FRAMES_BIG")[0]) == [0, 0, 0]
+
+
+def other_reading_stalls():
+    """An enclosed frontier cell that diffuses into the ice when it misses gamma (the other
+    reading of Eq. (1)): it keeps 1 - alpha/2 of its vapour four steps in five and never
+    freezes at r_th = 0.8."""
+    p = frost_params(rth=0.8)
+    rng = np.random.default_rng(0)
+    u, top = p.beta, 0.0
+    for r in rng.random(20000):
+        u = u + p.gamma if r > p.rth else u * (1 - p.alpha / 2)
+        top = max(top, u)
+    return top < 0.5
+
+
+def alpha_two_keeps_vapour_non_negative():
+    from fluidnb.frost import HexLattice, step
+
+    lat = HexLattice.hexagon(6)
+    u = np.random.default_rng(1).random(lat.n_cells) * 0.9
+    u_next, _ = step(lat, u, frost_params(alpha=2.0))
+    return bool(u_next.min() >= 0)
+
+
+def table1_slope():
+    return (160 - 126) / (0.307597 - 0.25)
+
+
+CLAIMS["03_frost.ipynb"] = [
+    stated("Chaos, Solitons & Fractals 23 (2005) 1111–1119", "paper"),
+    stated(
+        "about 45 minutes (the eleven questions 20, the two warm-ups 5, the five exercises 20)",
+        "timing",
+    ),
+    fact("makes growth stall near $r_{th} = 0.8$", other_reading_stalls),
+    stated("after turning it by 60°", "definition"),
+    fact(
+        "Up to $\\alpha = 2$ every new value is a weighted mean",
+        alpha_two_keeps_vapour_non_negative,
+    ),
+    constant(
+        "The paper shows $\\beta = 0.35$, $\\gamma = 0.005$",
+        lambda: [frost_params().beta, frost_params().gamma],
+    ),
+    stated("$r_{th} = 0, 0.4, 0.8$ at frames 20, 40, 80", "paper"),
+    measured("(about one cell\nevery 20 frames)", frames_per_ring, rtol=0.1),
+    constant(
+        "In full mode (radius 30, 800 frames)",
+        lambda: [frost_sizes("R_BIG")[1], frost_sizes("FRAMES_BIG")[1]],
+    ),
+    fact("grows, the side branches come at random places", side_branches_in_full_mode, slow=True),
+    constant(
+        "*In quick mode* (radius 14, 200\nframes)",
+        lambda: [frost_sizes("R_BIG")[0], frost_sizes("FRAMES_BIG")[0]],
+    ),
+    fact("the arms are still short and have no side branches yet", no_side_branches_in_quick_mode),
+    stated("at $r_{th} = 0.8$ the arms are thinner", "example"),
+    arithmetic(
+        "At $r_{th} = 0.8$ a frontier cell gets $\\gamma$\nonly one step in five",
+        lambda: [1 - 1 / 5],
+    ),
+    stated("The coverage curve at $r_{th} = 0.8$", "example"),
+    constant(
+        "To freeze 90 % of $N$ cells the\ntotal must reach at least $0.9N$",
+        lambda: [frost_params().coverage * 100, frost_params().coverage],
+    ),
+    arithmetic(
+        "— 130 frames at $\\beta = 0.25$, $\\gamma = 0.005$",
+        lambda: [(0.9 - 0.25) / frost_params().gamma, 0.25, frost_params().gamma],
+    ),
+    measured(
+        "A region 20 cells across from\nits start point needs 20 rings of about 120 frames each",
+        twenty_rings,
+        rtol=0.06,  # 18.9 rings reach 90 % of the cells: "about 20"
+    ),
+    stated("The bound above at $\\beta = 0.25$", "example"),
+    constant(
+        "the first frame with 90 % of the cells frozen", lambda: [frost_params().coverage * 100]
+    ),
+    arithmetic(
+        "within 1/6 s\nof frames (4 frames at 24 fps)",
+        lambda: [6, frost_params().tolerance, frost_params().fps],
+    ),
+    stated("The paper's tables ($T = 130$, $\\eta = 10^{-6}$, $\\beta_0 = 0.25$)", "paper"),
+    stated(
+        "| step | Table 1 ($r_{th}=0$): $\\beta$ | end frame | Table 2 ($r_{th}=0.8$): $\\beta$ "
+        "| end frame |\n|---|---|---|---|---|\n| 0 | 0.25 | 160 | 0.25 | 162 |\n"
+        "| 1 | 0.261856 | 152 | 0.294132 | 135 |\n| 2 | 0.295357 | 139 | 0.316651 | 124 |\n"
+        "| 3 | 0.307597 | 126 | 0.315713 | 127 |",
+        "paper",
+    ),
+    constant("With $\\gamma = 0.005$ the mass balance", lambda: [frost_params().gamma]),
+    measured(
+        "ends at exactly $(1 - \\beta)/\\gamma = 150$ frames", lambda: [end_frame(1, 0.25)], rtol=0
+    ),
+    measured(
+        "and a 37-cell hexagon already needs 351",
+        lambda: [hexagon_cells(3), end_frame(3, 0.25)],
+        rtol=0,
+    ),
+    stated("The paper's 160 frames", "paper"),
+    measured(
+        "a hexagon of 331 cells — and choose $\\gamma$ so that $\\beta = 0.25$ ends near 160 "
+        "frames:\n$\\gamma = 0.036$ for $r_{th} = 0$ and $\\gamma = 0.19$ for $r_{th} = 0.8$",
+        lambda: [
+            reference_tables()[0],
+            None,
+            *[float(np.mean(reference_tables()[1]))],
+            *reference_tables()[2],
+            None,
+        ],
+        rtol=0.03,
+    ),
+    stated("the end frame falls towards\n130", "paper"),
+    arithmetic(
+        "The paper's Table 1 falls by about 600 frames per\nunit of $\\beta$ (so $\\eta = 10^{-6}$ "
+        "fits: $2 \\cdot 10^{-6} \\cdot 600^2 \\approx 0.7$)",
+        lambda: [table1_slope(), 2, 2e-6 * table1_slope() ** 2],
+        rtol=0.05,
+    ),
+    measured(
+        "region's falls by about 350, for which $\\eta \\approx 3$–$4 \\times 10^{-6}$",
+        eta_between_3_and_4,
+        rtol=0.1,
+    ),
+    measured(
+        "Our Table 1 needs $\\gamma = 0.036$ for $\\beta = 0.25$ to end near 160 frames\n"
+        "on 331 cells",
+        lambda: [
+            reference_tables()[2][0],
+            None,
+            reference_tables()[1][0],
+            reference_tables()[0],
+        ],
+        rtol=0.03,
+    ),
+    constant("region have had at $\\gamma = 0.005$?", lambda: [frost_params().gamma]),
+    constant("within 4 frames of the target", lambda: [frost_params().tolerance]),
+    stated(
+        "The paper defines the end at 90 % of the cells rather than 100 % because the\n"
+        "descent failed to converge with 100 %",
+        "paper",
+    ),
+    stated("12 directions", "example"),
+    stated("The cell checks the 60-degree turn", "definition"),
+    arithmetic(
+        "which $\\beta$ ends at frame 130 with\n$\\gamma = 0.005$, and why no $\\beta < 0.35$",
+        lambda: [130, frost_params().gamma, 1 - 130 * frost_params().gamma],
+    ),
+    constant("Set $\\gamma$ back to the paper's 0.005", lambda: [frost_params().gamma]),
+]
+
+
+def hexagon_cells(radius):
+    from fluidnb.frost import HexLattice
+
+    return HexLattice.hexagon(radius).n_cells
+
+
 # ------------------------------------------------------------------ machinery
 
 

@@ -72,6 +72,7 @@ __all__ = [
 LESSONS = {
     "01_drawing_tools.ipynb": "drawing",
     "02_flicker.ipynb": "flicker",
+    "03_frost.ipynb": "frost",
     "04_fluid_solver.ipynb": "fluid",
 }
 
