@@ -170,3 +170,79 @@ def test_frost_q11_a_blob_without_a_start_never_ends_and_gamma_cannot_help():
     assert "never ends" in str(estimate_end_frame(two, starts, FrostParams()))
     with pytest.raises(ValueError, match="add a start point in every piece"):
         gamma_for_target(two, starts, 72, FrostParams(), seed=0)
+
+
+# ------------------------------------------------------------------ 05_fire
+
+
+@pytest.fixture(scope="module")
+def fire_setup():
+    from fluidnb import data
+    from fluidnb.fire import alpha_from_photo, temperature_target
+
+    rgb, matte = data.sample("fire", size=64, return_alpha=True)
+    photo = rgb * matte[..., None]
+    sim = simulate(flame_preset().params, 24, shape=(64, 64), seed=0)
+    target = temperature_target(sim.temperature, alpha_from_photo(photo), cutoff=0.2)[-1]
+    return photo, sim, target
+
+
+def continuity(src, target):
+    return (np.abs(np.diff(src, axis=1) - [0, 1]).sum(-1) == 0)[target[:, 1:] > 0.1].mean()
+
+
+def test_fire_q2_the_plain_temperature_seldom_reaches_the_bright_photo(fire_setup):
+    from fluidnb.fire import alpha_from_photo
+
+    photo, sim, _ = fire_setup
+    T = sim.temperature[-1]
+    plain = (T - T.min()) / (T.max() - T.min())
+    a_a = alpha_from_photo(photo)
+    share = [(x > 0.7).sum() / (x > 0.01).sum() for x in (plain, a_a)]
+    assert share[0] < 0.5 * share[1]
+
+
+def test_fire_ex1_a_middle_weight_follows_as_well_and_keeps_more_patches(fire_setup):
+    from fluidnb.fire import FireParams, synthesize
+
+    photo, _, target = fire_setup
+    luma = np.array([0.2126, 0.7152, 0.0722])
+    r, c = {}, {}
+    for w in (0.2, 0.6, 0.9):
+        img, src = synthesize(photo, target, FireParams(weight=w), seed=1)
+        r[w] = np.corrcoef(img.reshape(-1, 3) @ luma, target.ravel())[0, 1]
+        c[w] = continuity(src, target)
+    assert r[0.9] > r[0.2] + 0.05
+    assert r[0.9] - r[0.6] < 0.03
+    assert c[0.2] > c[0.6] > c[0.9]
+
+
+def test_fire_ex2_no_overlap_cuts_at_the_keyframes(fire_setup):
+    from fluidnb.fire import FireParams, fire
+
+    photo, sim, _ = fire_setup
+    p = FireParams(interval=8, output_size=64, overlap=0)
+    hard = fire(photo, sim, p, seed=0)
+    change = np.abs(np.diff(np.asarray(hard.clip.frames, float), axis=0)).mean(axis=(1, 2, 3))
+    at_key = np.diff(np.floor(np.asarray(hard.times) / p.interval)) > 0
+    assert change[at_key].mean() > 3 * change[~at_key].mean()
+
+
+def test_fire_ex4_ex5_random_winners_break_the_patches(fire_setup):
+    from fluidnb.fire import FireParams, neighbourhood_error, synthesize
+
+    photo, _, target = fire_setup
+    c, err = {}, {}
+    for label, p in [
+        ("default", FireParams()),
+        ("kappa0", FireParams(coherence=0.0)),
+        ("n64", FireParams(n_random=64)),
+    ]:
+        img, src = synthesize(photo, target, p, seed=0)
+        c[label], err[label] = (
+            continuity(src, target),
+            neighbourhood_error(img, src, photo, target, p),
+        )
+    assert c["kappa0"] < c["default"]
+    assert c["n64"] < c["default"]
+    assert err["n64"] < err["default"]

@@ -550,6 +550,57 @@ def hexagon_cells(radius):
     return HexLattice.hexagon(radius).n_cells
 
 
+def fire_params(**kw):
+    from fluidnb.fire import FireParams
+
+    return FireParams(**kw)
+
+
+def fire_sizes():
+    """05's quick set-up: grid, frames, keyframe size (from its cells)."""
+    sizes = notebook_sizes("05_fire.ipynb")
+    cells = json.loads((ROOT / "notebooks/05_fire.ipynb").read_text(encoding="utf-8"))["cells"]
+    code = "\n".join("".join(c["source"]) for c in cells if c["cell_type"] == "code")
+    out = int(re.search(r"output_size=(\d+) if QUICK", code).group(1))
+    return sizes["GRID"][0], sizes["N_FRAMES"][0], out
+
+
+CLAIMS["05_fire.ipynb"] = [
+    stated("IPSJ SIG Technical Report CG-152", "paper"),
+    stated("run a cheap 128 x 128\nsimulation (section 3.1", "paper"),
+    stated("in between (3.3), and\nconsecutive stretches are cross-dissolved (3.4)", "paper"),
+    constant(
+        "uses a 64 × 64 simulation of 24 frames and 128-pixel keyframes",
+        lambda: [fire_sizes()[0], fire_sizes()[0], fire_sizes()[1], fire_sizes()[2]],
+    ),
+    stated(
+        "about 35 minutes (the ten questions 15, the two warm-ups 3, the five exercises 17)",
+        "timing",
+    ),
+    constant("(`cutoff`, default 0.2)", lambda: [fire_params().cutoff]),
+    constant("for $k = 5$, how many pixels", lambda: [fire_params().size]),
+    stated("compares colours as 8-bit levels", "definition"),
+    stated("with $N = 10$ and $m = 5$", "example"),
+    stated("averaged 50/50", "definition"),
+    constant(
+        "are synthesised at 256 pixels over the 128 x 128 simulation",
+        lambda: [fire_params().output_size, *flame_shape()],
+    ),
+    constant("the clip has 24 frames a second", lambda: [fire_params().fps]),
+    constant("one frame per simulation frame (8 fps)", lambda: [fire_params().paper().fps]),
+    constant("the keyframes' longest side, 256 (ours", lambda: [fire_params().output_size]),
+    constant(
+        "frames a second, 24 (ours; the in-between frames advected; 8: the paper)",
+        lambda: [fire_params().fps, fire_params().paper().fps],
+    ),
+    stated("Set `weight` to 0.9 and then 0.2", "setting"),
+    stated("Make `interval` large (30)", "setting"),
+    constant("in quick mode the simulation has only 24 frames", lambda: [fire_sizes()[1]]),
+    stated("Raise `n_random` to 64", "setting"),
+    constant("the time with the default 16", lambda: [fire_params().n_random]),
+]
+
+
 # ------------------------------------------------------------------ machinery
 
 

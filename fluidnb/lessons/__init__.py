@@ -74,6 +74,7 @@ LESSONS = {
     "02_flicker.ipynb": "flicker",
     "03_frost.ipynb": "frost",
     "04_fluid_solver.ipynb": "fluid",
+    "05_fire.ipynb": "fire",
 }
 
 
