@@ -246,3 +246,81 @@ def test_fire_ex4_ex5_random_winners_break_the_patches(fire_setup):
     assert c["kappa0"] < c["default"]
     assert c["n64"] < c["default"]
     assert err["n64"] < err["default"]
+
+
+# ------------------------------------------------------------------ 07b_videodb_animation
+
+
+@pytest.fixture(scope="module")
+def stream_and_clouds():
+    from fluidnb import data
+    from fluidnb.videodb import AnimateParams, assign, starter_database
+
+    water = starter_database("water", quick=True)
+    smoke = starter_database("smoke", quick=True)
+    stream = assign(
+        data.sample("stream", size=240),
+        data.region("stream", size=240),
+        water,
+        AnimateParams(candidates=40),
+    )
+    clouds = assign(
+        data.sample("clouds", size=240),
+        data.region("clouds", size=240),
+        smoke,
+        AnimateParams.for_kind("smoke", candidates=40),
+    )
+    return stream, clouds
+
+
+def changed(asg, **values):
+    return np.mean(asg.resolve(**values).fragments != asg.fragments)
+
+
+def test_videodb_lambda_matters_little_on_the_clouds_not_on_the_stream(stream_and_clouds):
+    from fluidnb.lessons import videodb_animation as lesson
+
+    stream, clouds = stream_and_clouds
+    for x in (10, 100, 1000):
+        assert changed(clouds, lam=clouds.params.lam * x) < 0.1
+        assert changed(stream, lam=stream.params.lam * x) > 0.25
+    assert right_part(lesson.q7, "paper") == "b"
+
+
+def right_part(q, part):
+    return next(iter(q.checker.checkers[part].answer))
+
+
+def test_videodb_q7_sigma_moves_the_map_more_than_lambda(stream_and_clouds):
+    stream, _ = stream_and_clouds
+    lam = [changed(stream.resolve(lam=0.001), lam=v) for v in (0.01, 0.1, 1, 10)]
+    sig = [changed(stream.resolve(sigma=1), sigma=v) for v in (10, 100, 1000)]
+    assert max(sig) > max(lam)
+
+
+def test_videodb_ex1_looks_alone_lose_the_coherence(stream_and_clouds):
+    stream, _ = stream_and_clouds
+    assert stream.resolve(lam=0).motion_coherence() < stream.motion_coherence() - 0.3
+
+
+def test_videodb_ex3_the_coherence_falls_within_the_accepted_decades(stream_and_clouds):
+    from fluidnb.lessons import videodb_animation as lesson
+
+    stream, _ = stream_and_clouds
+    crossover = np.median(stream.tables.dc) / np.median(stream.tables.rest)
+    falls = [
+        np.log10(s / crossover)
+        for s in 10.0 ** np.arange(0, 7)
+        if stream.resolve(sigma=s).motion_coherence() < 0.6
+    ]
+    assert lesson.ex3.check(falls[0])
+
+
+def test_videodb_ex5_solve_is_never_worse_than_alpha_expansion():
+    from fluidnb.lessons.videodb_animation import _problem
+    from fluidnb.videodb.assignment import alpha_expansion, energy, solve
+
+    for seed in range(20):
+        u, w, edges, lam = _problem(seed, rows=2, cols=2, k=8)
+        both = energy(solve(u, w, edges, lam).labels, u, w, edges, lam)
+        assert both <= alpha_expansion(u, w, edges, lam).energy + 1e-9
