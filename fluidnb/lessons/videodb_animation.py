@@ -455,8 +455,8 @@ q7 = Question(
             "b",
             {
                 "a": "yes, lambda changes nothing on the stream",
-                "b": "partly: sigma changes more, but on the stream lambda changes many "
-                "fragments too; 'little' held on the clouds",
+                "b": "partly: sigma changes more, but on the stream lambda still changes a "
+                "share of the fragments (printed), where on the clouds it changed none",
             },
             why={"a": "read the fractions printed for lambda on the stream."},
         ),
@@ -464,8 +464,9 @@ q7 = Question(
     hints=["Read the two printed lines: lambda's and sigma's changed fractions."],
     solution="""
     $\\sigma$ changes the map more (it decides whether the mean motion counts at all).
-    But $\\lambda$ is not negligible on our stream: above the paper's 0.01 a good share
-    of the fragments still change, while on the clouds few do. The paper's *lambda
+    But $\\lambda$ is not negligible on our stream: above the paper's 0.01 a share of
+    the fragments still changes (more with the quick database than the full one), while
+    on the clouds none does. The paper's *lambda
     matters little* is a statement about its videos, not a law.
     """,
     right={"more": "sigma", "paper": "b"},
