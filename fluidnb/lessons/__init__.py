@@ -75,6 +75,7 @@ LESSONS = {
     "03_frost.ipynb": "frost",
     "04_fluid_solver.ipynb": "fluid",
     "05_fire.ipynb": "fire",
+    "06_turbulence.ipynb": "turbulence",
     "07b_videodb_animation.ipynb": "videodb_animation",
 }
 
