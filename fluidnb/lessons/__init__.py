@@ -76,6 +76,8 @@ LESSONS = {
     "04_fluid_solver.ipynb": "fluid",
     "05_fire.ipynb": "fire",
     "06_turbulence.ipynb": "turbulence",
+    "06b_turbulence_appendix.ipynb": "turbulence_exact",
+    "07a_videodb_database.ipynb": "videodb_database",
     "07b_videodb_animation.ipynb": "videodb_animation",
 }
 
