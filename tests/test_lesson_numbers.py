@@ -601,6 +601,109 @@ CLAIMS["05_fire.ipynb"] = [
 ]
 
 
+def turbulence_params(**kw):
+    from fluidnb.turbulence import TurbulenceParams
+
+    return TurbulenceParams(**kw)
+
+
+def window(p):
+    """Positions per axis of the local window: n = b dx / dX = b r (the paper's r = 8)."""
+    return p.b * 8
+
+
+CLAIMS["06b_turbulence_appendix.ipynb"] = [
+    stated(
+        "about 25 minutes (the four questions 10, the warm-up 2, the two exercises 13)",
+        "timing",
+    ),
+    constant(
+        "For $n = 32$ and $B = 16$", lambda: [window(turbulence_params()), turbulence_params().B]
+    ),
+    constant(
+        "$16 \\times 16$ patches in $32 \\times 32$ windows",
+        lambda: [turbulence_params().B] * 2 + [window(turbulence_params())] * 2,
+    ),
+    fact("for $B = 18$ two rows are left out", lambda: 18 - 4 * (18 // 4) == 2),
+    constant("the window grows to 64 x 64", lambda: [window(turbulence_params(b=8))] * 2),
+]
+
+
+def animate_params(**kw):
+    from fluidnb.videodb import AnimateParams
+
+    return AnimateParams(**kw)
+
+
+def database_params():
+    from fluidnb.videodb import DatabaseParams
+
+    return DatabaseParams()
+
+
+def fragment():
+    from fluidnb.videodb._common._geometry import FRAGMENT
+
+    return FRAGMENT
+
+
+CLAIMS["07b_videodb_animation.ipynb"] = [
+    stated("(2 of 2)", "definition"),
+    constant("every 48 x 48 fragment of a photo", lambda: [fragment()] * 2),
+    constant("videos cut into 48 x 48-pixel **fragments**", lambda: [fragment()] * 2),
+    stated("10. the parameters; 11. the app; exercises.", "definition"),
+    stated(
+        "about 60 minutes (the four steps 20, the seven questions 15, the seven exercises 25",
+        "timing",
+    ),
+    stated("**Run time** (Run All on 2 cores)", "timing"),
+    stated("about 11 s in quick mode", "timing"),
+    stated("and 28 s in full\nmode", "timing"),
+    stated("12-14 s each", "timing"),
+    stated("took 59 s in full mode", "timing"),
+    stated("a 3 x 5 grid of fragments, 20 candidates each", "example"),
+    stated("(steps 1-4)", "definition"),
+    stated("$100 \\times 100$ label pairs", "paper"),
+    stated("a block of 4 x 4 pixels, or 2 x 2 for the", "definition"),
+    arithmetic("hence the factors 16 and 4", lambda: [4 * 4, 2 * 2]),
+    stated("every 2 x 3 window of our grid, with four sets of 5 labels", "example"),
+    arithmetic("A 2 x 3 window with 5 labels", lambda: [2, 3, 5]),
+    stated("(the 100 candidates are", "paper"),
+    constant(
+        "Its values: $\\lambda = 0.01$, $\\sigma = 100$ or $1000$",
+        lambda: [animate_params().lam, animate_params().sigma, None],
+    ),
+    constant("above the paper's 0.01 few fragments change", lambda: [animate_params().lam]),
+    constant("Would you expect its $\\sigma = 100$", lambda: [animate_params().sigma]),
+    constant(
+        "points more than 45 degrees\naway from the drawn direction, or whose speed differs by "
+        "more than a factor 2",
+        lambda: [animate_params().max_angle, animate_params().max_speed_ratio],
+    ),
+    stated("We paint 3 px/frame", "example"),
+    stated("with 0, 8 and 24 frames", "example"),
+    constant("per cell of 48 x 48 pixels", lambda: [animate_params().cell] * 2),
+    constant("(`travel`, 16 px)", lambda: [animate_params().travel]),
+    stated("measures `travel` = 3 and 24", "example"),
+    stated("frequencies $f \\ge 2$", "definition"),
+    constant("(the paper: 100) |", lambda: [animate_params().candidates]),
+    constant(
+        "(0: still; fire and smoke: 0.5)",
+        lambda: [animate_params(rendering="paper").for_kind("fire").tau],
+    ),
+    constant(
+        "$N$ (frames per fragment, 32), $k$ (visual words, 200)",
+        lambda: [database_params().N, database_params().words],
+    ),
+    stated("move $\\lambda$ from 0.001 to 10", "setting"),
+    stated("move $\\sigma$ from 1 to 1000", "setting"),
+    stated("below 0.6)", "definition"),
+    stated("`candidates=10`, then 200", "setting"),
+    stated("half an\nhour for 100", "paper"),
+    stated("2 x 2 windows\nand 8 labels", "example"),
+]
+
+
 # ------------------------------------------------------------------ machinery
 
 
