@@ -704,6 +704,123 @@ CLAIMS["07b_videodb_animation.ipynb"] = [
 ]
 
 
+def geometry():
+    from fluidnb.videodb._common import _geometry
+
+    return _geometry
+
+
+def histogram_total():
+    from fluidnb.videodb.database._words import HISTOGRAM_TOTAL
+
+    return HISTOGRAM_TOTAL
+
+
+def fragment_kib():
+    """Stored spectra (16 bins x 2 x 12 x 12) and textureness (4 x 24 x 24), float16, in
+    KB; and the same at full resolution (48 x 48) in float32."""
+    g = geometry()
+    n = database_params().N
+    stored = (n // 2 * 2 * g.SPECTRA_SIDE**2 + g.TEXTURE_LEVELS * g.TEXTURE_SIDE**2) * 2
+    full = (n // 2 * 2 + g.TEXTURE_LEVELS) * g.FRAGMENT**2 * 4
+    return [g.TEXTURE_SIDE, g.TEXTURE_SIDE, stored / 1024, full / 1024]
+
+
+CLAIMS["07a_videodb_database.ipynb"] = [
+    stated("(1 of 2)", "definition"),
+    constant("videos cut into 48 x 48-pixel **fragments**", lambda: [fragment()] * 2),
+    constant("its 18 versions of each clip", lambda: [len(geometry().VERSIONS)]),
+    stated(
+        "about 30 minutes (the five questions 12, the two warm-ups 4, the two exercises 14",
+        "timing",
+    ),
+    stated("**Run time** (Run All on 2 cores)", "timing"),
+    stated("about 7 s in quick mode", "timing"),
+    stated("and 9 s in\nfull mode", "timing"),
+    stated("12-14 s each", "timing"),
+    stated("took 35 s in full mode", "timing"),
+    stated(
+        "It kept 151 videos of\nwater (640 x 360 or 480 x 360), 96 of fire and 89 of smoke", "paper"
+    ),
+    constant("a fragment spans $N = 32$ frames", lambda: [database_params().N]),
+    fact(
+        "a 10-second clip at\n  24 fps gives seven windows",
+        lambda: 10 * 24 // database_params().N == 7,
+    ),
+    constant("(larger than 640 px is scaled down)", lambda: [database_params().max_side]),
+    constant("### 18 versions of every clip", lambda: [len(geometry().VERSIONS)]),
+    constant(
+        "left-right (x 2), **scaled** to 50, 75 and 100 % (x 3) and **rotated** by -22.5, 0 and\n"
+        "+22.5 degrees (x 3) — 18 versions",
+        lambda: [
+            2,
+            *[100 * x for x in geometry().SCALES],
+            len(geometry().SCALES),
+            abs(geometry().ANGLES[0]),
+            geometry().ANGLES[2],
+            len(geometry().ANGLES),
+            len(geometry().VERSIONS),
+        ],
+    ),
+    stated("The 50 % versions give far fewer fragments than the 100 % ones", "definition"),
+    constant("**fragments** of 48 x 48 pixels", lambda: [fragment()] * 2),
+    constant(
+        "(their corners are 24 pixels apart), and $N = 32$ frames long",
+        lambda: [geometry().STRIDE, database_params().N],
+    ),
+    constant("below 0.2 px/frame everywhere", lambda: [database_params().motion_threshold]),
+    stated("How many fit, wholly inside, in a 240 x 144 picture", "example"),
+    constant(
+        "Fragments are 48 x 48 pixels with corners 24 pixels apart",
+        lambda: [fragment(), fragment(), geometry().STRIDE],
+    ),
+    constant(
+        "on a 9 x 9 grid over the 48 x 48 mean image, a 128-number",
+        lambda: [geometry().GRID, geometry().GRID, fragment(), fragment(), 4 * 4 * 8],
+    ),
+    arithmetic("(4 x 4 cells of 4 pixels, 8 orientations each)", lambda: [4, 4, 16 // 4, 128 / 16]),
+    constant("a codebook of $k = 200$", lambda: [database_params().words]),
+    constant("a 9 x 9 map of words", lambda: [geometry().GRID] * 2),
+    arithmetic(
+        "in its 4 quarters (level 1) and in its 16 sixteenths (level 2), weights\n   1, 1, 2 — one "
+        "histogram of $21 \\times 200$ bins",
+        lambda: [4, 16, 2, 2, 1 + 4 + 16, database_params().words],
+    ),
+    constant("(divided by 324, the total", lambda: [histogram_total()]),
+    constant(
+        "a 9 x 9 word map counted in the spatial pyramid (levels 0, 1, 2 with weights 1, 1, 2)",
+        lambda: [geometry().GRID, geometry().GRID, 2, 2],
+    ),
+    stated("$K = 100$). A fragment's own", "paper"),
+    constant(
+        "exactly as the database's (48 x 48, corners 24 px apart)",
+        lambda: [fragment(), fragment(), geometry().STRIDE],
+    ),
+    stated(
+        "our starter database holds 8 synthetic clips, the paper's 240,000 fragments from 151",
+        "paper",
+    ),
+    stated("fragments of 16 x 16 pixels, and with 256 x 256", "example"),
+    constant("integers out of 324", lambda: [histogram_total()]),
+    stated("\\sum_{f=2}^{N/2}", "definition"),
+    stated("(Eq. 2, 3; Fig. 6, 7)", "definition"),
+    constant("per frame a 4-level Laplacian pyramid", lambda: [geometry().TEXTURE_LEVELS]),
+    constant("(Level 3 is the pyramid's", lambda: [geometry().TEXTURE_LEVELS - 1]),
+    constant(
+        "stored at 12 x 12 — one value per 4 x 4 pixels",
+        lambda: [geometry().SPECTRA_SIDE] * 2 + [geometry().SPECTRA_BLOCK] * 2,
+    ),
+    measured(
+        "textureness at 24 x 24, in float16: about 14 KB a fragment instead of 330 KB",
+        fragment_kib,
+        rtol=0.1,
+    ),
+    constant("$\\sigma = 100$ (the paper's value)", lambda: [animate_params().sigma]),
+    stated("set `candidates` to 10", "setting"),
+    stated("for $K$ = 40 and 10", "example"),
+]
+
+
 # ------------------------------------------------------------------ machinery
 
 
