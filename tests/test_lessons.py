@@ -148,3 +148,16 @@ def test_a_parts_question_with_every_part_blank_is_unanswered():
     half = fluid.ex6.check(taller=True, why=BLANK)
     assert half.status == "incorrect"
     assert "why=..." in str(half)
+
+
+@pytest.mark.parametrize("notebook", sorted(p.name for p in (ROOT / "notebooks").glob("*.ipynb")))
+def test_no_lesson_needs_a_private_name(notebook):
+    # Issue 40: everything an exercise needs is public and documented. The readable
+    # numpy versions are public as fluidnb.<method>.reference.
+    cells = json.loads((ROOT / "notebooks" / notebook).read_text())["cells"]
+    code = "\n".join("".join(c["source"]) for c in cells if c["cell_type"] == "code")
+    private = re.findall(
+        r"fluidnb(?:\.\w+)*\._[A-Za-z]\w*|from fluidnb[\w.]* import [^\n]*?(?<!\w)_[A-Za-z]\w*",
+        code,
+    )
+    assert not private, f"{notebook} uses private names: {private}"

@@ -1,0 +1,8 @@
+"""The turbulence searches written out in numpy, in the paper's notation: for the lessons.
+
+The code lives in ``_reference.py`` beside this file (open it: it is short); the tests
+check the fast path against it. Import it as ``from fluidnb.turbulence import reference``.
+"""
+
+from ._reference import *  # noqa: F403 -- this module is its public name
+from ._reference import __all__  # noqa: F401
