@@ -535,3 +535,46 @@ def test_the_fields_spread_is_the_numpy_loop_bit_for_bit():
         want_covered[r : r + 48, c : c + 48] += w
     assert np.array_equal(acc, want)
     assert np.array_equal(covered, want_covered)
+
+
+def boiling(seed, shape=(96, 120), frames=32):
+    """A texture jittered each frame by a fresh fine random warp: its pixels move, but
+    a fragment's mean motion is about 0 (the still parts of real footage: sensor noise,
+    compression, a plant in the wind)."""
+    base = texture(seed, shape)
+    gen = np.random.default_rng(seed)
+    yy, xx = np.mgrid[: shape[0], : shape[1]].astype(np.float32)
+    out = []
+    for _ in range(frames):
+        d = ndi.gaussian_filter(gen.standard_normal((2,) + shape), (0, 1.0, 1.0)) * 2.0
+        out.append(ndi.map_coordinates(base, [yy + d[0], xx + d[1]], order=1, mode="wrap"))
+    return np.repeat(np.clip(np.stack(out), 0, 1)[..., None], 3, axis=3).astype(np.float32)
+
+
+def test_the_output_moves_when_the_chosen_fragments_move(tmp_path, photo):
+    # Footage of real scenes holds still parts beside the fluid; a photo's water may
+    # look like them. On a database with a still clip among moving ones the
+    # assignment chooses moving fragments, and the photo moves with them.
+    from fluidnb.videodb.assignment import fragment_speeds, moving_fragments
+
+    img, matte = photo
+    clips = [("still", boiling(20))] + [(f"right{i}", moving(i, (0, 3))) for i in range(3)]
+    db = build_database(clips, tmp_path / "mixed", kind="water", params=PARAMS, seed=0)
+    still = db.clip_of(np.arange(db.n_fragments)) == 0  # its pixels move, it does not
+    assert still.any()
+    assert not moving_fragments(db)[still].any()
+    a = assign(img, matte, db, FEW)
+    assert not still[a.fragments].any()
+    assert a.chosen_speed() > 0.5
+    assert a.stillness_note() is None
+    f = render(a, FEW).clip.frames
+    inner = ndi.binary_erosion(matte > 0.5, iterations=12)
+    assert np.hypot(*measured_flow(f, inner)) > 0.5
+    # A database of still footage only: the photo barely moves, and the note says so.
+    db = build_database([("still", boiling(20))], tmp_path / "still", kind="water",
+                        params=PARAMS, seed=0)  # fmt: skip
+    a = assign(img, matte, db, FEW)
+    assert np.median(fragment_speeds(db)) < 0.25
+    assert "barely move (median" in a.stillness_note()
+    f = render(a, FEW).clip.frames
+    assert np.hypot(*measured_flow(f, inner)) < 0.25
