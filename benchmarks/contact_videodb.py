@@ -217,6 +217,42 @@ def sync_sheet(path):
     print(f"wrote {path}")
 
 
+def look_sheet(path):
+    """Crops at full size: the stream's water mid-blend, the overview's cloud's lower edge.
+
+    The stream (480 x 376, its region, a stroke right and 2 px/frame painted): frames 0,
+    T/4 and T/2 cropped to the water, where the cross-fade of two displaced copies
+    doubled the rocks' edges and washed the foam out; the overview's clouds (480 x 300,
+    its stroke): frames 0 and T/2 cropped to the cloud's lower edge, where the dark band
+    was (issue 35).
+    """
+    rows = []
+    photo, matte = data.sample("stream", mode="rgb"), data.region("stream")
+    h, w = matte.shape
+    right = [np.array([[0.5 * h, 0.05 * w], [0.5 * h, 0.95 * w]])]
+    speed = np.where(matte > 0.5, 2.0, 0).astype(np.float32)
+    params = AnimateParams.for_kind("water")
+    a = assign(photo, matte, starter_database("water"), params, direction=right, speed=speed)
+    f = render(a, params).clip.frames
+    crop = (slice(150, 310), slice(0, 240))
+    rows.append(
+        np.concatenate([photo[crop]] + [f[i][crop] for i in (0, len(f) // 4, len(f) // 2)], axis=1)
+    )
+    photo, matte = data.sample("clouds", mode="rgb"), data.region("clouds")
+    h, w = matte.shape
+    stroke = np.array([(0.5, 0.1), (0.45, 0.9)]) * (h, w)
+    params = AnimateParams.for_kind("smoke")
+    a = assign(photo, matte, starter_database("smoke"), params, direction=[stroke])
+    f = render(a, params).clip.frames
+    crop = (slice(60, 220), slice(20, 260))
+    rows.append(
+        np.concatenate([photo[crop]] + [f[i][crop] for i in (0, len(f) // 3, len(f) // 2)], axis=1)
+    )
+    sheet = np.concatenate([np.pad(r, ((0, 2), (0, 0), (0, 0))) for r in rows])
+    Image.fromarray(to_uint8(sheet)).save(path)
+    print(f"wrote {path}")
+
+
 def fill_sheet(path, fresh):
     """Telea's diffusion against the exemplar fill, behind the clouds and a smoke cut-out."""
     from scipy import ndimage as ndi
@@ -262,6 +298,7 @@ def main():
     )
     parser.add_argument("--rendering", default=None, help="flow or paper (default: the default)")
     parser.add_argument("--real", help="a database built from real footage (see above)")
+    parser.add_argument("--look-output", help="also the full-size crops of look_sheet")
     parser.add_argument("--sync-output", help="also the clouds' sync sheet (new code only)")
     parser.add_argument("--fill-output", help="also the fill sheet (new code only)")
     args = parser.parse_args()
@@ -270,6 +307,8 @@ def main():
         sync_sheet(args.sync_output)
     if args.fill_output:
         fill_sheet(args.fill_output, args.fresh)
+    if args.look_output:
+        look_sheet(args.look_output)
     if args.output == "-":
         return
     rows = []
