@@ -332,6 +332,9 @@ def _lanczos_taps(frac, a=None):
 
 
 def _supersample_axis(img, factor, axis):
+    """:func:`supersample` along one axis: the pixels kept, each sub-pixel one 1-D filter."""
+    import cv2
+
     n = img.shape[axis]
     if factor == 1 or n == 1:
         return img
@@ -342,17 +345,16 @@ def _supersample_axis(img, factor, axis):
     at = [slice(None)] * img.ndim
     at[axis] = slice(0, None, factor)
     out[tuple(at)] = img  # the image's own pixels, exactly
-    pad = [(0, 0)] * img.ndim
-    pad[axis] = (a - 1, a)
-    padded = np.pad(img, pad, mode="edge")
+    keep = [slice(None)] * img.ndim
+    keep[axis] = slice(0, n - 1)
     for p in range(1, factor):
-        acc = np.zeros([n - 1 if k == axis else s for k, s in enumerate(img.shape)], np.float64)
-        for k, tap in enumerate(_lanczos_taps(p / factor, a)):
-            src = [slice(None)] * img.ndim
-            src[axis] = slice(k, k + n - 1)  # pixel i + k - a + 1 for i = 0..n-2
-            acc += tap * padded[tuple(src)]
+        # Sub-pixel p/f past pixel i is sum_k tap_k I[i + k - a + 1] (k = 0 .. 2a - 1):
+        # OpenCV's correlation with the taps anchored at a - 1, the border repeated.
+        taps = _lanczos_taps(p / factor, a).astype(np.float32)
+        kernel, anchor = (taps[None], (a - 1, 0)) if axis == 1 else (taps[:, None], (0, a - 1))
+        filtered = cv2.filter2D(img, -1, kernel, anchor=anchor, borderType=cv2.BORDER_REPLICATE)
         at[axis] = slice(p, None, factor)
-        out[tuple(at)] = acc
+        out[tuple(at)] = filtered.reshape(img.shape)[tuple(keep)]
     return out
 
 

@@ -38,6 +38,7 @@ from ._shared import (
     _blend_plan,
     _colour_matching,
     _Later,
+    _shared,
 )
 from ._steps import _BlendedFrames, _FlowFrames, _PaperFrames
 
@@ -391,7 +392,12 @@ def _flow_work(assignment, params, n):
     shape = assignment.target.canvas.shape[:2]
     # Each pixel's cycle offset (phase_offsets), on a grid that grows with the travel:
     # the offsets' gradient shears the phases by the travel over the grid's spacing.
-    offsets = phase_offsets(shape, STAGGER * params.travel) if STAGGER > 0 else None
+    scale = STAGGER * params.travel
+    offsets = (
+        _shared(assignment.target, ("offsets", scale), lambda: phase_offsets(shape, scale))
+        if STAGGER > 0
+        else None
+    )
     loop = _Loop(plan["n_frames"], plan["cycle"], offsets, shape)
     # The first run's maps first: its frames wait for no others (with offsets, every
     # frame needs them all).
