@@ -21,13 +21,22 @@ With ``--fresh FOLDER`` (photos nobody here tuned on: Debian's
 the water, a stroke left to right, 1 px/frame), the storm clouds (a polygon above the
 horizon, a stroke left to right), and smoke over the forest path.
 
+With ``--real DATABASE`` (a database built from real footage, e.g. issue 35's two clips
+from Debian packages, a rocket launch's exhaust and churning white water:
+``fluidnb videodb build DATABASE oa4_launch.webm diver.mov --kind water``) one more row:
+the stream with its region and no strokes, animated from it.
+
 Each row: the photo with its matte's outline and strokes, frames 0, T/3 and 2T/3, and
 an x-t slice (one row of pixels through the matte, time going down: slanted streaks
 are motion). Printed per case: the painted speed, the optical flow of the output
 (the library's, OpenCV DIS, preset MEDIUM, between consecutive frames, mean over the
 matte: ``benchmarks/videodb/_common.py``'s ``output_motion``), its
-ratio to the painted speed and its angle to the strokes, and the share of
-neighbouring target fragments that play the same database fragment in sync.
+ratio to the painted speed and its angle to the strokes, the share of
+neighbouring target fragments that play the same database fragment in sync, and the
+look's measures (``/work/shared/notes/measuring-the-look.md``; issue 35): each frame's
+sharpness, the Laplacian variance of its grey levels inside the matte (eroded by 12 px)
+over the photo's (min, median, min/max over the frames), the mean |frame difference|
+inside it (/255) and the mean DIS flow magnitude (px/frame).
 
 Run against the code before issue 24 (no ``rendering`` parameter) the same script
 renders the paper's way, which is how ``videodb_before.png`` was made.
@@ -57,7 +66,7 @@ from PIL import Image, ImageDraw
 from videodb._common import output_motion
 
 from fluidnb import data, to_uint8
-from fluidnb.videodb import AnimateParams, assign, render, starter_database
+from fluidnb.videodb import AnimateParams, assign, open_database, render, starter_database
 from fluidnb.videodb.starter import starter_clips
 
 NEW_API = "rendering" in AnimateParams.specs()
@@ -94,7 +103,7 @@ def smoke_cutout(backdrop, seed=0):
     return img.astype(np.float32), alpha.astype(np.float32)
 
 
-def cases(fresh):
+def cases(fresh, real=None):
     h, w = SIZE
     stream, stream_m = (
         data.sample("stream", size=SIZE, mode="rgb"),
@@ -113,6 +122,10 @@ def cases(fresh):
             None,
         ),
     ]
+    if real is not None:
+        out.append(
+            ("stream, real-footage database, no strokes", real, stream, stream_m, None, None)
+        )
     fire, fire_a = data.sample("fire", return_alpha=True)
     fire = cv2.resize(fire, (120, 250), interpolation=cv2.INTER_AREA)
     fire_a = cv2.resize(fire_a, (120, 250), interpolation=cv2.INTER_AREA)
@@ -134,6 +147,22 @@ def cases(fresh):
         smoke, alpha = smoke_cutout(path, seed=1)
         out.append(("smoke cut-out over a forest path", "smoke", smoke, alpha, right, None))
     return out
+
+
+def look(frames, photo, matte):
+    """Sharpness per frame over the photo's, mean |frame difference| (/255), DIS |flow|."""
+
+    def grey(f):
+        return cv2.cvtColor(to_uint8(f), cv2.COLOR_RGB2GRAY)
+
+    inner = cv2.erode((matte > 0.5).astype(np.uint8), np.ones((25, 25), np.uint8)) > 0
+    ref = cv2.Laplacian(grey(photo), cv2.CV_32F)[inner].var()
+    sharp = np.array([cv2.Laplacian(grey(f), cv2.CV_32F)[inner].var() / ref for f in frames])
+    dis = cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM)
+    g = [grey(f) for f in frames]
+    diff = np.mean([np.abs(a.astype(np.float32) - b)[inner].mean() for a, b in zip(g, g[1:])])
+    mag = np.mean([np.hypot(*dis.calc(a, b, None)[inner].T).mean() for a, b in zip(g, g[1:])])
+    return sharp, float(diff), float(mag)
 
 
 def thumb(frame, height=THUMB * 9 // 16):
@@ -188,6 +217,42 @@ def sync_sheet(path):
     print(f"wrote {path}")
 
 
+def look_sheet(path):
+    """Crops at full size: the stream's water mid-blend, the overview's cloud's lower edge.
+
+    The stream (480 x 376, its region, a stroke right and 2 px/frame painted): frames 0,
+    T/4 and T/2 cropped to the water, where the cross-fade of two displaced copies
+    doubled the rocks' edges and washed the foam out; the overview's clouds (480 x 300,
+    its stroke): frames 0 and T/2 cropped to the cloud's lower edge, where the dark band
+    was (issue 35).
+    """
+    rows = []
+    photo, matte = data.sample("stream", mode="rgb"), data.region("stream")
+    h, w = matte.shape
+    right = [np.array([[0.5 * h, 0.05 * w], [0.5 * h, 0.95 * w]])]
+    speed = np.where(matte > 0.5, 2.0, 0).astype(np.float32)
+    params = AnimateParams.for_kind("water")
+    a = assign(photo, matte, starter_database("water"), params, direction=right, speed=speed)
+    f = render(a, params).clip.frames
+    crop = (slice(150, 310), slice(0, 240))
+    rows.append(
+        np.concatenate([photo[crop]] + [f[i][crop] for i in (0, len(f) // 4, len(f) // 2)], axis=1)
+    )
+    photo, matte = data.sample("clouds", mode="rgb"), data.region("clouds")
+    h, w = matte.shape
+    stroke = np.array([(0.5, 0.1), (0.45, 0.9)]) * (h, w)
+    params = AnimateParams.for_kind("smoke")
+    a = assign(photo, matte, starter_database("smoke"), params, direction=[stroke])
+    f = render(a, params).clip.frames
+    crop = (slice(60, 220), slice(20, 260))
+    rows.append(
+        np.concatenate([photo[crop]] + [f[i][crop] for i in (0, len(f) // 3, len(f) // 2)], axis=1)
+    )
+    sheet = np.concatenate([np.pad(r, ((0, 2), (0, 0), (0, 0))) for r in rows])
+    Image.fromarray(to_uint8(sheet)).save(path)
+    print(f"wrote {path}")
+
+
 def fill_sheet(path, fresh):
     """Telea's diffusion against the exemplar fill, behind the clouds and a smoke cut-out."""
     from scipy import ndimage as ndi
@@ -232,6 +297,8 @@ def main():
         "-o", "--output", default="docs/contact/videodb_after.png", help="the sheet ('-': none)"
     )
     parser.add_argument("--rendering", default=None, help="flow or paper (default: the default)")
+    parser.add_argument("--real", help="a database built from real footage (see above)")
+    parser.add_argument("--look-output", help="also the full-size crops of look_sheet")
     parser.add_argument("--sync-output", help="also the clouds' sync sheet (new code only)")
     parser.add_argument("--fill-output", help="also the fill sheet (new code only)")
     args = parser.parse_args()
@@ -240,15 +307,19 @@ def main():
         sync_sheet(args.sync_output)
     if args.fill_output:
         fill_sheet(args.fill_output, args.fresh)
+    if args.look_output:
+        look_sheet(args.look_output)
     if args.output == "-":
         return
     rows = []
     print(
         f"{'case':>48} {'painted':>7} {'flow (dy, dx)':>16} {'speed':>6} {'ratio':>5} "
-        f"{'angle':>6} {'sync':>5} {'frames':>6} {'render':>7}"
+        f"{'angle':>6} {'sync':>11} {'frames':>6} {'render':>7} "
+        f"{'sharp min/med/min:max':>21} {'diff':>5} {'|flow|':>6}"
     )
-    for name, kind, photo, matte, strokes, painted in cases(args.fresh):
-        db = starter_database(kind)
+    for name, kind, photo, matte, strokes, painted in cases(args.fresh, args.real):
+        db = starter_database(kind) if kind in ("water", "smoke", "fire") else open_database(kind)
+        kind = db.kind
         speed = None if painted is None else np.where(matte > 0.5, painted, 0).astype(np.float32)
         params = AnimateParams.for_kind(kind)
         if NEW_API and args.rendering:
@@ -277,9 +348,12 @@ def main():
                 a.fragments, a.target.positions, anim.stages["offsets"], anim.stages["mirrors"]
             )
             sync = f"{before:.2f}->{after:.2f}"
+        sharp, diff, flow_mag = look(frames, photo, matte)
         print(
             f"{name:>48} {painted or '-':>7} {np.array2string(flow, precision=3):>16} "
-            f"{mag:6.3f} {ratio:>5} {angle:>6} {sync:>11} {len(frames):>6} {seconds:6.2f}s"
+            f"{mag:6.3f} {ratio:>5} {angle:>6} {sync:>11} {len(frames):>6} {seconds:6.2f}s "
+            f"{sharp.min():5.2f}/{np.median(sharp):5.2f}/{sharp.min() / sharp.max():5.2f} "
+            f"{diff:5.2f} {flow_mag:6.2f}"
         )
         rows.append(row(photo, matte, strokes, frames))
     width = max(r.shape[1] for r in rows)

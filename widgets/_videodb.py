@@ -466,11 +466,12 @@ class VideoDBApp(FlowSketch, App):
         # A slider moved during the run gets its re-solve; otherwise the preview worker
         # fills the preview's cache, so the first drag shows its preview at once.
         self.request_preview()
+        note = a.stillness_note()
         return (
             f"done in {seconds:.1f} s: {plural(len(a.target), 'fragment')}, K = "
             f"{a.candidates.shape[1]}, E = {a.solution.energy:.4g} after "
             f"{plural(a.solution.sweeps, 'sweep')} (ICM {a.solution.icm_energy:.4g}), "
-            f"{plural(len(clip), 'frame')}"
+            f"{plural(len(clip), 'frame')}" + ("" if note is None else f"; {note}")
         )
 
     def start_render(self):

@@ -158,4 +158,7 @@ def _animate(args):
         f"energy {a.solution.energy:.4g} (ICM {a.solution.icm_energy:.4g}), assigned in "
         f"{t.get('assign_total', 0):.1f} s, rendered in {t['render']:.1f} s"
     )
+    note = a.stillness_note()
+    if note is not None:
+        print(f"note: {note}")
     return 0

@@ -2,7 +2,8 @@ r"""The assignment (Okabe et al., sec. 5): which database fragment animates each
 
 - :func:`cut_target`, :class:`Target`, :func:`fragment_motion` -- the target cut as the
   database is, and the user's direction and speed over its fragments (Fig. 8).
-- :func:`histogram_index`, :class:`HistogramIndex`, :class:`TopK` -- the candidates:
+- :func:`histogram_index`, :class:`HistogramIndex`, :class:`TopK`,
+  :func:`moving_fragments`, :func:`fragment_speeds` -- the candidates:
   top-K by spatial-pyramid histogram intersection (Eq. 1), after the motion filter.
 - :func:`pair_tables`, :class:`PairTables`, :data:`TEXTURE_SCALE` -- the smoothness
   terms of every edge and label pair (Eq. 2, 3, 6), in bulk.
@@ -23,12 +24,20 @@ from ._reference import (
     reference_pair_tables,
     reference_top_k,
 )
-from ._retrieval import HistogramIndex, TopK, histogram_index
+from ._retrieval import (
+    STILL,
+    HistogramIndex,
+    TopK,
+    fragment_speeds,
+    histogram_index,
+    moving_fragments,
+)
 from ._smoothness import TEXTURE_SCALE, PairTables, pair_tables
 from ._solve import MRFSolution, solve
 from ._target import Target, cut_target, fragment_motion
 
 __all__ = [
+    "STILL",
     "TEXTURE_SCALE",
     "Assignment",
     "HistogramIndex",
@@ -42,9 +51,11 @@ __all__ = [
     "cut_target",
     "energy",
     "fragment_motion",
+    "fragment_speeds",
     "grid_edges",
     "histogram_index",
     "icm",
+    "moving_fragments",
     "pair_tables",
     "reference_alpha_expansion",
     "reference_icm",

@@ -38,12 +38,16 @@ from ..database._kinds import as_database
 from ..database._store import VideoDatabase
 from ..database._words import HISTOGRAM_TOTAL
 from ._mrf import grid_edges
-from ._retrieval import MIN_MOTION, histogram_index
+from ._retrieval import MIN_MOTION, fragment_speeds, histogram_index
 from ._smoothness import pair_tables
 from ._solve import solve
 from ._target import Target, cut_target, fragment_motion
 
-__all__ = ["Assignment", "assign"]
+__all__ = ["BARELY", "Assignment", "assign"]
+
+#: Below this median speed of the chosen fragments (px/frame) the assignment says
+#: they barely move (:meth:`Assignment.stillness_note`).
+BARELY = 0.25
 
 
 @dataclass(frozen=True, eq=False)
@@ -105,6 +109,27 @@ class Assignment:
     def fragments(self):
         """The database fragment id assigned to every target fragment, (P,)."""
         return self.candidates[np.arange(len(self.candidates)), self.solution.labels]
+
+    def chosen_speed(self):
+        """The median over the target of the chosen fragments' speeds, px/frame.
+
+        Each chosen fragment's median speed over its frames (:func:`fragment_speeds`).
+        """
+        return float(np.median(fragment_speeds(self.db)[self.fragments]))
+
+    def stillness_note(self):
+        """A sentence for the status line when the chosen fragments barely move, else None.
+
+        Below :data:`BARELY` px/frame (the median of :meth:`chosen_speed`) the photo
+        will barely move unless strokes or a painted speed move it.
+        """
+        speed = self.chosen_speed()
+        if speed >= BARELY:
+            return None
+        return (
+            f"the chosen fragments barely move (median {speed:.2f} px/frame): draw "
+            "strokes, or build from footage with more motion"
+        )
 
     @property
     def energies(self):

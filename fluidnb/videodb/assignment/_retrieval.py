@@ -66,7 +66,15 @@ from .._common._geometry import GRID
 from ..database._words import CELLS, HISTOGRAM_TOTAL, _check_words, pyramid_cells
 from ._smoothness import _workers
 
-__all__ = ["MIN_MOTION", "HistogramIndex", "TopK", "histogram_index"]
+__all__ = [
+    "MIN_MOTION",
+    "STILL",
+    "HistogramIndex",
+    "TopK",
+    "fragment_speeds",
+    "histogram_index",
+    "moving_fragments",
+]
 
 #: Below this speed (px/frame) a fragment's mean motion has no direction.
 MIN_MOTION = 1e-6
@@ -115,6 +123,9 @@ class HistogramIndex:
     mean_motion : array_like, shape (F, 2), optional
         Every fragment's mean motion (dy, dx) in px/frame; needed for the motion
         filter of :meth:`top_k`.
+    ids : array_like of int, shape (F,), optional
+        The database id of each row, increasing (an index over some of the
+        database's fragments: :func:`histogram_index`); default the row.
 
     Attributes
     ----------
@@ -151,7 +162,7 @@ class HistogramIndex:
     (7, 324)
     """
 
-    def __init__(self, words, k, *, mean_motion=None):
+    def __init__(self, words, k, *, mean_motion=None, ids=None):
         k = check_int("k", k, 1, 65536)
         w = _check_words(words, k)
         if w.ndim != 3 or len(w) == 0:
@@ -171,6 +182,14 @@ class HistogramIndex:
             self._motion = None
         else:
             self._motion = _check_motion(mean_motion, self.n_fragments)
+        self._ids = None
+        if ids is not None:
+            self._ids = np.asarray(ids, np.int64)
+            if self._ids.shape != (self.n_fragments,) or np.any(np.diff(self._ids) <= 0):
+                raise ValueError(
+                    f"ids must be {self.n_fragments} increasing fragment ids, got shape "
+                    f"{self._ids.shape}"
+                )
 
     @property
     def nbytes(self):
@@ -267,6 +286,8 @@ class HistogramIndex:
             runs = [slice(a, min(a + step, len(q))) for a in range(0, len(q), step)]
             with spread_pool(workers, "fluidnb-retrieval") as pool:
                 list(pool.map(search, runs))
+        if self._ids is not None:
+            ids = self._ids[ids]
         return TopK(ids, scores, n_eligible)
 
 
@@ -276,7 +297,7 @@ _INDEXES_LOCK = threading.Lock()
 
 
 def histogram_index(db):
-    """The :class:`HistogramIndex` of a database's word maps, built on first use and kept.
+    """The :class:`HistogramIndex` of a database's moving fragments, built on first use and kept.
 
     Parameters
     ----------
@@ -285,16 +306,76 @@ def histogram_index(db):
     Returns
     -------
     HistogramIndex
-        Over ``db.words`` with ``db.mean_motion`` (the motion filter), the same object
-        for every call with the same opened database.
+        Over the word maps of ``db``'s :func:`moving_fragments` with their mean motion
+        (the motion filter), its ids the database's, the same object for every call
+        with the same opened database.
     """
     with _INDEXES_LOCK:
         index = _INDEXES.get(db)
     if index is None:
-        index = HistogramIndex(db.words, db.params.words, mean_motion=db.mean_motion)
+        moving = moving_fragments(db)
+        if moving.all():
+            index = HistogramIndex(db.words, db.params.words, mean_motion=db.mean_motion)
+        else:
+            index = HistogramIndex(
+                np.asarray(db.words)[moving],
+                db.params.words,
+                mean_motion=np.asarray(db.mean_motion)[moving],
+                ids=np.flatnonzero(moving),
+            )
         with _INDEXES_LOCK:
             index = _INDEXES.setdefault(db, index)
     return index
+
+
+#: A fragment whose median speed over its frames is below this share of the
+#: database's median is still (:func:`moving_fragments`).
+STILL = 0.1
+
+
+def fragment_speeds(db):
+    """Each fragment's median speed over its frames, px/frame: the median of ``|db.motion|``.
+
+    Parameters
+    ----------
+    db : VideoDatabase
+
+    Returns
+    -------
+    ndarray, shape (F,), float32
+    """
+    motion = np.asarray(db.motion, np.float32)
+    return np.median(np.hypot(motion[..., 0], motion[..., 1]), axis=1).astype(np.float32)
+
+
+def moving_fragments(db):
+    r"""Which of the database's fragments move: the ones the assignment may choose.
+
+    In the paper every database fragment is fluid, and moves. Footage of real scenes
+    also holds still ones (the launch pad beside a rocket's plume, rocks in a
+    stream: a fragment is kept when any of its pixels moves), and a photo's water
+    looks like them: on a database built from two real clips the chosen fragments'
+    median speed was 0.04 px/frame against the database's 6, and the photo barely
+    moved (issue 35). A fragment whose :func:`fragment_speeds` is below
+    :data:`STILL` times the database's median is left out (a slow database keeps
+    its fragments: the bar is relative; at most half are left out).
+
+    Parameters
+    ----------
+    db : VideoDatabase
+
+    Returns
+    -------
+    ndarray of bool, shape (F,)
+
+    Examples
+    --------
+    >>> from fluidnb.videodb import starter_database
+    >>> bool(moving_fragments(starter_database("water", quick=True)).mean() > 0.95)
+    True
+    """
+    speeds = fragment_speeds(db)
+    return speeds >= np.float32(STILL) * np.median(speeds)
 
 
 def _check_motion(mean_motion, n):

@@ -10,7 +10,8 @@
 - :func:`dynamic_matte`, :func:`inpaint_background`, :func:`exemplar_fill`,
   :func:`composite` -- the moving matte and what it uncovers.
 - :func:`flow_field`, :func:`flow_timing`, :func:`loop_phases`,
-  :func:`displacement_maps`, :func:`eulerian_loop`, :func:`extend_outside` -- the flow
+  :func:`displacement_maps`, :func:`eulerian_loop`, :func:`extend_outside`,
+  :func:`phase_offsets`, :func:`supersample`, :func:`variance_blend` -- the flow
   rendering (beyond the paper).
 - :func:`render`, :class:`Animation`, :func:`prefetch` -- the pipeline;
   :func:`preview_frame`, :func:`prefetch_preview` -- one quick frame for live previews.
@@ -30,9 +31,12 @@ from ._flow_render import (
     flow_field,
     flow_timing,
     loop_phases,
+    phase_offsets,
+    supersample,
 )
 from ._histograms import match_histograms_cells
 from ._motion_blur import motion_blur
+from ._phase_blend import variance_blend
 from ._preview import prefetch_preview, preview_frame
 from ._reference import (
     reference_blend_differences,
@@ -41,6 +45,8 @@ from ._reference import (
     reference_layer_blend,
     reference_match_histograms_cells,
     reference_motion_blur,
+    reference_supersample,
+    reference_variance_blend,
 )
 from ._render import Animation, prefetch, render
 
@@ -63,6 +69,7 @@ __all__ = [
     "match_histograms_cells",
     "mirror_axes",
     "motion_blur",
+    "phase_offsets",
     "prefetch",
     "prefetch_preview",
     "preview_frame",
@@ -72,8 +79,12 @@ __all__ = [
     "reference_layer_blend",
     "reference_match_histograms_cells",
     "reference_motion_blur",
+    "reference_supersample",
+    "reference_variance_blend",
     "render",
     "stagger",
+    "supersample",
     "sync_share",
     "temporal_offsets",
+    "variance_blend",
 ]

@@ -126,28 +126,19 @@ def _from_axes(x, centre, axes):
 
 
 @njit(cache=True, nogil=True)
-def _advected_in_axes(a, b, wa, fade, detail, d, centre, axes, out):
+def _advected_in_axes(moved, detail, d, centre, axes, out):
     """One flow-rendered frame in the colour axes, in one pass (float32).
 
-    The cross-fade of the phases (``fade`` 1: ``a``; 0: ``b``; else ``b + wa (a - b)``,
-    :func:`fluidnb.videodb.rendering._flow_render._cross_fade`), plus ``detail * d``, in the
-    axes as :func:`colours_in_axes`: the numpy steps' operations in their order.
+    The phases' blend ``moved`` plus ``detail * d``, in the axes as
+    :func:`colours_in_axes`: the numpy steps' operations in their order.
     """
     h, w = d.shape
     for r in range(h):
         for c in range(w):
             dd = detail * d[r, c]
-            if fade == 1:
-                m0, m1, m2 = a[r, c, 0], a[r, c, 1], a[r, c, 2]
-            elif fade == 0:
-                m0, m1, m2 = b[r, c, 0], b[r, c, 1], b[r, c, 2]
-            else:
-                m0 = b[r, c, 0] + wa * (a[r, c, 0] - b[r, c, 0])
-                m1 = b[r, c, 1] + wa * (a[r, c, 1] - b[r, c, 1])
-                m2 = b[r, c, 2] + wa * (a[r, c, 2] - b[r, c, 2])
-            g0 = (m0 + dd) - centre[0]
-            g1 = (m1 + dd) - centre[1]
-            g2 = (m2 + dd) - centre[2]
+            g0 = (moved[r, c, 0] + dd) - centre[0]
+            g1 = (moved[r, c, 1] + dd) - centre[1]
+            g2 = (moved[r, c, 2] + dd) - centre[2]
             for k in range(3):
                 out[r, c, k] = (g0 * axes[0, k] + g1 * axes[1, k]) + g2 * axes[2, k]
 

@@ -43,6 +43,41 @@ def _restore_area(b, area):
     return b
 
 
+def _uncovered(photo, fill, alpha, matte):
+    r"""What shows behind the moving fluid: the photo, the fill only where the fluid left.
+
+    The composite ``back + B_i (frame - back)`` over the filled background alone
+    mixes the fill into the photo wherever the matte is soft: a drawn region's wide
+    soft edge over white cloud became a dark band of filled-in rock, from frame 0
+    on (issue 35). Behind :math:`B_i` the photo :math:`I` is kept, and the fill
+    :math:`F` shows only in the part of the matte the fluid has left,
+    :math:`\max(0, \alpha - B_i)`:
+
+    .. math::
+
+        (1 - B_i)\, U_i = \big(1 - \max(\alpha, B_i)\big) I
+            + \max(0, \alpha - B_i)\, F,
+
+    so :math:`B_i U_i`'s complement sums to one, where :math:`B_i = \alpha` the
+    composite of the photo's own fluid is the photo, where the fluid has moved on
+    the fill shows as much as it left, and where it moves over the scene the scene
+    is the photo. Where :math:`B_i = 1` nothing shows: :math:`U_i = F`.
+
+    ``photo``, ``fill`` (H, W, 3), ``alpha``, ``matte`` (H, W), float32; returns
+    :math:`U_i` (H, W, 3).
+    """
+    reveal = np.maximum(alpha - matte, np.float32(0))
+    keep = np.float32(1) - np.maximum(alpha, matte)
+    rest = np.float32(1) - matte
+    some = rest > np.float32(1e-6)
+    out = fill.copy()
+    share = np.divide(keep, rest, out=np.zeros_like(rest), where=some)[..., None]
+    part = np.divide(reveal, rest, out=np.zeros_like(rest), where=some)[..., None]
+    mixed = share * photo + part * fill
+    out[some] = mixed[some]
+    return out
+
+
 def dynamic_matte(alpha, motion, *, tau):
     r"""The moving boundary of fire and smoke: :math:`B_{i+1} = \tau W_i(B_i) + (1 - \tau)\alpha`.
 

@@ -18,6 +18,8 @@ plain version                             fast path (tested against it)
 :func:`reference_match_histograms_cells`  :func:`~fluidnb.videodb.rendering.match_histograms_cells`
 :func:`reference_motion_blur`             :func:`~fluidnb.videodb.rendering.motion_blur`
 :func:`reference_eulerian_loop`           :func:`~fluidnb.videodb.rendering.eulerian_loop`
+:func:`reference_supersample`             :func:`~fluidnb.videodb.rendering.supersample`
+:func:`reference_variance_blend`          :func:`~fluidnb.videodb.rendering.variance_blend`
 :func:`reference_fill`                    :func:`~fluidnb.videodb.rendering.exemplar_fill`
 ========================================  ==========================================
 
@@ -37,6 +39,7 @@ from .._common._geometry import FRAGMENT, STRIDE
 from .._common._weights import FEATHER
 from ._blend import BLEND_LEVELS
 from ._fill import PATCH_RADIUS
+from ._flow_render import LANCZOS_A, SUPERSAMPLE
 from ._histograms import _QUANTILES, _SLOPE_RANGE, HISTOGRAM_BINS
 
 __all__ = [
@@ -46,6 +49,8 @@ __all__ = [
     "reference_layer_blend",
     "reference_match_histograms_cells",
     "reference_motion_blur",
+    "reference_supersample",
+    "reference_variance_blend",
 ]
 
 # Per-level weight sums at or below this count as "no fragment here" (as the blend).
@@ -500,32 +505,33 @@ def _maps_np(edges, q_f, q_r):
 # ------------------------------------------------------ the flow rendering (beyond the paper)
 
 
-def reference_eulerian_loop(image, velocity, n_frames, *, cycle):
+def reference_eulerian_loop(image, velocity, n_frames, *, cycle, offsets=None):
     r"""The flow rendering's Eulerian loop, one frame and one phase at a time (slow).
 
     The loop's period :math:`P` is ``n_frames`` divided by the whole number of cycles
-    nearest to ``n_frames / cycle`` (at least one). Frame :math:`t` blends two phases
-    of ages :math:`s_a = ((t + P/2) \bmod P) - P/2` and :math:`s_b = (t \bmod P) - P/2`
-    with weights :math:`w_a = 1 - 2 |s_a| / P` and :math:`1 - w_a`. Each age is walked
-    from 0, one frame at a time, with the semi-Lagrangian recurrence of the
+    nearest to ``n_frames / cycle`` (at least one). Pixel :math:`x` of frame :math:`t`
+    blends two phases of ages :math:`s_a = ((u + P/2) \bmod P) - P/2` and
+    :math:`s_b = (u \bmod P) - P/2`, :math:`u = t + o(x) P` (``offsets`` :math:`o`, 0
+    if not given), with weight :math:`w_a = 1 - 2 |s_a| / P` for phase a. Each whole age
+    is walked from 0, one frame at a time, with the semi-Lagrangian recurrence of the
     displacement map, :math:`D_{s+1}(x) = D_s(x - v(x)) - v(x)` forwards and
     :math:`D_{s-1}(x) = D_s(x + v(x)) + v(x)` backwards
     (:func:`fluidnb.fields.backward_warp`); a fractional age interpolates linearly
-    between the two whole ones around it. The frame is
+    between the two whole ones around it. Each phase samples the image
+    :math:`I(x + D_s(x))` from its :func:`reference_supersample` with Keys' cubic
+    kernel (:math:`a = -0.75`), and the frame is their
+    :func:`reference_variance_blend`.
 
-    .. math::
-
-        I_t(x) = w_a(t)\, I\big(x + D_{s_a(t)}(x)\big)
-            + (1 - w_a(t))\, I\big(x + D_{s_b(t)}(x)\big).
-
-    :func:`~fluidnb.videodb.rendering.eulerian_loop` makes every map once and warps with
-    OpenCV's ``remap``, whose bilinear weights are rounded to 1/32 of a pixel: the
-    two agree to about ``|grad I| / 32`` (checked in the tests to 1e-2 on smooth
-    images).
+    :func:`~fluidnb.videodb.rendering.eulerian_loop` makes every map once and samples
+    with OpenCV's ``remap``, whose interpolation weights are tabulated every 1/32 of a
+    pixel: the two agree to about ``|grad I| / 64`` (checked in the tests to 1e-2 on
+    smooth images).
     """
     img = np.asarray(image, np.float64)
     v = np.asarray(velocity, np.float64)
+    h, w = img.shape[:2]
     period = n_frames / max(1, round(n_frames / cycle))
+    o = np.zeros((h, w)) if offsets is None else np.asarray(offsets, np.float64)
 
     def walk(steps):
         sign = 1.0 if steps >= 0 else -1.0
@@ -534,21 +540,132 @@ def reference_eulerian_loop(image, velocity, n_frames, *, cycle):
             d = backward_warp(d, -sign * v) - sign * v
         return d
 
-    def displacement(age):
-        lo = math.floor(age)
-        frac = age - lo
-        d = walk(lo)
-        return d if frac == 0 else (1 - frac) * d + frac * walk(lo + 1)
+    top = math.ceil(period / 2)
+    whole = {s: walk(s) for s in range(-top, top + 1)}
+    rows, cols = np.mgrid[:h, :w]
 
+    def displacement(age):  # (H, W) ages -> (H, W, 2)
+        lo = np.floor(age)
+        frac = (age - lo)[..., None]
+        lo = np.clip(lo.astype(int), -top, top)
+        hi = np.clip(lo + 1, -top, top)
+        return (1 - frac) * _pick(whole, lo, rows, cols) + frac * _pick(whole, hi, rows, cols)
+
+    fine = reference_supersample(img, SUPERSAMPLE)
     frames = []
     for t in range(n_frames):
-        age_a = (t + period / 2) % period - period / 2
-        age_b = t % period - period / 2
-        w_a = min(max(1.0 - 2.0 * abs(age_a) / period, 0.0), 1.0)
-        a = backward_warp(img, displacement(age_a))
-        b = backward_warp(img, displacement(age_b))
-        frames.append(w_a * a + (1 - w_a) * b)
+        u = t + o * period
+        age_a = np.mod(u + period / 2, period) - period / 2
+        age_b = np.mod(u, period) - period / 2
+        w_a = np.clip(1.0 - 2.0 * np.abs(age_a) / period, 0.0, 1.0)
+        a, b = (
+            _cubic_sample(fine, SUPERSAMPLE * (rows + d[..., 0]), SUPERSAMPLE * (cols + d[..., 1]))
+            for d in (displacement(age_a), displacement(age_b))
+        )
+        frames.append(reference_variance_blend(a, b, w_a))
     return np.array(frames, np.float32)
+
+
+def _pick(whole, ages, rows, cols):
+    """Each pixel's own displacement ``whole[age][row, col]``."""
+    out = np.empty(ages.shape + (2,))
+    for s, d in whole.items():
+        at = ages == s
+        out[at] = d[rows[at], cols[at]]
+    return out
+
+
+def reference_supersample(image, factor):
+    r"""The image ``factor`` times finer: Lanczos interpolation, one axis then the other.
+
+    Fine pixel :math:`j` lies at :math:`j / f` in the image's pixels; with
+    :math:`i = \lfloor j / f \rfloor` and :math:`\phi = j / f - i` it is
+    :math:`\sum_{k=-a+1}^{a} L(k - \phi) I_{i + k} / \sum_k L(k - \phi)`,
+    :math:`L(x) = \operatorname{sinc}(x) \operatorname{sinc}(x / a)`, ``a`` =
+    :data:`~fluidnb.videodb.rendering._flow_render.LANCZOS_A`, indices clamped to the
+    image. At :math:`\phi = 0` the sum is the pixel itself.
+    """
+    out = np.asarray(image, np.float64)
+    a = LANCZOS_A
+    for axis in (0, 1):
+        n = out.shape[axis]
+        fine = []
+        for j in range((n - 1) * factor + 1):
+            i, phi = divmod(j, factor)
+            phi = phi / factor
+            x = np.arange(-a + 1, a + 1) - phi
+            taps = np.sinc(x) * np.sinc(x / a)
+            taps /= taps.sum()
+            idx = np.clip(np.arange(i - a + 1, i + a + 1), 0, n - 1)
+            fine.append(np.tensordot(taps, np.take(out, idx, axis=axis), axes=([0], [axis])))
+        out = np.stack(fine, axis=axis)
+    return out
+
+
+def _keys(x, a=-0.75):
+    """Keys' cubic convolution kernel (OpenCV's INTER_CUBIC uses a = -0.75)."""
+    x = np.abs(x)
+    near = ((a + 2) * x - (a + 3)) * x * x + 1
+    far = ((a * x - 5 * a) * x + 8 * a) * x - 4 * a
+    return np.where(x <= 1, near, np.where(x < 2, far, 0.0))
+
+
+def _cubic_sample(img, y, x):
+    """``img`` at fractional (y, x), Keys' cubic over 4 x 4 pixels, indices clamped."""
+    h, w = img.shape[:2]
+    y0, x0 = np.floor(y), np.floor(x)
+    out = 0.0
+    for dy in range(-1, 3):
+        wy = _keys(y - (y0 + dy))
+        r = np.clip(y0 + dy, 0, h - 1).astype(int)
+        for dx in range(-1, 3):
+            wx = _keys(x - (x0 + dx))
+            c = np.clip(x0 + dx, 0, w - 1).astype(int)
+            k = wy * wx
+            out = out + (k[..., None] if img.ndim == 3 else k) * img[r, c]
+    return out
+
+
+def reference_variance_blend(a, b, weight):
+    r"""The phases' blend that keeps the contrast of its parts, pixel by pixel (numpy).
+
+    With :math:`m = w a + (1 - w) b`, :math:`L` one level of a Burt & Adelson pyramid
+    down and up, :math:`H_x = x - L(x)`, :math:`H_m = w H_a + (1 - w) H_b`, :math:`E_x`
+    the local mean (two pyramid levels down and up) of :math:`\sum_c H_{x,c}^2`, the
+    result is :math:`m + (g - 1) H_m` with
+    :math:`g = \sqrt{(w E_a + (1 - w) E_b) / E_m}` clipped to
+    :math:`[1, 1 / \sqrt{w^2 + (1 - w)^2}]` (:math:`g = 1` where :math:`E_m = 0`).
+    The pyramid levels are OpenCV's ``pyrDown``/``pyrUp`` (5-tap, reflect-101), as in
+    :func:`~fluidnb.videodb.rendering._phase_blend.variance_blend`, which computes
+    the same in float32 (they agree to float32 rounding).
+    """
+    import cv2
+
+    a = np.asarray(a, np.float32)
+    b = np.asarray(b, np.float32)
+    w = np.broadcast_to(np.asarray(weight, np.float64), a.shape[:2])
+
+    def low(x):
+        return cv2.pyrUp(cv2.pyrDown(x), dstsize=(x.shape[1], x.shape[0])).reshape(x.shape)
+
+    def local(e):
+        half = cv2.pyrDown(e)
+        quarter = cv2.pyrDown(half)
+        half = cv2.pyrUp(quarter, dstsize=(half.shape[1], half.shape[0]))
+        return cv2.pyrUp(half, dstsize=(e.shape[1], e.shape[0])).astype(np.float64)
+
+    wc = w[..., None] if a.ndim == 3 else w
+    ha = a - low(a).astype(np.float64)
+    hb = b - low(b).astype(np.float64)
+    hm = wc * ha + (1 - wc) * hb
+    per_pixel = (lambda x: (x * x).sum(axis=-1)) if a.ndim == 3 else (lambda x: x * x)
+    e_a, e_b, e_m = (local(per_pixel(x).astype(np.float32)) for x in (ha, hb, hm))
+    want = w * e_a + (1 - w) * e_b
+    cap = 1 / np.sqrt(w * w + (1 - w) ** 2)
+    g = np.where(e_m > 1e-20, np.sqrt(np.maximum(want, 0) / np.where(e_m > 1e-20, e_m, 1)), 1.0)
+    g = np.clip(g, 1.0, cap)
+    g = g[..., None] if a.ndim == 3 else g
+    return wc * a + (1 - wc) * b + (g - 1) * hm
 
 
 # ------------------------------------------------ the background's fill (beyond the paper)

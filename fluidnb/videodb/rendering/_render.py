@@ -29,7 +29,7 @@ from ..assignment._assign import Assignment, _check_params
 from ..database._frames import rebuild_fragments
 from ._blend import MARGIN
 from ._desync import mirror_axes, temporal_offsets
-from ._flow_render import _Maps, flow_field, flow_timing, loop_phases
+from ._flow_render import STAGGER, _Loop, _Maps, flow_field, flow_timing, phase_offsets
 from ._shared import (
     _SHARED,
     _SHARED_LOCK,
@@ -38,6 +38,7 @@ from ._shared import (
     _blend_plan,
     _colour_matching,
     _Later,
+    _shared,
 )
 from ._steps import _BlendedFrames, _FlowFrames, _PaperFrames
 
@@ -382,17 +383,26 @@ def _flow_work(assignment, params, n):
     Kept for the next render of the same assignment with the same loop and travel
     (the last such only: the maps take ~150 MB at the app's size).
     """
-    key = (params.loop, params.travel)
+    key = (params.loop, params.travel, STAGGER)
     with _SHARED_LOCK:
         last = _SHARED.setdefault(assignment.target, {}).get("flow")
     if last is not None and last[0]() is assignment and last[1] == key:
         return last[2]
     plan = _flow_plan(assignment, params, n)
-    ages = loop_phases(plan["n_frames"], plan["cycle"])  # age_a, age_b, weight_a
-    steps = int(np.ceil(max(np.abs(ages[0]).max(), np.abs(ages[1]).max())))
-    # The first run's maps first: its frames wait for no others.
-    first = np.concatenate([age[:FIRST_RUN] for age in ages[:2]])
-    plan.update(ages=ages, maps=_Maps(plan["velocity"], steps, first))
+    shape = assignment.target.canvas.shape[:2]
+    # Each pixel's cycle offset (phase_offsets), on a grid that grows with the travel:
+    # the offsets' gradient shears the phases by the travel over the grid's spacing.
+    scale = STAGGER * params.travel
+    offsets = (
+        _shared(assignment.target, ("offsets", scale), lambda: phase_offsets(shape, scale))
+        if STAGGER > 0
+        else None
+    )
+    loop = _Loop(plan["n_frames"], plan["cycle"], offsets, shape)
+    # The first run's maps first: its frames wait for no others (with offsets, every
+    # frame needs them all).
+    first = np.concatenate([loop.ages(t) for t in range(min(FIRST_RUN, plan["n_frames"]))])
+    plan.update(loop=loop, maps=_Maps(plan["velocity"], loop.steps, first))
     plan["velocity"].flags.writeable = False
     with _SHARED_LOCK:
         _SHARED.setdefault(assignment.target, {})["flow"] = (weakref.ref(assignment), key, plan)

@@ -18,7 +18,7 @@ from .._common._weights import FEATHER
 from ._blend import BLEND_LEVELS, MARGIN, _BlendPlan
 from ._colour_axes import colour_axes
 from ._composite import inpaint_background
-from ._flow_render import _grid, extend_outside
+from ._flow_render import SUPERSAMPLE, _grid, extend_outside, supersample
 from ._histograms import _Matching
 
 __all__ = []
@@ -104,7 +104,12 @@ def _colour_matching(target, cell):
 
 
 def _advected_layer(target):
-    """What the flow moves (the photo, mirrored outside the matte) and its pixel grid, kept."""
+    """What the flow moves (the photo, mirrored outside the matte), kept for the target.
+
+    The layer, the same made finer by :func:`supersample` (what the phases are sampled
+    from) and the canvas's pixel grid.
+    """
     canvas, matte = target.canvas, target.canvas_matte
     layer = _shared(target, "layer", lambda: extend_outside(canvas, matte))
-    return layer, _shared(target, "grid", lambda: _grid(canvas.shape[:2]))
+    fine = _shared(target, ("fine", SUPERSAMPLE), lambda: supersample(layer, SUPERSAMPLE))
+    return layer, fine, _shared(target, "grid", lambda: _grid(canvas.shape[:2]))

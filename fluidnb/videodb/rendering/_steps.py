@@ -17,8 +17,8 @@ import numpy as np
 from .._common._weights import FEATHER, blend_values
 from ._blend import BLEND_LEVELS, MARGIN, _blend
 from ._colour_axes import _advected_in_axes, _composite_from_axes, colours_in_axes, frames_in_axes
-from ._composite import _restore_area, dynamic_matte
-from ._flow_render import _cross_fade, _phases
+from ._composite import _restore_area, _uncovered, dynamic_matte
+from ._flow_render import SUPERSAMPLE, _blend_phases, _carry, _sample
 from ._loops import play_loops
 from ._motion_blur import motion_blur
 from ._shared import _advected_layer, _behind, _blend_plan, _colour_matching
@@ -79,12 +79,18 @@ class _BlendedFrames:
 class _Frames:
     """What both renderings do with a run of frames after the blend.
 
+    With a moving matte, ``fill`` is what the fluid uncovers, ``photo`` and
+    ``alpha`` the target's canvas and matte (:func:`_uncovered`); else ``fill`` is
+    None and ``back`` is behind every frame.
+
     :meth:`blend` blends a run's differences (one batch: :class:`_BlendedFrames`);
     :meth:`frames` then makes each frame from its own inputs (:meth:`_frame`: the
     rendering's own steps, then :meth:`_finish`: the matching in the colour axes and
     the composite) on the cores, straight into the clip. :func:`render` blends the
     next run while the frames of one are made.
     """
+
+    fill = None
 
     def _axes(self, target, cell):
         """The target's colour axes and the matching to it in them (kept for the target)."""
@@ -119,7 +125,11 @@ class _Frames:
         through ``matte`` and clipped, into ``out`` (H, W, 3).
         """
         matched = self.matching.match(rotated, np.empty_like(rotated))
-        _composite_from_axes(matched, self.centre, self.axes, self.back, matte, out)
+        back = self.back
+        if self.fill is not None:  # a moving matte: the photo, the fill where it left
+            h, w = matte.shape
+            back = _uncovered(self.photo[:h, :w], self.fill[:h, :w], self.alpha[:h, :w], matte)
+        _composite_from_axes(matched, self.centre, self.axes, back, matte, out)
 
 
 class _PaperFrames(_Frames):
@@ -147,6 +157,7 @@ class _PaperFrames(_Frames):
             motion = np.moveaxis(motion, 2, 0)[: n - 1]
             matte = dynamic_matte(target.canvas_matte, motion, tau=params.tau)
             back = _behind(target, background)
+            self.fill, self.photo, self.alpha = back, target.canvas, target.canvas_matte
         else:
             matte = target.canvas_matte
             back = target.canvas
@@ -195,31 +206,35 @@ class _FlowFrames(_Frames):
         t = time.perf_counter()
         velocity, self.n_frames = plan["velocity"], plan["n_frames"]
         n = self.n_frames
-        self.ages = plan["ages"]  # age_a, age_b, weight_a
-        age_a, age_b, weight_a = self.ages
+        self.loop = plan["loop"]  # each pixel's phases' ages and weights
+        age_a, age_b, weight_a = self.loop.age_a, self.loop.age_b, self.loop.weight_a
         self.maps = plan["maps"]  # being made: each frame waits for its own
-        # What flows in across the matte's edge is the fluid's own texture, mirrored.
-        self.layer, self.grid = _advected_layer(target)
+        # What flows in across the matte's edge is the fluid's own texture, mirrored;
+        # the phases sample it supersampled.
+        self.layer, self.fine, self.grid = _advected_layer(target)
         t = _tick(clock, "advect", t)
         self._axes(target, params.cell)
         self.alpha = target.canvas_matte
         if params.tau > 0:
             self.area = float(self.alpha.sum(dtype=np.float64))
             back = _behind(target, background)
+            self.fill, self.photo = back, target.canvas
         else:
             back = target.canvas
         self.back = back
         _tick(clock, "composite", t)
+        offsets = self.loop.offsets
         self.stages = {
             "velocity": velocity[:h, :w],
             "weights": np.stack([weight_a, 1.0 - weight_a], axis=1),
             "ages": np.stack([age_a, age_b], axis=1),
+            "phase_offsets": (np.zeros((h, w), np.float32) if offsets is None else offsets[:h, :w]),
             "background": back[:h, :w],
         }
         self.keep = keep
         if keep:
-            # The lesson's pictures, written run by run: the phases and their cross-fade
-            # on the canvas (the warp writes them in place), shown cropped.
+            # The lesson's pictures, written run by run: the phases and their blend on
+            # the canvas, shown cropped.
             self.phases = np.empty((2, n) + self.layer.shape, np.float32)
             self.moved = np.empty((n,) + self.layer.shape, np.float32)
             self.stages.update(
@@ -240,32 +255,32 @@ class _FlowFrames(_Frames):
         params, st = self.params, self.stages
         h, w = self.target.shape
         clock = time.perf_counter()
-        sa, sb, wa = (x[t] for x in self.ages)
-        # The photo carried by the loop (a phase of weight 0 is not even sampled, unless
-        # the lesson shows it), with the detail D_i on top, in the colour axes.
-        maps = self.maps.wait(sa, sb).maps
+        # The photo carried by the loop (a phase of weight 0 everywhere is not even
+        # sampled, unless the lesson shows it), with the detail D_i on top, in the
+        # colour axes.
+        maps = self.maps.wait(*self.loop.ages(t)).maps
         clock = _tick(times, "field", clock)
-        a, b = _phases(self.layer, maps, sa, sb, wa, self.grid, both=self.keep)
+        at = self.loop.coordinates(maps, self.grid, t, scale=SUPERSAMPLE, both=self.keep)
+        a, b, wa = _sample(self.fine, at)
+        moved = self.moved[t] if self.keep else np.empty(self.layer.shape, np.float32)
+        _blend_phases(a, b, wa, moved)
         detail = np.float32(params.detail)
         if self.keep:
             self.phases[0, t], self.phases[1, t] = a, b
-            frame = _cross_fade(a, b, wa, self.moved[t]) + detail * d[..., None]
+            frame = moved + detail * d[..., None]
             st["differences"][t] = d[:h, :w]
             np.clip(frame[:h, :w], 0, 1, out=st["unmatched"][t])
             rotated = colours_in_axes(frame, self.centre, self.axes)
         else:  # the same operations in one pass
             rotated = np.empty(self.layer.shape, np.float32)
-            fade = 1 if wa == 1 else (0 if wa == 0 else 2)
-            _advected_in_axes(
-                b if a is None else a, a if b is None else b, np.float32(wa), fade, detail, d,
-                self.centre, self.axes, rotated,
-            )  # fmt: skip
+            _advected_in_axes(moved, detail, d, self.centre, self.axes, rotated)
         clock = _tick(times, "advect", clock)
         if params.tau > 0:
-            # The outline moves with the fluid by the same loop (frame 0 is alpha, the
-            # loop closes), pulled towards alpha by 1 - tau as the paper's B_i are.
-            carried = _phases(self.alpha, maps, sa, sb, wa, self.grid)
-            carried = _cross_fade(*carried, wa, np.empty(self.alpha.shape, np.float32))
+            # The outline moves with the fluid by the same loop (the loop closes),
+            # pulled towards alpha by 1 - tau as the paper's B_i are.
+            # The outline is smooth: no pulse to stagger, and unstaggered its frame 0
+            # is alpha (the photo outside the matte).
+            carried = _carry(self.alpha, self.loop.coordinates(maps, self.grid, t, staggered=False))
             matte = np.float32(params.tau) * carried + np.float32(1 - params.tau) * self.alpha
             np.clip(matte, 0.0, 1.0, out=matte)
             if t > 0:

@@ -194,3 +194,21 @@ def test_bad_databases_are_refused():
         HistogramIndex(words[:0], 5)
     with pytest.raises(ValueError, match=r"\[0, 3\]"):
         HistogramIndex(words, 4)
+
+
+def test_an_index_over_some_fragments_answers_in_the_database_ids():
+    gen = np.random.default_rng(3)
+    words, motion = database(1, 300, 12)
+    keep = np.sort(gen.choice(300, 180, replace=False))
+    queries = np.concatenate([gen.integers(0, 12, (5, 9, 9)), words[keep[:3]]])
+    direction = gen.normal(0, 1, (8, 2))
+    index = HistogramIndex(words[keep], 12, mean_motion=motion[keep], ids=keep)
+    got = index.top_k(queries, 20, direction=direction)
+    rows = HistogramIndex(words[keep], 12, mean_motion=motion[keep])
+    plain = rows.top_k(queries, 20, direction=direction)
+    np.testing.assert_array_equal(got.ids, keep[plain.ids])  # the rows' ids, mapped
+    np.testing.assert_array_equal(got.scores, plain.scores)
+    own = index.top_k(words[keep[:3]], 1).ids[:, 0]
+    np.testing.assert_array_equal(own, keep[:3])  # a fragment finds itself, by its own id
+    with pytest.raises(ValueError, match="ids must be 180 increasing"):
+        HistogramIndex(words[keep], 12, ids=keep[::-1])

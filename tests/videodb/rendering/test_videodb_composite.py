@@ -180,3 +180,26 @@ def test_inputs_are_never_modified():
     composite(frames, img, matte)
     for a, b in zip(args, before):
         assert np.array_equal(a, b)
+
+
+def test_behind_a_moving_matte_the_photo_stays_and_the_fill_shows_where_the_fluid_left():
+    from fluidnb.videodb.rendering._composite import _uncovered
+
+    gen = np.random.default_rng(3)
+    photo, fill = gen.random((2, 20, 30, 3)).astype(np.float32)
+    fill *= 0.2  # a dark fill (the rock behind a white cloud)
+    alpha = np.clip(np.linspace(-0.5, 1.5, 30, dtype=np.float32), 0, 1)[None].repeat(20, 0)
+    # Where the matte is alpha (frame 0), the soft edge lays the fluid over the photo:
+    # nothing of the fill shows (it made a dark band along a cloud's soft edge).
+    np.testing.assert_allclose(_uncovered(photo, fill, alpha, alpha)[alpha < 1], photo[alpha < 1])
+    # Where the fluid left (B < alpha) the fill shows by what it left; where the fluid
+    # comes (B > alpha) the scene is the photo.
+    matte = np.clip(alpha + np.linspace(-0.4, 0.4, 20, dtype=np.float32)[:, None], 0, 1)
+    u = _uncovered(photo, fill, alpha, matte)
+    rest = 1 - matte
+    expected = (1 - np.maximum(alpha, matte))[..., None] * photo + np.maximum(alpha - matte, 0)[
+        ..., None
+    ] * fill
+    ok = rest > 1e-3
+    np.testing.assert_allclose((rest[..., None] * u)[ok], expected[ok], atol=1e-5)
+    assert np.array_equal(u[matte == 1], fill[matte == 1])

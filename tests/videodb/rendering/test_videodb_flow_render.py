@@ -20,11 +20,16 @@ from fluidnb.videodb.rendering import (
     loop_crossfade,
     loop_phases,
     mirror_axes,
+    phase_offsets,
     reference_eulerian_loop,
     reference_fill,
+    reference_supersample,
+    reference_variance_blend,
     stagger,
+    supersample,
     sync_share,
     temporal_offsets,
+    variance_blend,
 )
 
 PARAMS = DatabaseParams(N=16, augment="none", words=16, codebook_samples=5000)
@@ -129,13 +134,74 @@ def test_the_fast_loop_agrees_with_the_reference():
     img = np.stack([texture(4, (36, 44), blur=2.5)] * 3, axis=-1)
     yy, xx = np.mgrid[:36, :44]
     v = np.stack([0.4 * np.sin(xx / 6.0), 0.8 + 0.3 * np.cos(yy / 5.0)], axis=-1)
+    offsets = phase_offsets((36, 44), 12)
     # Mutations caught: the phases' weights over the period instead of its half
     # (loop_phases; the plain version has its own phases), the maps' recurrence
-    # D_{s+1} = D_s(x - v) - v subtracting half the step (_chain).
-    for n, cycle in ((8, 8), (10, 4)):  # whole and fractional half-cycles
-        fast = eulerian_loop(img, v, n, cycle=cycle)
-        ref = reference_eulerian_loop(img, v, n, cycle=cycle)
-        assert np.abs(fast - ref).max() < 1e-2  # OpenCV rounds bilinear weights to 1/32
+    # D_{s+1} = D_s(x - v) - v subtracting half the step (_chain), a pixel's age not
+    # shifted by its offset (_staggered), the blend's gain not clipped (_restore).
+    for n, cycle, o in ((8, 8, None), (10, 4, None), (8, 8, offsets), (10, 4, offsets)):
+        fast = eulerian_loop(img, v, n, cycle=cycle, offsets=o)
+        ref = reference_eulerian_loop(img, v, n, cycle=cycle, offsets=o)
+        assert np.abs(fast - ref).max() < 1e-2  # OpenCV tabulates its weights per 1/32 px
+
+
+def test_the_finer_copy_keeps_the_pixels_and_is_lanczos():
+    img = np.stack([texture(6, (13, 17))] * 2, axis=-1)
+    fine = supersample(img, 2)
+    assert fine.shape == (25, 33, 2)
+    assert np.array_equal(fine[::2, ::2], img)  # the image's own pixels, bit for bit
+    np.testing.assert_allclose(fine, reference_supersample(img, 2), atol=1e-5)
+    np.testing.assert_allclose(supersample(img, 3), reference_supersample(img, 3), atol=1e-5)
+
+
+def test_the_blend_keeps_the_variance_of_its_inputs():
+    gen = np.random.default_rng(7)
+    a, b = gen.standard_normal((2, 96, 96, 3)).astype(np.float32)
+
+    def sharpness(x):  # what the look's measures call it: the Laplacian's variance
+        return cv2.Laplacian(x, cv2.CV_32F).var()
+
+    for w in (0.2, 0.5, 0.7):
+        linear = w * a + (1 - w) * b
+        out = variance_blend(a, b, w)
+        # Independent textures: a linear cross-fade loses up to half their variance,
+        # the blend keeps it (within the local estimates' noise).
+        assert linear.var() / a.var() < 1 - 0.3 * min(w, 1 - w)
+        assert 0.9 < out.var() / (w * a.var() + (1 - w) * b.var()) < 1.1
+        assert 0.9 < sharpness(out) / (w * sharpness(a) + (1 - w) * sharpness(b)) < 1.1
+        np.testing.assert_allclose(out, reference_variance_blend(a, b, w), atol=1e-4)
+    per_pixel = np.linspace(0, 1, 96, dtype=np.float32)[None, :].repeat(96, 0)
+    np.testing.assert_allclose(
+        variance_blend(a, b, per_pixel), reference_variance_blend(a, b, per_pixel), atol=1e-4
+    )
+    # Identical inputs are not amplified: the input back, bit for bit; and a weight
+    # of 1 or 0 is one input alone.
+    assert np.array_equal(variance_blend(a, a, 0.4), a)
+    assert np.array_equal(variance_blend(a, b, 1.0), a)
+    assert np.array_equal(variance_blend(a, b, 0.0), b)
+    # Correlated inputs gain less than independent ones, never beyond sqrt(2).
+    c = (0.8 * a + 0.6 * b).astype(np.float32)
+    gain = variance_blend(a, c, 0.5).var() / (0.5 * a + 0.5 * c).var()
+    assert 1.0 < gain < variance_blend(a, b, 0.5).var() / (0.5 * a + 0.5 * b).var()
+
+
+def test_the_staggered_loop_closes_and_keeps_a_still_image():
+    img = np.stack([texture(2, (40, 50))] * 3, axis=-1)
+    offsets = phase_offsets((40, 50), 16)
+    assert np.array_equal(
+        eulerian_loop(img, np.zeros((40, 50, 2)), 12, cycle=6, offsets=offsets),
+        np.broadcast_to(img, (12, 40, 50, 3)),
+    )
+    yy, xx = np.mgrid[:40, :50]
+    v = np.stack([0.3 * np.sin(xx / 9.0), 1.0 + 0.5 * np.cos(yy / 7.0)], axis=-1)
+    once = eulerian_loop(img, v, 12, cycle=6, offsets=offsets)
+    twice = eulerian_loop(img, v, 24, cycle=6, offsets=offsets)
+    np.testing.assert_array_equal(twice[12:], once)
+    steps = np.abs(np.diff(np.concatenate([once, once[:1]]), axis=0)).mean(axis=(1, 2, 3))
+    assert steps[-1] < 1.5 * np.median(steps[:-1])
+    # The offsets spread the restarts: every frame has as many pixels mid-blend.
+    hist = np.histogram(offsets, bins=4, range=(0, 1))[0]
+    assert hist.min() > 0.9 * hist.max()
 
 
 def test_the_layer_outside_the_matte_is_the_fluid_mirrored():
@@ -179,11 +245,16 @@ def test_the_field_is_the_fragments_motion_or_the_painted_speed(assignment, db, 
     np.testing.assert_allclose(np.hypot(v2[..., 0], v2[..., 1])[inside], 2.0, rtol=1e-4)
 
 
-def test_frame_zero_is_the_photo(assignment, photo):
+def test_frame_zero_is_the_photo(assignment, photo, monkeypatch):
     img, matte = photo
     out = render(assignment, FEW.replace(detail=0.0)).clip.frames
     assert np.array_equal(out[0][matte == 0], img[matte == 0])  # outside: bit for bit
-    assert np.abs(out[0] - img).max() < 2e-3  # inside: the photo matched to itself
+    # Inside, each pixel starts at its own moment of the loop (phase_offsets); with
+    # one cycle for all, frame 0 is the photo matched to itself.
+    assert np.abs(out[0] - img).max() > 0.05
+    monkeypatch.setattr("fluidnb.videodb.rendering._render.STAGGER", 0.0)
+    out = render(assignment, FEW.replace(detail=0.0)).clip.frames
+    assert np.abs(out[0] - img).max() < 2e-3
     # With the difference frames on top, frame 0 differs from the photo by them alone.
     anim = render(assignment, FEW)
     d0 = anim.stages["differences"][0]
@@ -191,6 +262,15 @@ def test_frame_zero_is_the_photo(assignment, photo):
     fluid = matte > 0
     before = np.clip(img + FEW.detail * d0[..., None], 0, 1)[fluid]
     assert np.abs(anim.stages["unmatched"][0][fluid] - before).max() < 1e-5
+
+
+def test_a_moving_outline_keeps_the_photo_outside_the_matte_at_frame_zero(assignment, photo):
+    img, matte = photo
+    anim = render(assignment, FEW.replace(tau=0.5))
+    f = anim.clip.frames
+    assert np.array_equal(f[0][matte == 0], img[matte == 0])
+    assert np.array_equal(anim.stages["matte"][0], assignment.target.canvas_matte[:96, :144])
+    assert np.abs(anim.stages["matte"] - matte).max() > 0.1  # it moves
 
 
 def test_the_rendered_clip_loops(assignment):
@@ -455,3 +535,46 @@ def test_the_fields_spread_is_the_numpy_loop_bit_for_bit():
         want_covered[r : r + 48, c : c + 48] += w
     assert np.array_equal(acc, want)
     assert np.array_equal(covered, want_covered)
+
+
+def boiling(seed, shape=(96, 120), frames=32):
+    """A texture jittered each frame by a fresh fine random warp: its pixels move, but
+    a fragment's mean motion is about 0 (the still parts of real footage: sensor noise,
+    compression, a plant in the wind)."""
+    base = texture(seed, shape)
+    gen = np.random.default_rng(seed)
+    yy, xx = np.mgrid[: shape[0], : shape[1]].astype(np.float32)
+    out = []
+    for _ in range(frames):
+        d = ndi.gaussian_filter(gen.standard_normal((2,) + shape), (0, 1.0, 1.0)) * 2.0
+        out.append(ndi.map_coordinates(base, [yy + d[0], xx + d[1]], order=1, mode="wrap"))
+    return np.repeat(np.clip(np.stack(out), 0, 1)[..., None], 3, axis=3).astype(np.float32)
+
+
+def test_the_output_moves_when_the_chosen_fragments_move(tmp_path, photo):
+    # Footage of real scenes holds still parts beside the fluid; a photo's water may
+    # look like them. On a database with a still clip among moving ones the
+    # assignment chooses moving fragments, and the photo moves with them.
+    from fluidnb.videodb.assignment import fragment_speeds, moving_fragments
+
+    img, matte = photo
+    clips = [("still", boiling(20))] + [(f"right{i}", moving(i, (0, 3))) for i in range(3)]
+    db = build_database(clips, tmp_path / "mixed", kind="water", params=PARAMS, seed=0)
+    still = db.clip_of(np.arange(db.n_fragments)) == 0  # its pixels move, it does not
+    assert still.any()
+    assert not moving_fragments(db)[still].any()
+    a = assign(img, matte, db, FEW)
+    assert not still[a.fragments].any()
+    assert a.chosen_speed() > 0.5
+    assert a.stillness_note() is None
+    f = render(a, FEW).clip.frames
+    inner = ndi.binary_erosion(matte > 0.5, iterations=12)
+    assert np.hypot(*measured_flow(f, inner)) > 0.5
+    # A database of still footage only: the photo barely moves, and the note says so.
+    db = build_database([("still", boiling(20))], tmp_path / "still", kind="water",
+                        params=PARAMS, seed=0)  # fmt: skip
+    a = assign(img, matte, db, FEW)
+    assert np.median(fragment_speeds(db)) < 0.25
+    assert "barely move (median" in a.stillness_note()
+    f = render(a, FEW).clip.frames
+    assert np.hypot(*measured_flow(f, inner)) < 0.25
