@@ -154,10 +154,11 @@ class SceneApp(App):
         )  # fmt: skip
         self._add = _button("Add layer", "plus", "fluidnb-scene-add", "110px")
         self._list = W.Select(options=[], rows=5, layout=W.Layout(width="320px"))
-        self._up = _button("Up", "arrow-up", "fluidnb-scene-up")
-        self._down = _button("Down", "arrow-down", "fluidnb-scene-down")
-        self._hide = _button("Hide", "eye-slash", "fluidnb-scene-hide")
-        self._remove = _button("Remove", "trash", "fluidnb-scene-remove")
+        # Four buttons in the 330-px column, none cut off.
+        self._up = _button("Up", "arrow-up", "fluidnb-scene-up", "60px")
+        self._down = _button("Down", "arrow-down", "fluidnb-scene-down", "76px")
+        self._hide = _button("Hide", "eye-slash", "fluidnb-scene-hide", "72px")
+        self._remove = _button("Remove", "trash", "fluidnb-scene-remove", "92px")
         self._folder = W.Text(
             value=str(shown_path(output_dir(create=False) / "scene")),
             description="folder", style={"description_width": "44px"},
