@@ -234,6 +234,7 @@ class SceneApp(App):
         self.panel = panel
         panel.observe(self._params_changed, "params")
         panel.observe(self._validity_changed, "valid")
+        self._run_button.disabled = not panel.valid or self.running
         self._layout()
 
     def _act(self, fn):

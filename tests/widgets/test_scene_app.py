@@ -41,7 +41,7 @@ def two_layers(app):
     return app
 
 
-def test_paint_goes_to_the_selected_layer_and_run_composites_them(app):
+def test_paint_goes_to_the_selected_layer_and_run_composites_them(app, tmp_path):
     two_layers(app)
     state = app.state()
     assert [x["name"] for x in state["layers"]] == ["flicker", "frost"]
@@ -68,6 +68,13 @@ def test_paint_goes_to_the_selected_layer_and_run_composites_them(app):
     assert moved[:, flicker_region].max() > 0.02  # the water flickers
     assert moved[-1, frost_region].mean() > moved[0, frost_region].mean()  # the frost grows
     assert "rendered: flicker, frost" in app.status
+    # The shell's export writes the composite (the status line says where).
+    app.player.export_dir = tmp_path
+    gif = app.player.export("gif")
+    assert gif.parent == tmp_path
+    assert gif.name.startswith("fluidnb-scene-")
+    assert gif.stat().st_size > 1000
+    assert "saved" in app.status
 
 
 def test_only_the_changed_layer_renders_again(app):
@@ -223,3 +230,16 @@ def test_a_new_photo_keeps_the_layers(app):
     after = app.state()["layers"][0]["painted"]
     scale = np.prod(app.scene.shape) / (54 * 96)
     assert after == pytest.approx(painted * scale, rel=0.2)
+
+
+def test_run_follows_the_selected_layers_panel(app):
+    two_layers(app)
+    app.select_layer("flicker")
+    with pytest.raises(ValueError, match="f0 must be < T/2"):
+        app.panel.set("f0", 7)  # T = 12: refused, the panel says so
+    assert app._run_button.disabled
+    assert app._entry("flicker").params == FLICKER  # the layer keeps its last valid values
+    app.select_layer("frost")
+    assert not app._run_button.disabled
+    app.select_layer("flicker")
+    assert app.panel.params == FLICKER
