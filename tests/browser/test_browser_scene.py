@@ -6,6 +6,7 @@ import pytest
 from tests.browser.helpers import (
     ANOTHER_FRAME,
     at,
+    drag_slider,
     img_rgba,
     inside,
     notebook_view,
@@ -48,6 +49,8 @@ def report_clip(change):
     moved = np.abs(clip.frames - photo).max(axis=-1)
     dump("clip.json", {
         "layers": [x["name"] for x in clip.metadata["layers"]],
+        "rendered": [x["name"] for x in clip.metadata["layers"] if x["seconds"] != "cached"],
+        "kappa": app.entries[1].params.kappa,
         "frames": len(clip),
         "outside": float(moved[:, outside].max()),
         "flicker": float(moved[:, regions[1]].max()),
@@ -85,6 +88,7 @@ def test_paint_a_layer_run_and_the_composite_plays_beside_the_canvas(notebook, p
     page.locator(".fluidnb-app .fluidnb-run").click()
     result = nb.state("clip.json", timeout=180)
     assert result["layers"] == ["frost", "flicker"]
+    assert result["rendered"] == ["frost", "flicker"]
     assert result["outside"] == 0.0, "a pixel outside every region changed"
     assert result["flicker"] > 0.02, "the painted water does not flicker"
     assert result["frost_last"] > result["frost_first"], "the frost did not grow"
@@ -116,3 +120,13 @@ def test_paint_a_layer_run_and_the_composite_plays_beside_the_canvas(notebook, p
     cbox = page.locator(".fluidnb-app .fluidnb-canvas").bounding_box()
     assert frame.bounding_box()["x"] >= cbox["x"] + cbox["width"] - 1
     shot(app, "app")
+
+    # The selected layer's slider: a preview of that layer alone follows, then (the
+    # slider let go) the full scene by itself, with only that layer rendered again.
+    kappa = drag_slider(page, page.locator(".fluidnb-param-kappa"), 0.85, steps=6)
+    assert kappa > 1.0
+    again = nb.state("clip.json", lambda s: abs(s["kappa"] - kappa) < 1e-3, timeout=120)
+    assert again["rendered"] == ["flicker"], "an unchanged layer was rendered again"
+    assert again["outside"] == 0.0
+    poll("the status", lambda: "from the cache: 1" in status.inner_text(), timeout=30)
+    shot(app, "after-slider")
