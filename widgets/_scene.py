@@ -144,7 +144,10 @@ class SceneApp(App):
         #: The scene rendered (its cache keeps each layer's clip).
         self.scene = Scene(image, size=None)
         self.photo_input = PhotoInput(
-            SAMPLES, self._photo_name, on_photo=self.set_photo, say=lambda t, k: self.say(t, k)
+            SAMPLES,
+            self._photo_name,
+            on_photo=lambda p: self._act(lambda: self.set_photo(p)),
+            say=lambda t, k: self.say(t, k),
         )
         self._display_size = display_size
         canvas = self._new_canvas(self.scene.photo)

@@ -230,6 +230,11 @@ def test_a_new_photo_keeps_the_layers(app):
     after = app.state()["layers"][0]["painted"]
     scale = np.prod(app.scene.shape) / (54 * 96)
     assert after == pytest.approx(painted * scale, rel=0.2)
+    # An upload too small to work on is said; the photo and the layers stay.
+    app.photo_input._on_photo(np.zeros((4, 4, 3), np.float32))
+    assert "photo must be at least 8 x 8 pixels" in app.status
+    assert app.state()["photo"] == "stream"
+    assert app.state()["layers"][0]["painted"] == after
 
 
 def test_run_follows_the_selected_layers_panel(app):
