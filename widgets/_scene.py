@@ -332,14 +332,34 @@ class SceneApp(App):
             c.select("brush", "region")
             panel = self._panel_for(entry.kind)
             self._use_panel(panel)
-            panel.set_params(
-                entry.params if entry.params is not None else default_params(entry.kind)
-            )
+            panel.set_params(self._shown_params(entry))
         finally:
             self._syncing = False
         self._refresh_list()
         self.say(f"layer {name!r} ({entry.kind}, {KINDS[entry.kind][0]}): paint its region")
         self.request_preview()
+
+    def _shown_params(self, entry):
+        """The values the layer's panel shows: its own, else those its last run used.
+
+        A layer without parameters of its own runs with the scene's defaults, and a
+        frost layer's γ is then fitted to its target at the run
+        (:func:`fluidnb.scene.default_params`): once it ran, the panel shows that γ,
+        so a slider moved afterwards starts from it, not from the paper's.
+        """
+        if entry.params is not None:
+            return entry.params
+        shown = default_params(entry.kind)
+        try:
+            key = entry.layer().key(self.scene.photo_key, self.scene.shape)
+        except ValueError:  # not painted yet
+            return shown
+        made = self.scene.cache.get(key)
+        used = None if made is None else made.clip.metadata.get("params")
+        try:
+            return type(shown).from_dict(used) if isinstance(used, dict) else shown
+        except (TypeError, ValueError):  # a method whose clip records other values
+            return shown
 
     def remove_layer(self, name):
         """Remove a layer (the next one down, or the top, is selected)."""
@@ -483,6 +503,12 @@ class SceneApp(App):
 
     def _show_clip(self, clip, seconds):
         super()._show_clip(clip, seconds)
+        if self.selected is not None and self._entry(self.selected).params is None:
+            self._syncing = True  # the values the run used (a frost's fitted γ)
+            try:
+                self.panel.set_params(self._shown_params(self._entry(self.selected)))
+            finally:
+                self._syncing = False
         made = [x["name"] for x in clip.metadata["layers"] if x["seconds"] != "cached"]
         kept = len(clip.metadata["layers"]) - len(made)
         redone = ", ".join(made) if made else "none"

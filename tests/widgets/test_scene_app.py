@@ -248,3 +248,20 @@ def test_run_follows_the_selected_layers_panel(app):
     assert not app._run_button.disabled
     app.select_layer("flicker")
     assert app.panel.params == FLICKER
+
+
+def test_a_frost_layer_on_the_scenes_defaults_shows_its_fitted_gamma_after_a_run(app):
+    app.add_layer("frost", band(app.scene.shape, 0.0, 0.5, 0.0, 0.4))  # no params: defaults
+    paper = app.panel.params.gamma
+    clip = app.run(timeout=300)
+    used = app.scene.cache[next(reversed(app.scene.cache))].clip.metadata["params"]["gamma"]
+    assert used != paper  # the scene fitted gamma to the target
+    assert app.panel.params.gamma == used
+    assert app._entry("frost").params is None  # still the defaults: nothing re-renders
+    app.add_layer("flicker", band(app.scene.shape, 0.7, 0.9, 0.0, 1.0), params=FLICKER)
+    app.select_layer("frost")
+    assert app.panel.params.gamma == used
+    app.panel.set("beta", 0.5)  # a slider moved starts from the fitted gamma
+    assert app._entry("frost").params.gamma == used
+    assert app._entry("frost").params.beta == 0.5
+    assert len(clip) > 1
