@@ -9,6 +9,7 @@ from fluidnb.frost import FrostParams
 from fluidnb.scene import load_scene
 from fluidnb.widgets import SceneApp
 from tests.support.frontend import mouse_drag
+from tests.widgets.test_slider_sweep import sweep
 
 # Small and quick, as in tests/scene: every layer in a few seconds on 2 cores.
 FLICKER = FlickerParams(T=12, fps=8.0)
@@ -265,3 +266,13 @@ def test_a_frost_layer_on_the_scenes_defaults_shows_its_fitted_gamma_after_a_run
     assert app._entry("frost").params.gamma == used
     assert app._entry("frost").params.beta == 0.5
     assert len(clip) > 1
+
+
+@pytest.mark.parametrize("kind", ["water", "flicker", "fire", "frost"])
+def test_every_slider_of_a_layers_panel_keeps_run_enabled(app, kind):
+    # The fire layer's panel is over FireParams alone (not the fire app's): its own
+    # sweep. The sliders' values as the browser sends them (tests/widgets/test_slider_sweep).
+    app.add_layer(kind, band(app.scene.shape, 0.3, 0.9, 0.1, 0.9))
+    assert sweep(app, run=False) >= 5 * 4
+    assert app._entry(kind).params == app.panel.params  # the sweep's last: the start
+    app.wait_preview(120)  # (not into the interpreter's exit)
