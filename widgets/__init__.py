@@ -5,8 +5,9 @@ points over an image), :class:`FramePlayer` (play and export a clip),
 :class:`ParamPanel` (sliders from a parameter dataclass) and :class:`App` (all of them
 with a run button, progress, cancel and a live preview), and one app per method
 (:class:`FlickerApp`, :class:`FrostApp`, :class:`FireApp`, :class:`TurbulenceApp`,
-:class:`VideoDBApp`). Imported in a notebook kernel, it makes
-:func:`fluidnb.progress_bar` return a :class:`ProgressBar` widget.
+:class:`VideoDBApp`), and :class:`SceneApp` (several of them on one photo).
+Imported in a notebook kernel, it makes :func:`fluidnb.progress_bar` return a
+:class:`ProgressBar` widget.
 No algorithm lives here: everything calls :mod:`fluidnb`.
 """
 
@@ -18,6 +19,7 @@ from ._frost import FrostApp
 from ._panel import ParamPanel
 from ._player import FramePlayer
 from ._progress import ProgressBar, install
+from ._scene import SceneApp
 from ._turbulence import TurbulenceApp
 from ._videodb import VideoDBApp
 
@@ -30,6 +32,7 @@ __all__ = [
     "FrostApp",
     "ParamPanel",
     "ProgressBar",
+    "SceneApp",
     "TurbulenceApp",
     "VideoDBApp",
 ]
