@@ -324,3 +324,46 @@ def test_videodb_ex5_solve_is_never_worse_than_alpha_expansion():
         u, w, edges, lam = _problem(seed, rows=2, cols=2, k=8)
         both = energy(solve(u, w, edges, lam).labels, u, w, edges, lam)
         assert both <= alpha_expansion(u, w, edges, lam).energy + 1e-9
+
+
+# ------------------------------------------------------------------ 08_scene.ipynb
+
+
+def test_scene_moving_a_layer_re_renders_none_and_changes_the_overlap():
+    """08's ex1 (0 layers re-rendered after a move) and ex2 (a: the order changes the
+    overlap, the fire's light on top of the ice), on a small scene of the lesson's kinds."""
+    from fluidnb.data import sample
+    from fluidnb.fire import FireParams
+    from fluidnb.frost import FrostParams
+    from fluidnb.lessons import scene as lesson08
+    from fluidnb.scene import Layer, Scene, render
+
+    photo = sample("lake", size=64)
+    h, w = photo.shape[:2]
+    fire, frost = np.zeros((h, w), bool), np.zeros((h, w), bool)
+    fire[h // 4 :, w // 3 : 2 * w // 3] = True
+    frost[: h // 2, : w // 2 + 4] = True  # overlaps the fire's left part
+    scene = Scene(
+        photo,
+        [
+            Layer("fire", fire, FireParams(output_size=48, interval=4), seed=1),
+            Layer("frost", frost, FrostParams(spacing=3.0, gamma=0.3, target=20, max_frames=30)),
+        ],
+        size=None,
+    )
+    top = render(scene)
+    before = scene.renders
+    scene.move("frost", 0)
+    under = render(scene)
+    assert scene.renders - before == lesson08.ex1.checker.expected == 0
+    both = fire & frost
+    assert top.frames[:, both].max() > 0  # the flame reaches the overlap
+    differ = np.abs(under.frames[:, both] - top.frames[:, both]).max()
+    assert differ > 0.05  # the order matters where they overlap (ex2's "a", not "b")
+    # With the frost under the fire the flame's light is added over the ice, not covered
+    # by it: the overlap is brighter.
+    assert under.frames[:, both].mean() > top.frames[:, both].mean()
+    elsewhere = ~frost  # only one layer acts there: the order cannot matter
+    assert np.array_equal(under.frames[:, elsewhere], top.frames[:, elsewhere])
+    assert lesson08.ex2.check("a")
+    assert not lesson08.ex2.check("b")

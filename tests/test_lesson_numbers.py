@@ -941,6 +941,18 @@ CLAIMS["06_turbulence.ipynb"] = [
 ]
 
 
+CLAIMS["08_scene.ipynb"] = [
+    stated("about 20\nminutes, estimated by the engineer", "timing"),
+    stated(
+        "the weight is $a = 0.25$. The\nphoto there is 0.8 (grey), the water layer's picture 0.2",
+        "example",
+    ),
+    stated("pixel of 0.3, ice with $C = 0.45$ and $a = 0.6$", "example"),
+    stated("A flicker layer of $T = 16$ frames at 8 fps loops in a scene at 24\nfps", "example"),
+    stated("the scene's frame 30?", "example"),
+]
+
+
 # ------------------------------------------------------------------ machinery
 
 

@@ -1,6 +1,7 @@
 """Every notebook runs top to bottom headless in quick mode, and none carries outputs."""
 
 import os
+import re
 import shutil
 from pathlib import Path
 
@@ -123,3 +124,16 @@ def test_the_overview_shows_all_five_methods():
         assert entry in code, f"the gallery does not run {entry[:-1]}"
     for method in ("Flicker", "Frost", "Fire", "Turbulence", "Video database"):
         assert f"**{method}**" in text, f"the gallery does not explain {method}"
+
+
+def test_the_overview_opens_with_a_scene():
+    # Issue 38, item 5: the Binder visitor's first minute is a scene of several methods
+    # on a bundled photo, rendered and played by the first code cell.
+    nb = nbformat.read(ROOT / "notebooks" / "00_overview.ipynb", as_version=4)
+    first = next(c for c in nb.cells if c.cell_type == "code")
+    assert "from fluidnb.scene import" in first.source
+    kinds = set(re.findall(r'Layer\(\s*"(\w+)"', first.source))
+    assert {"water", "fire", "frost"} <= kinds, kinds
+    assert first.source.rstrip().splitlines()[-1].startswith("render("), "it must play inline"
+    assert "data.sample(" in first.source
+    assert "08_scene.ipynb" in nb.cells[0].source

@@ -30,6 +30,7 @@ notebook                       module
 06b_turbulence_appendix.ipynb  :mod:`fluidnb.lessons.turbulence_exact`
 07a_videodb_database.ipynb     :mod:`fluidnb.lessons.videodb_database`
 07b_videodb_animation.ipynb    :mod:`fluidnb.lessons.videodb_animation`
+08_scene.ipynb                 :mod:`fluidnb.lessons.scene`
 =============================  =====================================
 
 The library never imports Jupyter, and neither does this: feedback shows itself as
@@ -79,6 +80,7 @@ LESSONS = {
     "06b_turbulence_appendix.ipynb": "turbulence_exact",
     "07a_videodb_database.ipynb": "videodb_database",
     "07b_videodb_animation.ipynb": "videodb_animation",
+    "08_scene.ipynb": "scene",
 }
 
 
