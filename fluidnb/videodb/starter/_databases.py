@@ -41,8 +41,11 @@ __all__ = ["prebuild_starters", "starter_database", "starter_params", "starter_p
 # 6: the water clips' flows made in float32, their random fields blurred by an untruncated
 # Gaussian (the same flows to < 0.01 px/frame, the clips' frames a little different);
 # 7 (fire only): the fire method's faster keyframe scan (exact 8-bit distances,
-# counter-based random candidates) synthesises other, equally valid, fire clips.
-_VERSIONS = {"water": 6, "smoke": 6, "fire": 7}
+# counter-based random candidates) synthesises other, equally valid, fire clips;
+# 7 (water, smoke) and 8 (fire): format version 3 (each chunk's checksum by place in the
+# manifest, sealed by its digest; the root group's version): the same arrays, other
+# manifests and root groups.
+_VERSIONS = {"water": 7, "smoke": 7, "fire": 8}
 
 
 def _quick(quick):
