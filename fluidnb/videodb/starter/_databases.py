@@ -3,8 +3,9 @@
 No real fluid footage ships with any package registry, so fluidnb makes its own
 (:func:`~fluidnb.videodb.starter.starter_clips`): smoke from its fluid solver, fire from its
 fire method, water by advecting water textures along varied flows. The first call of
-:func:`starter_database` builds the database from those clips (15-30 s on two
-cores; seconds in quick mode) and keeps it in the cache folder
+:func:`starter_database` builds the database from those clips (11-63 s each on two
+cores, quiet or with other work up to a load of 5, longer on a busier machine:
+benchmarks/README.md#numbers-the-docs-state; seconds in quick mode) and keeps it in the cache folder
 (``$FLUIDNB_CACHE_DIR``, else ``~/.cache/fluidnb``); later calls open it.
 
 So that a lesson's first run does not wait for all of that, ``python3 dev.py lab``
