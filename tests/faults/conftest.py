@@ -1,5 +1,6 @@
 """Fixtures of the fault tests."""
 
+import os
 import subprocess
 
 import pytest
@@ -35,3 +36,13 @@ def small_disk(tmp_path):
 def tiny_disk(small_disk):
     """A 64 KiB tmpfs: a full disk for anything but the smallest files."""
     return small_disk("64k", "tiny")
+
+
+@pytest.fixture
+def umask_002():
+    """The umask 002 while the test runs (a shared group's), the old one after."""
+    old = os.umask(0o002)
+    try:
+        yield
+    finally:
+        os.umask(old)

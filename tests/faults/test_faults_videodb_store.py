@@ -35,31 +35,19 @@ from fluidnb.videodb import (
     verify_database,
 )
 from tests.support.videodb_store import (
+    ADD,
+    BUILD,
     PARAMS,
     REPO,
     SMALL_OPTIONS,
-    Paused,
+    UP,
+    killed_at,
     moving_texture,
     sources,
     store_bytes,
 )
 
-UP = ("up", moving_texture(5, velocity=(-1, 0)))
 DEEP = "[" * 200_000 + "]" * 200_000
-
-BUILD = """
-import sys
-from fluidnb.videodb import build_database
-from tests.support.videodb_store import PARAMS, sources
-build_database(sources(), sys.argv[1], kind="water", params=PARAMS, seed=3, workers=1)
-"""
-
-ADD = """
-import sys
-from fluidnb.videodb import add_clips
-from tests.support.videodb_store import moving_texture
-add_clips(sys.argv[1], [("up", moving_texture(5, velocity=(-1, 0)))], workers=1)
-"""
 
 
 @pytest.fixture(scope="module")
@@ -73,22 +61,6 @@ def clip_files(tmp_path_factory):
     """The two clips of ``sources()`` as MP4 files (what the command line takes)."""
     folder = tmp_path_factory.mktemp("clips")
     return [str(Clip(frames, fps=12).save(folder / f"{name}.mp4")) for name, frames in sources()]
-
-
-@pytest.fixture
-def umask_002():
-    old = os.umask(0o002)
-    try:
-        yield
-    finally:
-        os.umask(old)
-
-
-def killed_at(code, point, path):
-    """Run ``code`` on ``path`` in a child process and SIGKILL it at ``point``."""
-    child = Paused(f"import sys; sys.argv[1:] = [{str(path)!r}]\n{code}", point)
-    child.wait_paused()
-    child.kill()
 
 
 def modes(root):
