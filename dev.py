@@ -8,9 +8,11 @@ Only Python >= 3.10 and the package registries are needed. Both commands are
 idempotent: a re-run skips the install unless pyproject.toml changed.
 
 ``lab`` also starts building the video-database lessons' starter databases in a
-background process (water, smoke, fire; 15-30 s each on two cores, cached; a log in
-the cache folder), so that they are ready, or nearly, when a lesson asks for them;
-``FLUIDNB_PREBUILD=0`` turns that off.
+background process (water, smoke, fire; 11-63 s each on two cores, quiet or with
+other work up to a load of 5, longer on a busier machine:
+benchmarks/README.md#numbers-the-docs-state; cached; a log in the cache folder), so
+that they are ready, or nearly, when a lesson asks for them; ``FLUIDNB_PREBUILD=0``
+turns that off.
 Arguments after the job go to JupyterLab (lab) or pytest (test), e.g.
 ``python3 dev.py lab --no-browser --port 8899`` or ``python3 dev.py test -k clip``.
 """

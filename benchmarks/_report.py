@@ -11,7 +11,9 @@ script runs; a module run in another interpreter, a peer's, needs only numpy):
   has none);
 - :func:`table` -- a markdown table, printed;
 - :func:`best`, :func:`fastest_median`, :func:`fm`, :func:`fmt_s`, :func:`met`,
-  :func:`now` -- timing and how it is written.
+  :func:`now` -- timing and how it is written;
+- :func:`doc_number` -- a number the documentation states, printed so that
+  ``run_all.py`` collects it into benchmarks/README.md's table "Numbers the docs state".
 
 Timings on a shared machine drift up to 2x within minutes: report the load beside
 every timing, interleave the cases compared, report fastest and median.
@@ -28,7 +30,9 @@ from pathlib import Path
 import numpy as np
 
 __all__ = [
+    "DOC_NUMBER",
     "best",
+    "doc_number",
     "fastest_median",
     "fm",
     "fmt_s",
@@ -40,6 +44,20 @@ __all__ = [
     "now",
     "table",
 ]
+
+
+#: How a number the docs state starts its line (``run_all.py`` reads these lines back).
+DOC_NUMBER = "DOC-NUMBER"
+
+
+def doc_number(key, seconds, load_before, load_after):
+    """Print one measured number the documentation states, on a line of its own.
+
+    ``DOC-NUMBER <key> <seconds> <load before> <load after>``; ``run_all.py`` gathers
+    these lines from every benchmark it runs into ``docs_numbers.json``, and
+    ``run_all.py --docs-table`` makes the table the docs link to of several runs.
+    """
+    print(f"{DOC_NUMBER} {key} {seconds:.2f} {load_before:.2f} {load_after:.2f}", flush=True)
 
 
 def now():

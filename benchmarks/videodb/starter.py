@@ -15,7 +15,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from _report import fmt_s, load, now, table
+from _report import doc_number, fmt_s, load, now, table
 
 from videodb._common import KINDS
 
@@ -90,6 +90,8 @@ def run(ctx):
             del db
             shutil.rmtree(tmp / kind, ignore_errors=True)
             print(f"  {kind}: {rec['fragments']} fragments in {seconds:.1f} s", flush=True)
+            if not ctx.quick:  # what the docs state: the full databases' builds
+                doc_number(f"starter_build.{kind}", seconds, *rec["load"])
     finally:
         if saved is None:
             os.environ.pop("FLUIDNB_CACHE_DIR", None)

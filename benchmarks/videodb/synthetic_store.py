@@ -38,8 +38,9 @@ from pathlib import Path
 
 import numpy as np
 
-#: Bump when the synthesis changes what the store holds (2: format version 2's codecs).
-RECIPE = 2
+#: Bump when the synthesis changes what the store holds (2: format version 2's codecs;
+#: 3: format version 3's tables of chunks, sealed manifest and root group's version).
+RECIPE = 3
 WORD_NOISE = 0.15
 SPEED_RANGE = (0.5, 2.0)
 TEXTURE_NOISE = 0.1
@@ -123,13 +124,14 @@ def synthetic_store(base, path, n_fragments, *, seed=0, log=print):
     # layout, codecs and checksum), so that open_database reads it as any other.
     from fluidnb.videodb.database._format import (
         CHUNK,
-        FORMAT,
         RAM_ARRAYS,
         checksum,
+        chunk_table,
         clip_group,
         create_array,
         fragment_layout,
-        write_json_atomically,
+        store_attributes,
+        write_manifest,
     )
 
     path = Path(path)
@@ -139,7 +141,7 @@ def synthetic_store(base, path, n_fragments, *, seed=0, log=print):
     if path.exists():
         shutil.rmtree(path)
     path.mkdir(parents=True)
-    root = zarr.open_group(str(path), mode="w", zarr_format=3, attributes={"fluidnb": FORMAT})
+    root = zarr.open_group(str(path), mode="w", zarr_format=3, attributes=store_attributes())
     layout = fragment_layout(base.params)
     counts = np.bincount(base.words.ravel(), minlength=base.params.words).astype(np.float64)
     word_p = counts / counts.sum()
@@ -162,11 +164,14 @@ def synthetic_store(base, path, n_fragments, *, seed=0, log=print):
             arrays["source"] = arrays["source"].copy()
             arrays["source"][:, 0] = j
             group = root.require_group(clip_group(j))
+            # The linked frames and mean images end in the base's checksums, chunk for chunk.
+            tables = {name: clip["chunks"][name] for name in ("frames", "mean")}
             for name in RAM_ARRAYS:
                 shape, dtype = layout[name]
                 # The database's own codecs (blosc-lz4 + CRC-32C), every chunk written.
                 arr = create_array(group, name, (count, *shape), (CHUNK, *shape), dtype)
                 arr[...] = arrays[name]
+                tables[name] = chunk_table(arr, path)
             for name in ("frames", "mean"):
                 target = (base.path / clip_group(i) / name).resolve()
                 os.symlink(target, path / clip_group(j) / name, target_is_directory=True)
@@ -178,6 +183,7 @@ def synthetic_store(base, path, n_fragments, *, seed=0, log=print):
                 "first": total,
                 "fragments": count,
                 "checksum": checksum(arrays),
+                "chunks": tables,
             }
             if copy:
                 record["sha256"] = hashlib.sha256(f"{clip['sha256']}/{copy}".encode()).hexdigest()
@@ -201,7 +207,7 @@ def synthetic_store(base, path, n_fragments, *, seed=0, log=print):
             "are symbolic links to the base database's",
         },
     )
-    write_json_atomically(path / "manifest.json", manifest)
+    write_manifest(path, manifest)
     return time.perf_counter() - started
 
 

@@ -65,12 +65,22 @@ def register(sub):
     a = actions.add_parser(
         "add",
         help="add clips to a database (with its codebook)",
-        description="Add SOURCES to the database DB; it keeps its codebook and parameters.",
-        epilog="Example: fluidnb videodb add mydb river3.mp4",
+        description=(
+            "Add SOURCES to the database DB; it keeps its codebook and parameters. An "
+            "interrupted addition is continued with --resume (and the same SOURCES) or "
+            "discarded with --discard (and no SOURCES)."
+        ),
+        epilog="Examples: fluidnb videodb add mydb river3.mp4 | fluidnb videodb add mydb --discard",
     )
     add_output(a, "db", kind="folder", metavar="DB", help="the database folder (clips are added)")
-    add_input(a, "sources", nargs="+", metavar="SOURCES", help="clips to add")
-    a.add_argument("--resume", action="store_true", help="continue an interrupted addition")
+    add_input(a, "sources", nargs="*", metavar="SOURCES", help="clips to add")
+    how = a.add_mutually_exclusive_group()
+    how.add_argument("--resume", action="store_true", help="continue an interrupted addition")
+    how.add_argument(
+        "--discard",
+        action="store_true",
+        help="discard an interrupted addition: the database stays as it was",
+    )
     _add_parallel_options(a)
     a.set_defaults(func=_add)
 
@@ -184,8 +194,17 @@ def _build(args):
 
 
 def _add(args):
-    from ..videodb import add_clips
+    from ..videodb import add_clips, discard_addition, open_database
 
+    if args.discard:
+        if args.sources:
+            raise ValueError("--discard takes no SOURCES: it removes what the addition left")
+        names = discard_addition(args.db)
+        print(f"discarded the interrupted addition of {', '.join(map(repr, names)) or 'clips'}")
+        print(open_database(args.db).summary())
+        return 0
+    if not args.sources:
+        raise ValueError("give at least one clip in SOURCES (or --discard)")
     return _run(args, add_clips, args.db, args.sources)
 
 

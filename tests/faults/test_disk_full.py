@@ -3,36 +3,19 @@
 An MP4 export onto a full disk said "ffmpeg could not encode 'prev.mp4': no message"
 (issue 37): ffmpeg's words went to a temporary file on the same full disk. And what
 was there before -- a video and its sidecar -- must survive a failed export intact.
-The real thing needs a tiny tmpfs (root may mount one); the sidecar's case is also
-simulated at the writer's boundary.
+The real thing needs a tiny tmpfs (root may mount one: ``tiny_disk`` in conftest.py);
+the sidecar's case is also simulated at the writer's boundary.
 """
 
 from __future__ import annotations
 
 import os
-import subprocess
 
 import numpy as np
 import pytest
 
 from fluidnb import Clip
 from fluidnb.cli import main
-
-
-@pytest.fixture
-def tiny_disk(tmp_path):
-    """A 64 KiB tmpfs, or a skip where this process may not mount one."""
-    folder = tmp_path / "tiny"
-    folder.mkdir()
-    mount = subprocess.run(
-        ["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(folder)],
-        capture_output=True,
-        check=False,
-    )
-    if mount.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here: {mount.stderr.decode().strip()}")
-    yield folder
-    subprocess.run(["umount", str(folder)], check=False)
 
 
 def _noise(path, frames=10, side=128):

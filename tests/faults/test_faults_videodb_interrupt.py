@@ -14,23 +14,16 @@ from fluidnb import Clip
 from fluidnb.cli import main
 from fluidnb.videodb import add_clips, build_database, open_database, verify_database
 from fluidnb.videodb.database._folder import folder_state
-from tests.support.videodb_store import PARAMS, Paused, moving_texture, sources, store_bytes
-
-UP = ("up", moving_texture(5, velocity=(-1, 0)))
-
-BUILD = """
-import sys
-from fluidnb.videodb import build_database
-from tests.support.videodb_store import PARAMS, sources
-build_database(sources(), sys.argv[1], kind="water", params=PARAMS, seed=3, workers=1)
-"""
-
-ADD = """
-import sys
-from fluidnb.videodb import add_clips
-from tests.support.videodb_store import moving_texture
-add_clips(sys.argv[1], [("up", moving_texture(5, velocity=(-1, 0)))], workers=1)
-"""
+from tests.support.videodb_store import (
+    ADD,
+    BUILD,
+    PARAMS,
+    UP,
+    killed_at,
+    moving_texture,
+    sources,
+    store_bytes,
+)
 
 
 @pytest.fixture(scope="module")
@@ -44,13 +37,6 @@ def grown(built, tmp_path_factory):
     path = tmp_path_factory.mktemp("uninterrupted") / "grown"
     shutil.copytree(built.path, path)
     return add_clips(path, [UP])
-
-
-def killed_at(code, point, path):
-    """Run ``code`` on ``path`` in a child process and SIGKILL it at ``point``."""
-    child = Paused(f"import sys; sys.argv[1:] = [{str(path)!r}]\n{code}", point)
-    child.wait_paused()
-    child.kill()
 
 
 def build(path, **kw):

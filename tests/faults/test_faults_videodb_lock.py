@@ -27,6 +27,8 @@ from fluidnb.videodb import (
     verify_database,
 )
 from tests.support.videodb_store import (
+    ADD,
+    BUILD,
     PARAMS,
     REPO,
     SMALL_OPTIONS,
@@ -35,22 +37,6 @@ from tests.support.videodb_store import (
     sources,
     store_bytes,
 )
-
-BUILD = """
-import sys
-from fluidnb.videodb import build_database
-from tests.support.videodb_store import PARAMS, sources
-build_database(sources(), sys.argv[1], kind="water", params=PARAMS, seed=3, workers=1)
-print("built")
-"""
-
-ADD = """
-import sys
-from fluidnb.videodb import add_clips
-from tests.support.videodb_store import moving_texture
-add_clips(sys.argv[1], [("up", moving_texture(5, velocity=(-1, 0)))], workers=1)
-print("added")
-"""
 
 STARTER = """
 from fluidnb.videodb import starter_database

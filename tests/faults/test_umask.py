@@ -7,23 +7,12 @@ manifest is the same case, fixed with the videodb split).
 
 from __future__ import annotations
 
-import os
 import stat
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from fluidnb import Clip
-
-
-@pytest.fixture
-def umask_002():
-    old = os.umask(0o002)
-    try:
-        yield
-    finally:
-        os.umask(old)
 
 
 def _mode(path):

@@ -103,3 +103,32 @@ class Paused:
         Path(self.until).touch()
         out, err = self.proc.communicate(timeout=timeout)
         return self.proc.returncode, out, err
+
+
+#: A third clip, moving up: what the tests add to the two of :func:`sources`.
+UP = ("up", moving_texture(5, velocity=(-1, 0)))
+
+#: A child's build of :func:`sources` into ``sys.argv[1]`` (for :class:`Paused`).
+BUILD = """
+import sys
+from fluidnb.videodb import build_database
+from tests.support.videodb_store import PARAMS, sources
+build_database(sources(), sys.argv[1], kind="water", params=PARAMS, seed=3, workers=1)
+print("built")
+"""
+
+#: A child's addition of :data:`UP` to the database ``sys.argv[1]``.
+ADD = """
+import sys
+from fluidnb.videodb import add_clips
+from tests.support.videodb_store import UP
+add_clips(sys.argv[1], [UP], workers=1)
+print("added")
+"""
+
+
+def killed_at(code, point, path):
+    """Run ``code`` on ``path`` in a child process and SIGKILL it at ``point``."""
+    child = Paused(f"import sys; sys.argv[1:] = [{str(path)!r}]\n{code}", point)
+    child.wait_paused()
+    child.kill()

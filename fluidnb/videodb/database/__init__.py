@@ -9,7 +9,8 @@
   mean image, motion spectra (Eq. 2) and textureness (Fig. 7).
 - :func:`dense_sift`, :func:`fit_codebook`, :func:`quantise`,
   :func:`pyramid_histograms`, :func:`intersection` -- visual words and Eq. 1.
-- :func:`clip_fragments`, :func:`build_database`, :func:`add_clips` -- the build;
+- :func:`clip_fragments`, :func:`build_database`, :func:`add_clips`,
+  :func:`discard_addition` -- the build;
   :func:`open_database`, :class:`VideoDatabase`, :func:`verify_database`,
   :class:`FrameCache`, :class:`DatabaseBusy` -- the store, read; :func:`luminance` --
   the grey fragments' frames are rebuilt from.
@@ -19,7 +20,7 @@
 from .._common._geometry import ANGLES, FRAGMENT, SCALES, STRIDE, VERSIONS
 from .._common._params import AUGMENTATIONS, FLOW_BACKENDS, DatabaseParams
 from ._augment import sample_version, transform_flow, transform_vectors
-from ._build import add_clips, build_database
+from ._build import add_clips, build_database, discard_addition
 from ._cut import clip_fragments
 from ._features import motion_spectra, textureness, window_features
 from ._flow import optical_flow
@@ -59,6 +60,7 @@ __all__ = [
     "build_database",
     "clip_fragments",
     "dense_sift",
+    "discard_addition",
     "fit_codebook",
     "intersection",
     "luminance",

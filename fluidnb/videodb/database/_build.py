@@ -54,12 +54,16 @@ from ._format import (
     BUILD,
     FORMAT,
     FORMAT_VERSION,
-    MANIFEST,
+    NO_ROOM,
     RAM_ARRAYS,
     STATE,
     checksum,
+    chunk_table,
     clip_group,
-    write_json_atomically,
+    clip_layout,
+    store_attributes,
+    write_manifest,
+    writing,
 )
 from ._lock import database_lock, lock_files
 from ._pipeline import (
@@ -74,7 +78,7 @@ from ._pipeline import (
 )
 from ._store import built_database, open_database
 
-__all__ = ["add_clips", "build_database"]
+__all__ = ["add_clips", "build_database", "discard_addition"]
 
 
 def build_database(
@@ -178,7 +182,10 @@ def _build(sources, path, *, kind, params, seed, client, workers, resume, progre
         report = Progress(progress)
         stage = report.split(0.85, 0.95)
         undo = functools.partial(_roll_back_build, root, created)
-        with _failing_input(undo, kept="build" if resuming else None, root=root):
+        with (
+            _no_room(root, "build"),
+            _failing_input(undo, kept="build" if resuming else None, root=root),
+        ):
             _import_in_background("sklearn.cluster")  # the codebook's, while clips are cut
             ingest = _Ingest(root, sources, state, resuming, params.max_side, base=0)
             records, counts = _ingest_and_run(ingest, params, None, client, workers, stage[0])
@@ -199,6 +206,38 @@ def _build(sources, path, *, kind, params, seed, client, workers, resume, progre
             _finish(root, manifest)
         stage[2](1.0, "database ready")
     return root, arrays
+
+
+@contextlib.contextmanager
+def _no_room(root, mode):
+    """An OSError for want of room says what it was writing, what is kept and what to do.
+
+    The build or addition stops where the disk filled; its state stays (see the
+    module's docstring), so the message says how to continue it -- or, when nothing
+    was kept, that a new build starts afresh.
+    """
+    try:
+        yield
+    except OSError as exc:
+        if exc.errno not in NO_ROOM:
+            raise
+        text = exc.strerror or ""
+        if not text.startswith("cannot write"):  # named by writing(), else the folder
+            text = f"cannot write {str(root)!r}: {text or exc} ({NO_ROOM[exc.errno]})"
+        if mode == "add":
+            then = (
+                "the database is as it was; make room, then continue the addition with "
+                "`fluidnb videodb add DB CLIPS --resume` (add_clips(..., resume=True)) or "
+                "discard it with `fluidnb videodb add DB --discard` (discard_addition)"
+            )
+        elif folder_state(root) == "unfinished":
+            then = (
+                "the unfinished build is kept: make room, then continue it with `fluidnb "
+                "videodb build OUT CLIPS --resume` (build_database(..., resume=True))"
+            )
+        else:
+            then = "nothing was kept that a build could continue: make room and build again"
+        raise OSError(exc.errno, f"{text}; {then}") from None
 
 
 @contextlib.contextmanager
@@ -257,16 +296,18 @@ def add_clips(db, sources, *, client=None, workers=None, resume=False, progress=
         _pause("locked")
         manifest, params, codebook = read_manifest(root)  # as it is now that we hold the lock
         if manifest["version"] != FORMAT_VERSION:
+            lacks = "chunk checksums" if manifest["version"] < 2 else "tables of its chunks"
             raise ValueError(
-                f"db: {str(root)!r} has format version {manifest['version']} (no chunk "
-                f"checksums); clips can be added to version {FORMAT_VERSION} only: rebuild it"
+                f"db: {str(root)!r} has format version {manifest['version']} (no {lacks}); "
+                f"clips can be added to version {FORMAT_VERSION} only: rebuild it"
             )
         base = len(manifest["clips"])
         pending = pending_addition(root, manifest) is not None
         if pending and not resume:
             raise ValueError(
                 f"db: {str(root)!r} has an unfinished addition of clips: continue it with "
-                "--resume (resume=True) and the same clips"
+                "--resume (resume=True) and the same clips, or discard it with --discard "
+                "(discard_addition)"
             )
         if not pending:
             _roll_back_addition(root, base)  # what a finished or failed one left behind
@@ -281,7 +322,10 @@ def add_clips(db, sources, *, client=None, workers=None, resume=False, progress=
             "base": base,
         }
         undo = functools.partial(_roll_back_addition, root, base)
-        with _failing_input(undo, kept="addition" if pending else None, root=root):
+        with (
+            _no_room(root, "add"),
+            _failing_input(undo, kept="addition" if pending else None, root=root),
+        ):
             ingest = _Ingest(root, sources, state, pending, params.max_side, base, known)
             records, counts = _ingest_and_run(ingest, params, codebook, client, workers, stage[0])
             if sum(counts.values()) == 0:
@@ -304,6 +348,42 @@ def add_clips(db, sources, *, client=None, workers=None, resume=False, progress=
         return open_database(root)
 
 
+def discard_addition(db):
+    """Discard an interrupted addition of clips: the database stays as it was.
+
+    An addition that was killed, cancelled or ran out of room leaves its clips' groups
+    and its state in the folder (the database opens as it was meanwhile):
+    :func:`add_clips` with ``resume=True`` continues it; this removes them instead.
+
+    Parameters
+    ----------
+    db : VideoDatabase, str or os.PathLike
+        The database (or its folder).
+
+    Returns
+    -------
+    list of str
+        The names of the clips whose addition was discarded.
+
+    Raises
+    ------
+    ValueError
+        If the folder is not a database, or has no interrupted addition. A
+        :class:`~fluidnb.videodb.database._lock.DatabaseBusy` if another process is
+        writing it (an addition under way is not interrupted).
+    """
+    root = Path(getattr(db, "path", db))
+    read_manifest(root)  # a clear error before a lock file is made in a folder that is no database
+    with database_lock(root, "discarding an interrupted addition"):
+        manifest, _, _ = read_manifest(root)
+        pending = pending_addition(root, manifest)
+        if pending is None:
+            raise ValueError(f"db: {str(root)!r} has no interrupted addition of clips to discard")
+        names = [str(c.get("name")) for c in pending.get("clips", [])]
+        _roll_back_addition(root, len(manifest["clips"]))
+    return names
+
+
 # ---------------------------------------------------------------------- stages
 
 
@@ -316,11 +396,16 @@ def _manifest(root, kind, params, seed, codebook, records, counts, old_clips=(),
     first = sum(c["fragments"] for c in clips)
     for rec in records:
         count = counts[rec["index"]]
+        where = clip_group(rec["index"])
         if arrays is not None:
             held = arrays[rec["index"]]
         else:
-            held = {n: group[f"{clip_group(rec['index'])}/{n}"][...] for n in RAM_ARRAYS}
+            held = {n: group[f"{where}/{n}"][...] for n in RAM_ARRAYS}
         clip = {**rec, "first": first, "fragments": count, "checksum": checksum(held)}
+        # Where each chunk belongs: the checksum each chunk file ends in, by place.
+        clip["chunks"] = {
+            name: chunk_table(group[f"{where}/{name}"], root) for name in clip_layout(clip, params)
+        }
         if count == 0:
             # Kept (the record says what went in) but it adds nothing: say why.
             clip["note"] = f"no fragment: {_why([rec])}"
@@ -340,7 +425,13 @@ def _manifest(root, kind, params, seed, codebook, records, counts, old_clips=(),
 
 
 def _finish(root, manifest):
-    write_json_atomically(Path(root) / MANIFEST, manifest)
+    import zarr
+
+    group = zarr.open_group(str(root), mode="r+", zarr_format=3)
+    if dict(group.attrs) != store_attributes():  # the version the store is written as
+        with writing(Path(root) / "zarr.json"):
+            group.update_attributes(store_attributes())
+    write_manifest(root, manifest)
     _pause("manifest")
     shutil.rmtree(Path(root) / BUILD, ignore_errors=True)
 
@@ -449,5 +540,6 @@ def _prepare_folder(root, resume):
         )
     if state == "debris":
         _roll_back_build(root, created=False)
-    zarr.open_group(str(root), mode="a", zarr_format=3, attributes={"fluidnb": FORMAT})
+    with writing(root / "zarr.json"):
+        zarr.open_group(str(root), mode="a", zarr_format=3, attributes={"fluidnb": FORMAT})
     return state == "unfinished"

@@ -10,12 +10,12 @@ skips the clips already cut.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from ..._threads import opencv_single_threaded
+from ..._validation import parse_json
 from .._common._params import DatabaseParams
 from ._features import grey
 from ._format import (
@@ -27,6 +27,7 @@ from ._format import (
     fragment_layout,
     versions_used,
     write_json_atomically,
+    writing,
 )
 
 __all__ = ["clip_fragments"]
@@ -132,8 +133,9 @@ class _ChunkWriter:
         for name, parts in self.pending.items():
             rows = np.concatenate(parts) if len(parts) > 1 else parts[0]
             arr = self.arrays[name]
-            arr.resize((self.written + count, *arr.shape[1:]))
-            arr[self.written : self.written + count] = rows[:count]
+            with writing(arr):
+                arr.resize((self.written + count, *arr.shape[1:]))
+                arr[self.written : self.written + count] = rows[:count]
             self.pending[name] = [rows[count:]] if len(rows) > count else []
         self.n_pending -= count
         self.written += count
@@ -184,9 +186,8 @@ def _write_done(root, index, count):
 
 
 def _read_done(root, index):
+    file = Path(root) / BUILD / f"done-{index:05d}.json"
     try:
-        return int(
-            json.loads((Path(root) / BUILD / f"done-{index:05d}.json").read_text())["fragments"]
-        )
-    except (OSError, ValueError, KeyError, TypeError):
+        return int(parse_json(file.read_text(), file.name)["fragments"])
+    except (OSError, ValueError, KeyError, TypeError):  # not done: cut it (again)
         return None

@@ -8,13 +8,21 @@ without one holds and what to do about it in the same words.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
+from ..._validation import parse_json
 from .._common._params import DatabaseParams
-from ._format import BUILD, FORMAT, MANIFEST, READABLE_VERSIONS, STATE
+from ._format import (
+    BUILD,
+    FORMAT,
+    MANIFEST,
+    READABLE_VERSIONS,
+    STATE,
+    clip_layout,
+    manifest_digest,
+)
 
 __all__ = ["folder_state", "pending_addition", "read_manifest", "read_state", "writer_at_work"]
 
@@ -22,8 +30,8 @@ __all__ = ["folder_state", "pending_addition", "read_manifest", "read_state", "w
 def read_state(root):
     """The state file of an unfinished build or addition in ``root``, or None."""
     try:
-        state = json.loads((Path(root) / BUILD / STATE).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        state = parse_json((Path(root) / BUILD / STATE).read_text(encoding="utf-8"), STATE)
+    except (OSError, ValueError):  # a damaged state is no state: the folder says what it is
         return None
     return state if isinstance(state, dict) else None
 
@@ -73,10 +81,24 @@ def folder_state(root):
 
 def _our_zarr(root):
     try:
-        meta = json.loads((Path(root) / "zarr.json").read_text(encoding="utf-8"))
-        return meta["attributes"]["fluidnb"] == FORMAT
-    except (OSError, ValueError, KeyError, TypeError):
+        return _root_attributes(root).get("fluidnb") == FORMAT
+    except ValueError:
         return False
+
+
+def _root_attributes(root):
+    """The attributes of the store's root group; ValueError naming its ``zarr.json``."""
+    file = Path(root) / "zarr.json"
+    try:
+        meta = parse_json(file.read_text(encoding="utf-8"), repr(str(file)))
+        attributes = meta["attributes"]
+        if not isinstance(attributes, dict):
+            raise TypeError("its attributes are not a JSON object")
+    except OSError as exc:
+        raise ValueError(f"db: cannot read {str(file)!r}: {exc.strerror or exc}") from None
+    except (ValueError, KeyError, TypeError) as exc:
+        raise ValueError(f"db: {str(file)!r} is damaged ({exc})") from None
+    return attributes
 
 
 def writer_at_work(root):
@@ -100,24 +122,38 @@ def read_manifest(path):
     if not file.is_file():
         raise ValueError(_not_a_database(root))
     try:
-        manifest = json.loads(file.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        text = file.read_text(encoding="utf-8")
+    except OSError as exc:  # not "corrupt": another user's file, a disk error
+        why = exc.strerror or str(exc)
+        if isinstance(exc, PermissionError):
+            why += f" (its owner can let others read the database: chmod -R a+rX {str(root)!r})"
+        raise ValueError(f"db: cannot read {str(file)!r}: {why}") from None
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"db: {str(file)!r} is corrupt: {exc}") from None
+    try:
+        manifest = parse_json(text, repr(str(file)))
+    except ValueError as exc:
         raise ValueError(f"db: {str(file)!r} is corrupt: {exc}") from None
     if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
         raise ValueError(f"db: {str(file)!r} is not a fluidnb video database manifest")
     version = manifest.get("version")
-    if version not in READABLE_VERSIONS:
+    if version not in READABLE_VERSIONS or isinstance(version, bool):
         raise ValueError(
             f"db: {str(file)!r} has format version {version!r}; this fluidnb reads versions "
             f"{', '.join(map(str, READABLE_VERSIONS))}: rebuild the database with this version"
         )
+    _check_sealed(root, manifest, version)
     try:
         params = DatabaseParams.from_dict(manifest["params"])
         codebook = np.asarray(manifest["codebook"], dtype=np.float64)
         clips = list(manifest["clips"])
         total = int(manifest["fragments"])
-    except (KeyError, TypeError, ValueError) as exc:
-        raise ValueError(f"db: {str(file)!r} is incomplete or damaged ({exc})") from None
+        if version >= 3:
+            for clip in clips:
+                for name in clip_layout(clip, params):
+                    bytes.fromhex(clip["chunks"][name])
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise ValueError(f"db: {str(file)!r} is incomplete or damaged ({exc!r})") from None
     if codebook.shape != (params.words, 128) or not np.all(np.isfinite(codebook)):
         raise ValueError(
             f"db: {str(file)!r}: the codebook must be {params.words} x 128 finite numbers, "
@@ -133,6 +169,35 @@ def read_manifest(path):
             f"db: {str(file)!r}: the clips hold {first} fragments but the manifest says {total}"
         )
     return manifest, params, codebook
+
+
+def _check_sealed(root, manifest, version):
+    """Refuse a manifest edited after it was written, whatever version it now states.
+
+    Format version 3 seals its manifest with a digest; a digest that does not match --
+    in a manifest of any version -- is an edit. Without one, the store itself says
+    which version wrote it: version 3's root group records it, and version 2's arrays
+    carry checksums (which version 1's do not; :func:`~._format._open_array` checks
+    every array as it opens it). A manifest cannot switch off the checks of the
+    version that wrote the store.
+    """
+    file = repr(str(Path(root) / MANIFEST))
+    advice = "put back the manifest as it was written, or rebuild the database"
+    digest = manifest.get("digest")
+    if digest is not None and digest != manifest_digest(manifest):
+        raise ValueError(
+            f"db: {file} was changed after it was written (its digest does not match its "
+            f"content, a checksum of the manifest itself): {advice}"
+        )
+    if digest is None and version >= 3:
+        raise ValueError(f"db: {file} lacks its digest (version 3 seals every manifest): {advice}")
+    written = _root_attributes(root).get("version")  # None before version 3
+    if written != version and (written is not None or version >= 3):
+        raise ValueError(
+            f"db: {file} says format version {version}, but the store was written as "
+            f"version {'1 or 2' if written is None else repr(written)}: the manifest was "
+            f"edited or belongs to another store; {advice}"
+        )
 
 
 def _not_a_database(root):

@@ -21,6 +21,8 @@ import socket
 import time
 from pathlib import Path
 
+from ..._validation import parse_json
+
 __all__ = [
     "LOCK_FILE",
     "DatabaseBusy",
@@ -57,9 +59,9 @@ def holder(lock_file, *, live=True):
     another host cannot be checked and is taken at its word.
     """
     try:
-        info = json.loads(_holder_file(lock_file).read_text(encoding="utf-8"))
+        info = parse_json(_holder_file(lock_file).read_text(encoding="utf-8"), "the holder's file")
         pid, host = int(info["pid"]), str(info["host"])
-    except (OSError, ValueError, KeyError, TypeError):
+    except (OSError, ValueError, KeyError, TypeError):  # nobody says so
         return None
     if live and host == socket.gethostname() and not _alive(pid):
         return None

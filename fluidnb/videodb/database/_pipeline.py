@@ -18,7 +18,6 @@ share; their transactions (locks, roll-backs, the manifest) are
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 import sys
 import time
@@ -27,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..._threads import spread_pool
+from ..._validation import parse_json
 from ._cut import _ChunkWriter, _process_clip, _read_done
 from ._format import (
     BUILD,
@@ -36,6 +36,7 @@ from ._format import (
     clip_group,
     create_array,
     write_json_atomically,
+    writing,
 )
 from ._store import load_clip_arrays
 from ._video import read_video
@@ -81,7 +82,12 @@ class _Ingest:
         self.state_file = self.root / BUILD / STATE
         self.old = None
         if resume and self.state_file.is_file():
-            self.old = json.loads(self.state_file.read_text())
+            try:
+                self.old = parse_json(self.state_file.read_text(), STATE)
+            except (OSError, ValueError) as exc:
+                raise _SourceError(f"db: {str(self.state_file)!r}: {exc}") from None
+            if not isinstance(self.old, dict):
+                raise _SourceError(f"db: {str(self.state_file)!r} is not a build's state")
             same = {k: self.old.get(k) for k in ("mode", "kind", "params", "seed", "base")}
             if same != {k: state[k] for k in same}:
                 raise _SourceError(
@@ -139,7 +145,8 @@ class _Ingest:
             g = self.group.require_group(clip_group(index))
             shape = video.frames.shape
             arr = create_array(g, "frames", shape, (1, *shape[1:]), "uint8", shuffle="bitshuffle")
-            arr[...] = video.frames
+            with writing(arr):
+                arr[...] = video.frames
             # The record goes into the state after the frames are on disk.
             _mark_ingested(root, index)
         self.records.append(rec)

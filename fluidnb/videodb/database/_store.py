@@ -15,6 +15,7 @@ and a new manifest, so a reader sees the database as it was or as it is.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +28,7 @@ from ._folder import pending_addition, read_manifest
 from ._format import (
     FORMAT_VERSION,
     RAM_ARRAYS,
+    ChunkTables,
     _open_array,
     checksum,
     clip_group,
@@ -99,9 +101,19 @@ class VideoDatabase:
         return len(self.words)
 
     @property
+    def version(self):
+        """The format version of the store (:data:`~._format.FORMAT_VERSION` when built)."""
+        return self.manifest.get("version", FORMAT_VERSION)
+
+    @property
     def checked(self):
         """Whether every chunk carries a checksum and must exist (format version 2 on)."""
-        return self.manifest.get("version", FORMAT_VERSION) >= 2
+        return self.version >= 2
+
+    @cached_property
+    def tables(self):
+        """Each chunk's checksum by place (:class:`~._format.ChunkTables`; version 3 on)."""
+        return ChunkTables(self.clips) if self.version >= 3 else None
 
     @property
     def n_fragments(self):
@@ -128,17 +140,22 @@ class VideoDatabase:
         ]
         if not self.checked:
             lines.append(
-                f"  format version {self.manifest.get('version')}: its chunks carry no "
-                "checksums and a missing chunk reads as zeros; rebuild the database to "
-                "have both checked"
+                f"  format version {self.version}: its chunks carry no checksums and a "
+                "missing chunk reads as zeros; rebuild the database to have both checked"
+            )
+        elif self.tables is None:
+            lines.append(
+                f"  format version {self.version}: a chunk moved or swapped into another "
+                "place of the store reads as if it belonged there; rebuild the database to "
+                "have every chunk checked against its place"
             )
         pending = pending_addition(self.path, self.manifest)
         if pending is not None:
             names = ", ".join(repr(c["name"]) for c in pending.get("clips", [])) or "clips"
             lines.append(
                 f"  an addition of {names} was interrupted: continue it with `fluidnb "
-                "videodb add DB CLIPS --resume` and the same clips (until then the "
-                "database is as it was)"
+                "videodb add DB CLIPS --resume` and the same clips, or discard it with "
+                "`fluidnb videodb add DB --discard` (until then the database is as it was)"
             )
         for c in self.clips:
             lines.append(
@@ -177,7 +194,7 @@ class VideoDatabase:
             sel = np.flatnonzero(self.clip_of(ids) == clip)
             local = ids[sel] - self.clips[clip]["first"]
             arr = self._array(group, clip, "mean")
-            rows = read_rows(arr, self.path, local, checked=self.checked)
+            rows = read_rows(arr, self.path, local, checked=self.checked, tables=self.tables)
             out[sel] = rows.astype(np.float32) / 255.0
         return out
 
@@ -191,13 +208,18 @@ class VideoDatabase:
         """
         clip = check_int("clip", clip, 0, len(self.clips) - 1)
         arr = self._array(self._group(), clip, "frames")
-        return read_rows(arr, self.path, slice(start, stop), checked=self.checked)
+        rows = slice(start, stop)
+        return read_rows(arr, self.path, rows, checked=self.checked, tables=self.tables)
 
     def _array(self, group, clip, name):
         """Array ``name`` of clip ``clip``, checked against the manifest (opened once)."""
         shape, dtype = clip_layout(self.clips[clip], self.params)[name]
         where = f"{clip_group(clip)}/{name}"
-        return self.cache.array(where, lambda: _open_array(group, self.path, where, shape, dtype))
+
+        def opener():
+            return _open_array(group, self.path, where, shape, dtype, self.version)
+
+        return self.cache.array(where, opener)
 
     def fragment_frames(self, ids, *, margin=0, grey=False):
         """Rebuild the ``N`` frames of fragments from their source clips.
@@ -308,10 +330,12 @@ def open_database(path, *, progress=None):
     except Exception as exc:
         raise ValueError(f"db: {str(root)!r}: cannot open the zarr store ({exc})") from None
     clips = manifest["clips"]
-    checked = manifest["version"] >= 2
+    version = manifest["version"]
+    tables = ChunkTables(clips) if version >= 3 else None
     for done, clip in enumerate(clips):
         first, count = int(clip["first"]), int(clip["fragments"])
-        arrays = load_clip_arrays(group, root, int(clip["index"]), count, params, checked=checked)
+        index = int(clip["index"])
+        arrays = load_clip_arrays(group, root, index, count, params, version=version, tables=tables)
         for name in RAM_ARRAYS:
             data[name][first : first + count] = arrays[name]
         report((done + 1) / max(1, len(clips)), f"loaded {clip['name']}")
@@ -344,19 +368,23 @@ def built_database(path, arrays):
     return _database(root, manifest, params, codebook, data)
 
 
-def load_clip_arrays(group, root, index, count, params, *, checked=True, names=RAM_ARRAYS):
+def load_clip_arrays(
+    group, root, index, count, params, *, version=FORMAT_VERSION, tables=None, names=RAM_ARRAYS
+):
     """Clip ``index``'s :data:`RAM_ARRAYS` (or ``names``) read from the store at ``root``.
 
-    Each array's shape and dtype checked against ``count`` fragments and ``params``,
-    each of its chunks accounted for (:func:`read_rows`); ValueError naming the file.
+    Each array's shape, dtype and codecs checked against ``count`` fragments,
+    ``params`` and the format ``version``, each of its chunks accounted for (and with
+    ``tables`` checked against its place, :func:`read_rows`); ValueError naming the file.
     """
     layout = fragment_layout(params)
     where = clip_group(index)
     arrays = {}
     for name in names:
         shape, dtype = layout[name]
-        arr = _open_array(group, root, f"{where}/{name}", (count, *shape), dtype)
-        arrays[name] = read_rows(arr, root, slice(None), checked=checked)
+        arr = _open_array(group, root, f"{where}/{name}", (count, *shape), dtype, version)
+        rows = slice(None)
+        arrays[name] = read_rows(arr, root, rows, checked=version >= 2, tables=tables)
     return arrays
 
 

@@ -15,10 +15,12 @@ from ..._progress import Progress
 from ._folder import read_manifest
 from ._format import (
     RAM_ARRAYS,
+    ChunkTables,
     _chunk_error,
     _chunk_file,
     _open_array,
     _reason,
+    _tail,
     checksum,
     clip_group,
     clip_layout,
@@ -32,8 +34,9 @@ def verify_database(path, *, progress=None):
 
     Checks the manifest, then for every clip every array (the frames, the mean images
     and the in-memory arrays): that it exists with the shape the manifest gives, that
-    every chunk exists (format version 2 on) and decodes (its checksum matches), and
-    that the in-memory arrays match the manifest's SHA-256 of them.
+    every chunk exists (format version 2 on), decodes (its checksum matches) and is the
+    chunk written in its place (format version 3 on: the manifest's table of the
+    checksums), and that the in-memory arrays match the manifest's SHA-256 of them.
 
     Parameters
     ----------
@@ -57,7 +60,8 @@ def verify_database(path, *, progress=None):
 
     root = Path(path)
     manifest, params, _ = read_manifest(root)
-    checked = manifest["version"] >= 2
+    version = manifest["version"]
+    tables = ChunkTables(manifest["clips"]) if version >= 3 else None
     report = Progress(progress)
     try:
         group = zarr.open_group(str(root), mode="r", zarr_format=3)
@@ -71,12 +75,12 @@ def verify_database(path, *, progress=None):
         for name, (shape, dtype) in clip_layout(clip, params).items():
             report(k / max(1, len(clips)), f"verifying {clip['name']} ({name})")
             try:
-                arr = _open_array(group, root, f"{where}/{name}", shape, dtype)
+                arr = _open_array(group, root, f"{where}/{name}", shape, dtype, version)
             except ValueError as exc:
                 problems.append(str(exc))
                 intact = False
                 continue
-            found, rows = _verify_chunks(arr, root, checked)
+            found, rows = _verify_chunks(arr, root, version >= 2, tables)
             problems += found
             intact = intact and not found
             if name in RAM_ARRAYS:
@@ -92,17 +96,22 @@ def verify_database(path, *, progress=None):
     return problems
 
 
-def _verify_chunks(arr, root, checked):
+def _verify_chunks(arr, root, checked, tables):
     """Problems of every chunk of ``arr``, and its rows (None if one could not be read)."""
     step, problems, parts = arr.chunks[0], [], []
     for i in range(-(-arr.shape[0] // step)):
-        if checked and not _chunk_file(arr, root, i).is_file():
+        file = _chunk_file(arr, root, i)
+        if checked and not file.is_file():
             problems.append(_chunk_error(arr, root, i, "is missing"))
             continue
         try:
             parts.append(arr[i * step : (i + 1) * step])
         except Exception as exc:
             problems.append(_chunk_error(arr, root, i, f"cannot be read: {_reason(exc)}"))
+            continue
+        wrong = tables.check(arr, root, i, _tail(file)) if tables is not None else None
+        if wrong is not None:
+            problems.append(_chunk_error(arr, root, i, wrong))
     if problems:
         return problems, None
     return problems, np.concatenate(parts) if parts else arr[...]

@@ -21,7 +21,7 @@ from numba import njit
 
 from ..._clip import Clip
 from ..._image import as_image, to_float01, to_uint8
-from ..._validation import check_int
+from ..._validation import check_input_file, check_int, parse_json
 
 __all__ = ["VIDEO_EXTENSIONS", "Video", "read_video"]
 
@@ -192,8 +192,10 @@ def _read_path(path, max_side):
     if path.is_dir():
         frames, fps, digest = _read_folder(path)
         return frames, fps, 1.0, digest
-    if not path.is_file():
+    if not path.exists() and not path.is_symlink():
         raise ValueError(f"source: no such file or folder {str(path)!r}")
+    # A named pipe, a socket, a device: said as what it is (reading a FIFO would wait).
+    check_input_file(path, "source", "a video file or a folder of frames")
     suffix = path.suffix.lower()
     if suffix == ".gif":
         clip = Clip.load(path)
@@ -249,10 +251,9 @@ def _read_folder(folder):
     fps = _DEFAULT_FPS
     clip_json = folder / "clip.json"
     if clip_json.is_file():
-        import json
-
-        with contextlib.suppress(ValueError, TypeError, AttributeError):
-            fps = float(json.loads(clip_json.read_text()).get("fps", fps))
+        # Informational (the method works frame by frame): a damaged one is ignored.
+        with contextlib.suppress(OSError, ValueError, TypeError, AttributeError):
+            fps = float(parse_json(clip_json.read_text(), "clip.json").get("fps", fps))
     return np.stack(frames), fps, "sha256:" + h.hexdigest()
 
 

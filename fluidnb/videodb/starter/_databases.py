@@ -3,8 +3,9 @@
 No real fluid footage ships with any package registry, so fluidnb makes its own
 (:func:`~fluidnb.videodb.starter.starter_clips`): smoke from its fluid solver, fire from its
 fire method, water by advecting water textures along varied flows. The first call of
-:func:`starter_database` builds the database from those clips (15-30 s on two
-cores; seconds in quick mode) and keeps it in the cache folder
+:func:`starter_database` builds the database from those clips (11-63 s each on two
+cores, quiet or with other work up to a load of 5, longer on a busier machine:
+benchmarks/README.md#numbers-the-docs-state; seconds in quick mode) and keeps it in the cache folder
 (``$FLUIDNB_CACHE_DIR``, else ``~/.cache/fluidnb``); later calls open it.
 
 So that a lesson's first run does not wait for all of that, ``python3 dev.py lab``
@@ -41,8 +42,11 @@ __all__ = ["prebuild_starters", "starter_database", "starter_params", "starter_p
 # 6: the water clips' flows made in float32, their random fields blurred by an untruncated
 # Gaussian (the same flows to < 0.01 px/frame, the clips' frames a little different);
 # 7 (fire only): the fire method's faster keyframe scan (exact 8-bit distances,
-# counter-based random candidates) synthesises other, equally valid, fire clips.
-_VERSIONS = {"water": 6, "smoke": 6, "fire": 7}
+# counter-based random candidates) synthesises other, equally valid, fire clips;
+# 7 (water, smoke) and 8 (fire): format version 3 (each chunk's checksum by place in the
+# manifest, sealed by its digest; the root group's version): the same arrays, other
+# manifests and root groups.
+_VERSIONS = {"water": 7, "smoke": 7, "fire": 8}
 
 
 def _quick(quick):
