@@ -145,8 +145,57 @@ class LabServer:
                 self.api("DELETE", f"sessions/{s['id']}")
 
 
+# Each app once, headless, at its quick size: compiles the methods' numba kernels into
+# their on-disk cache before any notebook kernel needs them. On a fresh install the
+# first fire preview compiles for about a minute (62 s at load 3), longer than a
+# browser test waits for a picture; afterwards every kernel loads them from the cache.
+_COMPILE = """
+import os
+os.environ["FLUIDNB_QUICK"] = "1"
+import numpy as np
+from fluidnb.widgets import FireApp, FlickerApp, FrostApp, TurbulenceApp, VideoDBApp
+
+def frost():
+    app = FrostApp(quick=True)
+    h, w = app.image.shape[:2]
+    yy, xx = np.mgrid[:h, :w]
+    app.set_region((yy - h / 2) ** 2 + (xx - w / 2) ** 2 < (min(h, w) / 4) ** 2)
+    app.set_starts([[h / 2, w / 2]])
+    return app
+
+def videodb():
+    app = VideoDBApp("stream", size=96, db="water", quick=True)
+    h, w = app.photo.shape[:2]
+    matte = np.zeros((h, w), bool)
+    matte[h // 2 :] = True
+    app.set_matte(matte)
+    return app
+
+for make in (lambda: FlickerApp(quick=True), lambda: FireApp(quick=True, n_frames=24), frost,
+             lambda: TurbulenceApp(n_frames=24), videodb):
+    app = make()
+    app.run(timeout=900)
+    app.preview(app.panel.params)
+    app.close()
+print("kernels compiled")
+"""
+
+
 @pytest.fixture(scope="session")
-def lab_server(tmp_path_factory):
+def compiled_kernels():
+    """Run :data:`_COMPILE` once per session (seconds when the cache is warm)."""
+    started = time.monotonic()
+    done = subprocess.run(
+        [sys.executable, "-c", _COMPILE], capture_output=True, text=True, timeout=1800
+    )
+    if done.returncode != 0:  # the tests themselves will say what is wrong
+        print(f"compiling the kernels failed:\n{done.stderr[-2000:]}", file=sys.stderr)
+    else:
+        print(f"kernels compiled in {time.monotonic() - started:.0f} s", file=sys.stderr)
+
+
+@pytest.fixture(scope="session")
+def lab_server(tmp_path_factory, compiled_kernels):
     base = tmp_path_factory.mktemp("lab")
     root = base / "root"
     root.mkdir()
