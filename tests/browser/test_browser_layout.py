@@ -15,10 +15,15 @@ ROOT = Path(__file__).resolve().parents[2]
 VIEWPORT = {"width": 1400, "height": 900}
 
 
-def lesson_cells(name, indices):
-    """Code cells of a lesson, by index: the test runs the lesson's own app code."""
+def lesson_cells(name, starts):
+    """Code cells of a lesson, each the first that starts with one of ``starts``.
+
+    The test runs the lesson's own app code; found by what the cells begin with, not
+    by position, so questions added between them do not shift it.
+    """
     cells = json.loads((ROOT / "notebooks" / name).read_text())["cells"]
-    return ["".join(cells[i]["source"]) for i in indices]
+    code = ["".join(c["source"]) for c in cells if c["cell_type"] == "code"]
+    return [next(src for src in code if src.startswith(start)) for start in starts]
 
 
 APPS = {
@@ -61,7 +66,10 @@ app
     # The drawing-tools lesson's app, from the lesson itself (set-up, canvas, app).
     "drawing": [
         "import os\nos.environ['FLUIDNB_QUICK'] = '1'\n",
-        *lesson_cells("01_drawing_tools.ipynb", [1, 3, 9]),
+        *lesson_cells(
+            "01_drawing_tools.ipynb",
+            ["import os\n", "canvas = DrawingCanvas(", "from dataclasses import dataclass"],
+        ),
     ],
 }
 
