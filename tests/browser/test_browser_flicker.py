@@ -40,8 +40,10 @@ def report_clip(change):
             np.array_equal(outside, np.broadcast_to(image[~mask], outside.shape))
         )
         info["inside_changes"] = float(np.abs(frames[:, mask] - frames[:1, mask]).max())
-    dump("clip.json", info)
+    seen.append([info["azimuth"], info["full"]])  # every clip shown, in order
+    dump("clip.json", {**info, "seen": seen})
 
+seen = []
 app.canvas.observe(report_region, "version")
 app.player.observe(report_clip, "clip")
 report_region()
@@ -70,7 +72,10 @@ def test_paint_region_move_slider_frames_change_only_inside(notebook, page, shot
     page.locator(".fluidnb-app .fluidnb-param-groups").get_by_text("light and relief").click()
     shown = drag_slider(page, page.locator(".fluidnb-param-azimuth"), 0.9)
     assert shown != first["azimuth"]
-    nb.state("clip.json", lambda s: abs(s["azimuth"] - shown) < 0.5 and not s["full"])
+    # The player follows: a clip of the new azimuth comes -- its preview, or, where the
+    # preview was slower than the values' rest, the full result that replaces it (the
+    # held-slider preview is test_browser_live's).
+    nb.state("clip.json", lambda s: any(abs(a - shown) < 0.5 for a, _ in s["seen"]))
     frame = page.locator(".fluidnb-app .fluidnb-frame")
     page.wait_for_function(ANOTHER_FRAME, arg=[frame.element_handle(), src0])
 
