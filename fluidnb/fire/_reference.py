@@ -33,7 +33,7 @@ from ._synthesis import (
     neighbourhoods,
 )
 
-__all__ = ["advance_reference", "synthesize_reference"]
+__all__ = ["advance_reference", "distance", "synthesize_reference"]
 
 
 def synthesize_reference(photo, target, params=None, *, matte=None, seed=None):
