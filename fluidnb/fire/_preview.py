@@ -70,7 +70,7 @@ def keyframe_preview(photo, params=None, *, fluid_params=None, size=48, matte=No
     # One frame: a (temperature, velocity) pair with no motion to advect.
     temperature = sim.temperature[-1:]
     velocity = np.zeros((1, size, size, 2), np.float32)
-    one = params.replace(input_size=size, interval=max(params.overlap + 1, 2))
+    one = params.replace(input_size=size, output_size=size, interval=max(params.overlap + 1, 2))
     result = fire(photo, (temperature, velocity), one, matte=matte, seed=seed)
     return Clip(
         result.keyframes[:1],
