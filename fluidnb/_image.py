@@ -146,7 +146,9 @@ def _to_array(image, name, max_side=None):
     if isinstance(image, (str, os.PathLike)):
         return _read(Path(image), name, max_side)
     if type(image).__module__.startswith("PIL."):
-        return _from_pil(image)
+        # A PIL image opened from a phone's file (an upload) carries its EXIF block;
+        # one made from pixels says nothing and stays as it is.
+        return _from_pil(_upright(image, _orientation(image)))
     if isinstance(image, np.ndarray):
         return image
     if isinstance(image, (list, tuple)):
@@ -212,6 +214,8 @@ def image_size(path, name="image"):
     (270, 480)
     """
     with _open(Path(path), name) as im:
+        if _orientation(im) in _QUARTER_TURNS:
+            return (im.width, im.height)
         return (im.height, im.width)
 
 
@@ -246,15 +250,53 @@ def _too_large(name, path, declared, limit):
     )
 
 
+#: EXIF orientations (tag 0x0112) whose upright picture is turned by a quarter: its
+#: height is the stored width.
+_QUARTER_TURNS = (5, 6, 7, 8)
+
+
+def _orientation(im):
+    """The EXIF orientation a photo declares (1 = stored upright; 1 when it says nothing)."""
+    try:
+        value = im.getexif().get(0x0112, 1)
+    except Exception:  # a damaged EXIF block: show the pixels as they are stored
+        return 1
+    return value if value in range(1, 9) else 1
+
+
+def _upright(im, orientation):
+    """``im`` turned the way its EXIF orientation says a viewer shows it.
+
+    Phones store the sensor's pixels and write which way is up into the EXIF block;
+    every photo viewer applies it, so a user expects the photo the way it looked on
+    their phone, not on its side. Pillow's ``ImageOps.exif_transpose`` does this for
+    a full-size image; we read the orientation before a shrink (which drops the EXIF
+    block) and apply the same transposition afterwards.
+    """
+    from PIL import Image
+
+    method = {
+        2: Image.Transpose.FLIP_LEFT_RIGHT,
+        3: Image.Transpose.ROTATE_180,
+        4: Image.Transpose.FLIP_TOP_BOTTOM,
+        5: Image.Transpose.TRANSPOSE,
+        6: Image.Transpose.ROTATE_270,
+        7: Image.Transpose.TRANSVERSE,
+        8: Image.Transpose.ROTATE_90,
+    }.get(orientation)
+    return im if method is None else im.transpose(method)
+
+
 def _read(path, name, max_side=None):
     from PIL import UnidentifiedImageError
 
     with _open(path, name) as im:
         try:
+            orientation = _orientation(im)
             if max_side is not None and max(im.size) > max_side:
-                return _from_pil(_shrink_pil(im, max_side))
+                return _from_pil(_upright(_shrink_pil(im, max_side), orientation))
             im.load()
-            return _from_pil(im)
+            return _from_pil(_upright(im, orientation))
         except (UnidentifiedImageError, OSError, SyntaxError, ValueError, EOFError) as exc:
             raise ValueError(f"{name}: cannot read {str(path)!r} as an image ({exc})") from None
 

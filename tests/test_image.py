@@ -1,6 +1,6 @@
 import numpy as np
 import pytest
-from PIL import Image
+from PIL import Image, ImageOps
 
 from fluidnb import as_image, as_mask, to_uint8
 
@@ -263,3 +263,29 @@ def test_a_large_jpeg_is_decoded_small(tmp_path):
     yy, xx = (np.mgrid[:1440, :1920] + 0.5) / 0.48 - 0.5
     want = ((xx / 4000 * 200) + (yy / 3000 * 50)) / 255
     np.testing.assert_allclose(out, want, atol=3 / 255)
+
+
+@pytest.mark.parametrize("orientation", range(1, 9))
+def test_a_phone_photo_is_read_upright(tmp_path, orientation):
+    # A phone stores the sensor's pixels and writes which way is up into EXIF tag 0x0112;
+    # we show the photo as every viewer does (Pillow's exif_transpose is the reference),
+    # whether it is read in full, shrunk on the way in, or uploaded as a PIL image.
+    from fluidnb._image import image_size
+
+    rng = np.random.default_rng(orientation)
+    stored = rng.integers(0, 256, (30, 40, 3), dtype=np.uint8)
+    exif = Image.Exif()
+    exif[0x0112] = orientation
+    Image.fromarray(stored).save(tmp_path / "phone.png", exif=exif)
+    with Image.open(tmp_path / "phone.png") as im:
+        want = np.asarray(ImageOps.exif_transpose(im)) / np.float32(255)
+    assert want.shape[:2] == ((40, 30) if orientation >= 5 else (30, 40))
+    np.testing.assert_array_equal(as_image(tmp_path / "phone.png"), want)
+    assert image_size(tmp_path / "phone.png") == want.shape[:2]
+    with Image.open(tmp_path / "phone.png") as im:
+        np.testing.assert_array_equal(as_image(im), want)
+    shrunk = as_image(tmp_path / "phone.png", max_side=20)
+    assert shrunk.shape[:2] == ((20, 15) if orientation >= 5 else (15, 20))
+    # the shrink averages 2 x 2 blocks of the upright photo: same blocks, same pixels
+    blocks = want.reshape(want.shape[0] // 2, 2, want.shape[1] // 2, 2, 3).mean(axis=(1, 3))
+    np.testing.assert_allclose(shrunk, blocks, atol=1.5 / 255)  # 8-bit rounding of a mean
