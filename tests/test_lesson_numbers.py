@@ -143,6 +143,17 @@ def peak_below_half():
     )
 
 
+def no_room_at_16_frames():
+    """ex2 at quick mode's T = 16: even kappa = 1.5 maps nothing above T/2; at 64 it does."""
+    from fluidnb.flicker import temporal_frequencies
+
+    fc = [
+        np.abs(temporal_frequencies((96, 72), flicker_params(T=T, mapping="convex", kappa=1.5)))
+        for T in (16, 64)
+    ]
+    return fc[0].max() <= 8 and fc[1].max() > 32
+
+
 CLAIMS["02_flicker.ipynb"] = [
     fact("the clip swings less than half as much as without\nnoise", peak_below_half),
     stated("In the paper $H$ runs from 0 to 255", "paper"),
@@ -181,6 +192,15 @@ CLAIMS["02_flicker.ipynb"] = [
     stated("$\\beta = 0.1$", "setting"),
     stated("keep 0.5 Hz", "paper"),
     measured("knee at $0.7A$", soft_clip_knee, rtol=0.01),
+    constant(
+        "with the paper's $T = 64$ also in\nquick mode (16 frames",
+        lambda: list(notebook_sizes("02_flicker.ipynb")["T"])[::-1],
+    ),
+    fact("16 frames leave no room above the surface's top frequency", no_room_at_16_frames),
+    constant(
+        "with the paper's $T = 64$ also in quick mode (16",
+        lambda: list(notebook_sizes("02_flicker.ipynb")["T"])[::-1],
+    ),
 ]
 
 
@@ -612,6 +632,16 @@ def window(p):
     return p.b * 8
 
 
+def windows_at_b8():
+    """06b's ex2: the window at b = 8 in full mode, in quick mode, and quick's source width."""
+    from fluidnb.turbulence import prepare, sample_flows
+
+    p = turbulence_params(b=8)
+    target, source = sample_flows(2, scale=2)
+    n = prepare(target, source, p).window
+    return [window(p)] * 2 + [n, n, source.shape[1]]
+
+
 CLAIMS["06b_turbulence_appendix.ipynb"] = [
     stated(
         "about 25 minutes (the four questions 10, the warm-up 2, the two exercises 13)",
@@ -625,8 +655,18 @@ CLAIMS["06b_turbulence_appendix.ipynb"] = [
         lambda: [turbulence_params().B] * 2 + [window(turbulence_params())] * 2,
     ),
     fact("for $B = 18$ two rows are left out", lambda: 18 - 4 * (18 // 4) == 2),
-    constant("the window grows to 64 x 64", lambda: [window(turbulence_params(b=8))] * 2),
+    measured(
+        "64 x 64 in full mode, and to 49 x 49 in quick mode, where the halved source is only 64",
+        windows_at_b8,
+        rtol=0,
+    ),
 ]
+
+
+def quick_water_under_200():
+    from fluidnb.videodb import starter_database
+
+    return starter_database("water", quick=True).n_fragments < 200
 
 
 def animate_params(**kw):
@@ -697,8 +737,9 @@ CLAIMS["07b_videodb_animation.ipynb"] = [
     stated("move $\\lambda$ from 0.001 to 10", "setting"),
     stated("move $\\sigma$ from 1 to 1000", "setting"),
     stated("below 0.6)", "definition"),
-    stated("`candidates=10`, then 200", "setting"),
-    stated("half an\nhour for 100", "paper"),
+    stated("`candidates=10`, then more\n(the cell runs 10, $K$ and 200", "setting"),
+    fact("the quick starter database holds fewer than 200", quick_water_under_200),
+    stated("half an hour for 100", "paper"),
     stated("2 x 2 windows\nand 8 labels", "example"),
 ]
 
