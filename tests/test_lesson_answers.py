@@ -424,8 +424,8 @@ def test_turbulence_ex3_two_starts_measure_at_most_160(turbulence_quick):
             return window_positions("adaptive", 32, m0=8, best=pick)
 
         one, second = run(0), run(1)
-        cost = len(np.unique(np.vstack(one + second[1:]), axis=0))
-        assert 16 < cost <= 160
+        cost = sum(map(len, one + second[1:]))  # as the cell counts: round 0 shared
+        assert sum(map(len, one)) < cost <= 160
         ends = [min(map(tuple, np.vstack(r)), key=lambda q: E[q]) for r in (one, second)]
         assert E[min(ends, key=lambda q: E[q])] <= E[ends[0]]
 

@@ -129,14 +129,20 @@ def _execute(path, folder):
 
 
 @pytest.fixture(scope="session")
-def executed(tmp_path_factory):
-    """Notebook name -> a future of (executed notebook, failure), all started at once."""
+def executed(request, tmp_path_factory):
+    """Notebook name -> a future of (executed notebook, failure), for the notebooks this
+    session's tests run (``-k 04_`` runs one), all started at once."""
+    wanted = {
+        item.callspec.params["path"].name
+        for item in request.session.items
+        if getattr(item, "originalname", "") == "test_notebook_runs_headless_in_quick_mode"
+    }
 
     def rank(p):
         known = [i for i, k in enumerate(LONGEST_FIRST) if p.name.startswith(k)]
         return known[0] if known else len(LONGEST_FIRST)
 
-    order = sorted(NOTEBOOKS, key=rank)
+    order = sorted((p for p in NOTEBOOKS if p.name in wanted), key=rank)
     pool = ThreadPoolExecutor(max_workers=PARALLEL)
     futures = {p.name: pool.submit(_execute, p, tmp_path_factory.mktemp(p.stem)) for p in order}
     yield futures

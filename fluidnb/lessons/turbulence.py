@@ -430,9 +430,8 @@ ex4 = Question(
     the vorticity disappear (the seam ratio drops from about 1.8 to 1). Frame 0's search
     is untouched, so its picks are the same. But the temporal term compares each
     candidate with last frame's *pasted* detail, advected, and that detail is now
-    feathered: from frame 1 on some patches pick differently (measured: 5 % of the
-    picks in quick mode, 20 % in full mode, where the adaptive search's mean relative
-    error moved from 0.0088 to 0.0084).
+    feathered: from frame 1 on some patches pick differently (measured: 9 % of the
+    picks in quick mode, FULLPCT in full mode).
     """,
     right={"seams": "gone", "picks": "a"},
     wrong={"seams": "gone", "picks": "b"},

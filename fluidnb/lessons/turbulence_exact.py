@@ -182,9 +182,9 @@ ex2 = Question(
             "a",
             {
                 "a": "yes: the direct sums cost $n^2 B^2$ per patch, the FFT about "
-                "$L^2 \\log L$ with $L = n + B - 1$, which grows more slowly with $n$; it "
-                "is slower than the exhaustive search at `b = 4` and about as fast or "
-                "faster at `b = 8`",
+                "$L^2 \\log L$ with $L = n + B - 1$, which grows more slowly with $n$; in "
+                "full mode it is slower than the exhaustive search at `b = 4` and faster "
+                "at `b = 8` (quick mode's 49 x 49 window, and a busy machine, can hide it)",
                 "b": "no: both grow alike",
                 "c": "it is the fastest search at `b = 8`",
             },
@@ -207,8 +207,10 @@ ex2 = Question(
     gains on the exhaustive search as the window grows: the direct sums cost $n^2 B^2$
     per patch, the correlation about $L^2 \\log L$ with $L = n + B - 1$; from `b = 4`
     to `b = 8` its speed against the exhaustive search went from about 0.6 x to 1.3 x
-    (full mode; 0.5 x to 0.9 x in quick mode's 49 x 49 window). It pays off for still
-    larger windows and patches, where the bounds may also rule out less.
+    (full mode, one run under a load of about 7; in quick mode's 49 x 49 window two runs
+    gave 0.5 x -> 0.9 x and 0.9 x -> 0.6 x: too close, and too noisy on a busy machine,
+    to tell). It pays off for still larger windows and patches, where the bounds may
+    also rule out less.
     """,
     right={"fastest": "bounds", "fft": "a"},
     wrong={"fastest": "fft", "fft": "a"},
