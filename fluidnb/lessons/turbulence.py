@@ -431,7 +431,7 @@ ex4 = Question(
     is untouched, so its picks are the same. But the temporal term compares each
     candidate with last frame's *pasted* detail, advected, and that detail is now
     feathered: from frame 1 on some patches pick differently (measured: 9 % of the
-    picks in quick mode, FULLPCT in full mode).
+    picks in quick mode, 20 % in full mode).
     """,
     right={"seams": "gone", "picks": "a"},
     wrong={"seams": "gone", "picks": "b"},
