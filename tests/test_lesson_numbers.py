@@ -992,6 +992,70 @@ CLAIMS["08_scene.ipynb"] = [
 ]
 
 
+# Issue 40's measured run times (and 01/02's estimates) in the lessons' headers: timings
+# of this machine, stated, never asserted.
+RUN_TIMES = {
+    "01_drawing_tools.ipynb": [
+        (
+            "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
+            "on 2 cores shared with other work at a load average of 11-14, so "
+            "expect less on a quiet machine):* 26 s in quick mode "
+            "(`FLUIDNB_QUICK=1`), 21 s in full mode."
+        ),
+        (
+            "*Time to do this lesson's questions and exercises as a student, from "
+            "the top:* about 25 minutes (the five questions 8, the two warm-ups 4, "
+            "the three exercises 13), estimated by the engineer of issue 40 from "
+            "reading every question and running the exercise cells, not from "
+            "answering all of them (not a stopwatch run by a student); plan on more"
+            " the first time."
+        ),
+    ],
+    "02_flicker.ipynb": [
+        (
+            "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
+            "on 2 cores shared with other work at a load average of 11-14, so "
+            "expect less on a quiet machine):* 32 s in quick mode "
+            "(`FLUIDNB_QUICK=1`), 66 s in full mode."
+        ),
+        (
+            "*Time to do this lesson's questions and exercises as a student, from "
+            "the top:* about 40 minutes (the ten questions 20, the two warm-ups 4, "
+            "the five exercises 16), estimated by the engineer of issue 40 from "
+            "reading every question and running the exercise cells, not from "
+            "answering all of them (not a stopwatch run by a student); plan on more"
+            " the first time."
+        ),
+    ],
+    "04_fluid_solver.ipynb": [
+        (
+            "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
+            "on 2 cores shared with other work at a load average of 11-14, so "
+            "expect less on a quiet machine):* 21 s in quick mode "
+            "(`FLUIDNB_QUICK=1`), 47 s in full mode."
+        ),
+    ],
+    "06_turbulence.ipynb": [
+        (
+            "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
+            "on 2 cores shared with other work at a load average of 11-14, so "
+            "expect less on a quiet machine):* 55 s in quick mode "
+            "(`FLUIDNB_QUICK=1`), 307 s in full mode."
+        ),
+    ],
+    "06b_turbulence_appendix.ipynb": [
+        (
+            "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
+            "on 2 cores shared with other work at a load average of 11-14, so "
+            "expect less on a quiet machine):* 28 s in quick mode "
+            "(`FLUIDNB_QUICK=1`), 139 s in full mode."
+        ),
+    ],
+}
+for _name, _texts in RUN_TIMES.items():
+    CLAIMS[_name] += [stated(t, "timing") for t in _texts]
+
+
 # ------------------------------------------------------------------ machinery
 
 
