@@ -557,3 +557,23 @@ def test_flicker_ex3_small_beta_jitters_more_and_zero_is_calmer_than_0_1():
         jitter[beta] = np.abs(np.diff(frames, axis=0)).mean()
     assert jitter[0.5] > 1.3 * jitter[4.0]
     assert jitter[0.1] > 1.3 * jitter[0.0]
+
+
+def test_flicker_ex4_on_the_clouds_the_convex_difference_is_smaller_but_not_relatively():
+    from fluidnb import data
+    from fluidnb.flicker import FlickerParams, flicker
+    from fluidnb.lessons import flicker as lesson02
+
+    assert lesson02.ex4.check("a")
+    p = FlickerParams(T=64, beta=0.0)
+    diff, ratio = {}, {}
+    for name in ("stream", "clouds"):
+        img = data.sample(name, size=96)
+        conv, plane = (
+            np.asarray(flicker(img, params=p.replace(mapping=m), seed=0).frames)
+            for m in ("convex", "plane")
+        )
+        diff[name] = np.abs(conv - plane).mean()
+        ratio[name] = diff[name] / np.abs(plane - plane[0]).mean()
+    assert diff["clouds"] < 0.6 * diff["stream"]
+    assert 0.8 < ratio["clouds"] / ratio["stream"] < 1.25
