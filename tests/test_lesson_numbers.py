@@ -1030,6 +1030,14 @@ RUN_TIMES = {
             " the first time."
         ),
     ],
+    "03_frost.ipynb": [
+        (
+            "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
+            "on 2 cores shared with other work at a load average of 11-14, so "
+            "expect less on a quiet machine):* 54 s in quick mode "
+            "(`FLUIDNB_QUICK=1`), 88 s in full mode."
+        ),
+    ],
     "04_fluid_solver.ipynb": [
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
@@ -1052,6 +1060,26 @@ RUN_TIMES = {
             "on 2 cores shared with other work at a load average of 11-14, so "
             "expect less on a quiet machine):* 28 s in quick mode "
             "(`FLUIDNB_QUICK=1`), 139 s in full mode."
+        ),
+    ],
+    "07a_videodb_database.ipynb": [
+        (
+            "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
+            "on 2 cores shared with other work at a load average of 11-14, so "
+            "expect less on a quiet machine):* 72 s in quick mode "
+            "(`FLUIDNB_QUICK=1`), 214 s in full mode (each including the first "
+            "build of the water and smoke databases of its mode, into an empty "
+            "cache)."
+        ),
+    ],
+    "07b_videodb_animation.ipynb": [
+        (
+            "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
+            "on 2 cores shared with other work at a load average of 11-14, so "
+            "expect less on a quiet machine):* 116 s in quick mode "
+            "(`FLUIDNB_QUICK=1`), 265 s in full mode (each including the first "
+            "build of the fire database of its mode; water and smoke were cached by"
+            " 07a's run)."
         ),
     ],
 }
