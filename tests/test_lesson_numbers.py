@@ -1046,6 +1046,7 @@ RUN_TIMES = {
             "(`FLUIDNB_QUICK=1`), 47 s in full mode."
         ),
     ],
+    "05_fire.ipynb": [],
     "06_turbulence.ipynb": [
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
@@ -1082,6 +1083,7 @@ RUN_TIMES = {
             " 07a's run)."
         ),
     ],
+    "08_scene.ipynb": [],
 }
 for _name, _texts in RUN_TIMES.items():
     CLAIMS[_name] += [stated(t, "timing") for t in _texts]
