@@ -1000,12 +1000,6 @@ CLAIMS["08_scene.ipynb"] = [
 RUN_TIMES = {
     "01_drawing_tools.ipynb": [
         (
-            "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
-            "on 2 cores shared with other work at a load average of 11-14, so "
-            "expect less on a quiet machine):* 26 s in quick mode "
-            "(`FLUIDNB_QUICK=1`), 21 s in full mode."
-        ),
-        (
             "*Time to do this lesson's questions and exercises as a student, from "
             "the top:* about 25 minutes (the five questions 8, the two warm-ups 4, "
             "the three exercises 13), estimated by the engineer of issue 40 from "
@@ -1013,14 +1007,14 @@ RUN_TIMES = {
             "answering all of them (not a stopwatch run by a student); plan on more"
             " the first time."
         ),
-    ],
-    "02_flicker.ipynb": [
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
-            "on 2 cores shared with other work at a load average of 11-14, so "
-            "expect less on a quiet machine):* 32 s in quick mode "
-            "(`FLUIDNB_QUICK=1`), 66 s in full mode."
+            "on 2 cores shared with other work at a load average of 11-15, so "
+            "expect less on a quiet machine):* 26 s in quick mode "
+            "(`FLUIDNB_QUICK=1`), 21 s in full mode."
         ),
+    ],
+    "02_flicker.ipynb": [
         (
             "*Time to do this lesson's questions and exercises as a student, from "
             "the top:* about 40 minutes (the ten questions 20, the two warm-ups 4, "
@@ -1029,11 +1023,17 @@ RUN_TIMES = {
             "answering all of them (not a stopwatch run by a student); plan on more"
             " the first time."
         ),
+        (
+            "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
+            "on 2 cores shared with other work at a load average of 11-15, so "
+            "expect less on a quiet machine):* 32 s in quick mode "
+            "(`FLUIDNB_QUICK=1`), 66 s in full mode."
+        ),
     ],
     "03_frost.ipynb": [
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
-            "on 2 cores shared with other work at a load average of 11-14, so "
+            "on 2 cores shared with other work at a load average of 11-15, so "
             "expect less on a quiet machine):* 54 s in quick mode "
             "(`FLUIDNB_QUICK=1`), 88 s in full mode."
         ),
@@ -1041,16 +1041,23 @@ RUN_TIMES = {
     "04_fluid_solver.ipynb": [
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
-            "on 2 cores shared with other work at a load average of 11-14, so "
+            "on 2 cores shared with other work at a load average of 11-15, so "
             "expect less on a quiet machine):* 21 s in quick mode "
             "(`FLUIDNB_QUICK=1`), 47 s in full mode."
         ),
     ],
-    "05_fire.ipynb": [],
+    "05_fire.ipynb": [
+        (
+            "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
+            "on 2 cores shared with other work at a load average of 11-15, so "
+            "expect less on a quiet machine):* 47 s in quick mode "
+            "(`FLUIDNB_QUICK=1`), 119 s in full mode."
+        ),
+    ],
     "06_turbulence.ipynb": [
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
-            "on 2 cores shared with other work at a load average of 11-14, so "
+            "on 2 cores shared with other work at a load average of 11-15, so "
             "expect less on a quiet machine):* 55 s in quick mode "
             "(`FLUIDNB_QUICK=1`), 307 s in full mode."
         ),
@@ -1058,7 +1065,7 @@ RUN_TIMES = {
     "06b_turbulence_appendix.ipynb": [
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
-            "on 2 cores shared with other work at a load average of 11-14, so "
+            "on 2 cores shared with other work at a load average of 11-15, so "
             "expect less on a quiet machine):* 28 s in quick mode "
             "(`FLUIDNB_QUICK=1`), 139 s in full mode."
         ),
@@ -1066,7 +1073,7 @@ RUN_TIMES = {
     "07a_videodb_database.ipynb": [
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
-            "on 2 cores shared with other work at a load average of 11-14, so "
+            "on 2 cores shared with other work at a load average of 11-15, so "
             "expect less on a quiet machine):* 72 s in quick mode "
             "(`FLUIDNB_QUICK=1`), 214 s in full mode (each including the first "
             "build of the water and smoke databases of its mode, into an empty "
@@ -1076,14 +1083,21 @@ RUN_TIMES = {
     "07b_videodb_animation.ipynb": [
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
-            "on 2 cores shared with other work at a load average of 11-14, so "
+            "on 2 cores shared with other work at a load average of 11-15, so "
             "expect less on a quiet machine):* 116 s in quick mode "
             "(`FLUIDNB_QUICK=1`), 265 s in full mode (each including the first "
             "build of the fire database of its mode; water and smoke were cached by"
             " 07a's run)."
         ),
     ],
-    "08_scene.ipynb": [],
+    "08_scene.ipynb": [
+        (
+            "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
+            "on 2 cores shared with other work at a load average of 11-15, so "
+            "expect less on a quiet machine):* 42 s in quick mode "
+            "(`FLUIDNB_QUICK=1`), 99 s in full mode."
+        ),
+    ],
 }
 for _name, _texts in RUN_TIMES.items():
     CLAIMS[_name] += [stated(t, "timing") for t in _texts]
