@@ -1009,7 +1009,7 @@ RUN_TIMES = {
         ),
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
-            "on 2 cores shared with other work at a load average of 11-15, so "
+            "on 2 cores shared with other work at a load average of 11-17, so "
             "expect less on a quiet machine):* 26 s in quick mode "
             "(`FLUIDNB_QUICK=1`), 21 s in full mode."
         ),
@@ -1025,15 +1025,15 @@ RUN_TIMES = {
         ),
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
-            "on 2 cores shared with other work at a load average of 11-15, so "
-            "expect less on a quiet machine):* 32 s in quick mode "
-            "(`FLUIDNB_QUICK=1`), 66 s in full mode."
+            "on 2 cores shared with other work at a load average of 11-17, so "
+            "expect less on a quiet machine):* 29 s in quick mode "
+            "(`FLUIDNB_QUICK=1`), 74 s in full mode."
         ),
     ],
     "03_frost.ipynb": [
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
-            "on 2 cores shared with other work at a load average of 11-15, so "
+            "on 2 cores shared with other work at a load average of 11-17, so "
             "expect less on a quiet machine):* 54 s in quick mode "
             "(`FLUIDNB_QUICK=1`), 88 s in full mode."
         ),
@@ -1041,7 +1041,7 @@ RUN_TIMES = {
     "04_fluid_solver.ipynb": [
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
-            "on 2 cores shared with other work at a load average of 11-15, so "
+            "on 2 cores shared with other work at a load average of 11-17, so "
             "expect less on a quiet machine):* 21 s in quick mode "
             "(`FLUIDNB_QUICK=1`), 47 s in full mode."
         ),
@@ -1049,7 +1049,7 @@ RUN_TIMES = {
     "05_fire.ipynb": [
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
-            "on 2 cores shared with other work at a load average of 11-15, so "
+            "on 2 cores shared with other work at a load average of 11-17, so "
             "expect less on a quiet machine):* 47 s in quick mode "
             "(`FLUIDNB_QUICK=1`), 119 s in full mode."
         ),
@@ -1057,7 +1057,7 @@ RUN_TIMES = {
     "06_turbulence.ipynb": [
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
-            "on 2 cores shared with other work at a load average of 11-15, so "
+            "on 2 cores shared with other work at a load average of 11-17, so "
             "expect less on a quiet machine):* 55 s in quick mode "
             "(`FLUIDNB_QUICK=1`), 307 s in full mode."
         ),
@@ -1065,7 +1065,7 @@ RUN_TIMES = {
     "06b_turbulence_appendix.ipynb": [
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
-            "on 2 cores shared with other work at a load average of 11-15, so "
+            "on 2 cores shared with other work at a load average of 11-17, so "
             "expect less on a quiet machine):* 28 s in quick mode "
             "(`FLUIDNB_QUICK=1`), 139 s in full mode."
         ),
@@ -1073,7 +1073,7 @@ RUN_TIMES = {
     "07a_videodb_database.ipynb": [
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
-            "on 2 cores shared with other work at a load average of 11-15, so "
+            "on 2 cores shared with other work at a load average of 11-17, so "
             "expect less on a quiet machine):* 72 s in quick mode "
             "(`FLUIDNB_QUICK=1`), 214 s in full mode (each including the first "
             "build of the water and smoke databases of its mode, into an empty "
@@ -1083,7 +1083,7 @@ RUN_TIMES = {
     "07b_videodb_animation.ipynb": [
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
-            "on 2 cores shared with other work at a load average of 11-15, so "
+            "on 2 cores shared with other work at a load average of 11-17, so "
             "expect less on a quiet machine):* 116 s in quick mode "
             "(`FLUIDNB_QUICK=1`), 265 s in full mode (each including the first "
             "build of the fire database of its mode; water and smoke were cached by"
@@ -1093,7 +1093,7 @@ RUN_TIMES = {
     "08_scene.ipynb": [
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
-            "on 2 cores shared with other work at a load average of 11-15, so "
+            "on 2 cores shared with other work at a load average of 11-17, so "
             "expect less on a quiet machine):* 42 s in quick mode "
             "(`FLUIDNB_QUICK=1`), 99 s in full mode."
         ),
