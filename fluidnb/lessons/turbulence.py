@@ -328,8 +328,10 @@ ex1 = Question(
     Choice(
         "a",
         {
-            "a": "further along the uniform curve: faster than interval 8 (4 positions "
-            "instead of 16) and less accurate, far above the adaptive search's error",
+            "a": "further along the uniform curve: a quarter of interval 8's work (4 "
+            "positions instead of 16) and less accurate, far above the adaptive search's "
+            "error (quick mode's times are a fraction of a millisecond, so one run's "
+            "timing can put it either side of interval 8: count the positions)",
             "b": "next to the adaptive search",
         },
         why={"b": "uniform sampling stays on its own curve."},
