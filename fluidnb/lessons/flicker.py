@@ -497,30 +497,41 @@ ex3 = Question(
 
 ex4 = Question(
     "ex4",
-    'Try `data.sample("clouds")` (or a blurred photo): is the convex mapping still clearly '
-    "different from the plane?",
+    'Try `data.sample("clouds")`: is the convex mapping still visible against the plane '
+    "(the cell prints the difference of their frames, absolute and against the plane's "
+    "own swing)?",
     Choice(
-        "b",
+        "a",
         {
-            "a": "yes, as clearly as on the stream",
-            "b": "hardly: the spectrum of $e^{j\\alpha}$ holds little at high spatial "
-            "frequencies, and only those get a different rhythm from the plane's",
-            "c": "no, because clouds are white",
+            "a": "yes: in absolute terms the clouds' clips differ less (a third to a half "
+            "of the stream's), but so does all their motion; against the plane's own swing "
+            "the difference is as large as on the stream, so a contrast-stretched "
+            "difference image still shows it",
+            "b": "hardly: the clouds have too few high spatial frequencies for the convex "
+            "surface to change anything",
+            "c": "no difference at all",
         },
         why={
-            "a": "compare the differences (d), (e) of section 8 for both photos.",
-            "c": "brightness does not matter; fine detail does.",
+            "b": "measure it: read the ratio the cell prints for both photos.",
+            "c": "read the differences the cell prints.",
         },
     ),
-    hints=["Which components does the convex surface lift above $f_0$?"],
+    hints=[
+        "Compare the ratios, not only the absolute differences.",
+        "A smooth photo has less power at every frequency but the lowest: what does that do "
+        "to the plane's swing?",
+    ],
     solution="""
-    The convex surface changes the rhythm of the *high* spatial frequencies only; near
-    $\\nu = 0$ it is the plane. A smooth photo (clouds, a blur, the paper's fire) has
-    little power there in Eq. (4)'s spectrum, so its convex clip looks like the plane's,
-    as the paper found for its fire.
+    Measured (the paper's $T = 64$, no noise): on the clouds the mean difference between
+    the convex and the plane clip is a third to a half of the stream's, but the plane's
+    own swing is smaller by as much (smooth photo, less power away from $\nu = 0$ in
+    Eq. (4)'s spectrum), and the ratio is about 1 on both photos. So the convex mapping
+    is still visible on the clouds once the difference is contrast-stretched (section 8);
+    only in absolute terms is the whole clip calmer. The paper's "almost no difference"
+    on its fire photo reads as the absolute view.
     """,
-    right=("b",),
-    wrong=("a",),
+    right=("a",),
+    wrong=("b",),
 )
 
 ex5 = Question(
