@@ -198,7 +198,8 @@ def test(args):
     env = dict(os.environ, FLUIDNB_CHROMIUM=chromium())
     must([BIN / "ruff", "check", "."], cwd=ROOT)
     must([BIN / "ruff", "format", "--check", "."], cwd=ROOT)
-    code = run([PY, "-m", "pytest", *args], cwd=ROOT, env=env)
+    # The 25 slowest tests close the log: where a CI run's 30 minutes go, seen each run.
+    code = run([PY, "-m", "pytest", "--durations=25", *args], cwd=ROOT, env=env)
     if code == 5:
         sys.exit("[dev.py] pytest collected no tests: that is a failure, not a pass")
     if code:
