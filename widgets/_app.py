@@ -16,6 +16,7 @@ from ipywidgets.widgets.trait_types import TypedTuple
 from traitlets import Bool, Instance, Int, Unicode, observe
 
 from fluidnb import Cancelled, CancelToken, Clip
+from fluidnb._threads import blas_single_threaded
 
 from ._canvas import DrawingCanvas
 from ._player import FramePlayer
@@ -590,8 +591,13 @@ class App(W.VBox):
             return
         started = time.monotonic()
         generation = self._tasks_started
+        params = self.panel.params
         try:
-            clip = self.preview(self.panel.params)
+            # A preview's products are small: OpenBLAS's second thread only spins on a
+            # core the page and the kernel need (measured, FlickerApp at load 10: 240
+            # -> 100 ms a preview; FireApp 180 -> 100 ms).
+            with blas_single_threaded():
+                clip = self.preview(params)
         except ValueError:
             self._preview_refused = True
             raise
@@ -613,6 +619,8 @@ class App(W.VBox):
             note = clip.metadata.get("note")
             note = f": {note}" if note else ""
             self.say(f"preview ({time.monotonic() - started:.2f} s){note}")
+        if not self._previews.pending():  # a newer value's preview comes first
+            self.after_preview(params)
         self._warm_up()
 
     def _warm_up(self):
@@ -635,6 +643,13 @@ class App(W.VBox):
                 return
             self._warm_only = True
             self._previews.request()
+
+    def after_preview(self, params):
+        """What follows a preview once it is on its way to the page (on the preview's worker).
+
+        For what the values change but the picture need not wait for (the frost app's
+        length estimate): skipped when a newer value already waits. Nothing by default.
+        """
 
     def warm(self, params):
         """Get ready for the full result while the values rest (after a preview).

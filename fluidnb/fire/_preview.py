@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 import time
 
 import numpy as np
@@ -10,9 +11,57 @@ from .._clip import Clip
 from .._random import resolve_seed
 from .._validation import check_int
 from ._params import FireParams
-from ._pipeline import fire
+from ._pipeline import _resize_photo, fire
+from ._synthesis import MIN_PHOTO_SIDE, _photo_and_matte
 
 __all__ = ["keyframe_preview"]
+
+# What the last preview made that a slider of the synthesis does not change, kept (one
+# entry each): the flame's warm-up simulation (half a preview's time; it depends on the
+# fluid's parameters, the grid and the seed alone) and the photo composited with its
+# matte and shrunk to the grid.
+_kept = {"flame": (None, None), "photo": (None, None)}
+_kept_lock = threading.Lock()
+
+
+def _flame(fluid, shape, seed, warmup):
+    """The temperature at the end of the flame's warm-up, (1, *shape): simulated or kept."""
+    from ..fluid import simulate
+
+    key = (fluid, shape, seed, warmup)
+    with _kept_lock:
+        kept_key, temperature = _kept["flame"]
+    if kept_key != key:
+        sim = simulate(fluid, 1, shape=shape, seed=seed, warmup=warmup)
+        temperature = sim.temperature[-1:].copy()
+        temperature.flags.writeable = False
+        with _kept_lock:
+            _kept["flame"] = (key, temperature)
+    return temperature
+
+
+def _small_photo(photo, matte, size):
+    """The photo composited with its matte and shrunk to ``size``: made, or the last kept.
+
+    As :func:`fire` makes its texture; passed to it with no matte, it is left as it is.
+    """
+    if isinstance(photo, np.ndarray) and (matte is None or isinstance(matte, np.ndarray)):
+        with _kept_lock:
+            key, small = _kept["photo"]
+        if (
+            key is not None
+            and key[2] == size
+            and (key[1] is None) == (matte is None)
+            and np.array_equal(key[0], photo)
+            and (matte is None or np.array_equal(key[1], matte))
+        ):
+            return small
+    small = _resize_photo(*_photo_and_matte(photo, matte), size)[0]
+    if isinstance(photo, np.ndarray) and (matte is None or isinstance(matte, np.ndarray)):
+        key = (photo.copy(), None if matte is None else np.array(matte, copy=True), size)
+        with _kept_lock:
+            _kept["photo"] = (key, small)
+    return small
 
 
 def keyframe_preview(photo, params=None, *, fluid_params=None, size=48, matte=None, seed=None):
@@ -54,7 +103,7 @@ def keyframe_preview(photo, params=None, *, fluid_params=None, size=48, matte=No
     >>> keyframe_preview(photo, matte=matte, size=24, seed=0)
     Clip(1 frame, 24x24 RGB, 24 fps, method='fire')
     """
-    from ..fluid import flame_preset, simulate
+    from ..fluid import flame_preset
 
     size = check_int("size", size, 16)
     params = FireParams() if params is None else params
@@ -65,13 +114,16 @@ def keyframe_preview(photo, params=None, *, fluid_params=None, size=48, matte=No
     preset = flame_preset()
     fluid = preset.params if fluid_params is None else fluid_params
     shape = (size, size)
-    sim = simulate(fluid, 1, shape=shape, seed=seed, warmup=preset.warmup_for(shape))
+    temperature = _flame(fluid, shape, seed, preset.warmup_for(shape))
     simulated = time.perf_counter() - started
     # One frame: a (temperature, velocity) pair with no motion to advect.
-    temperature = sim.temperature[-1:]
     velocity = np.zeros((1, size, size, 2), np.float32)
     one = params.replace(input_size=size, output_size=size, interval=max(params.overlap + 1, 2))
-    result = fire(photo, (temperature, velocity), one, matte=matte, seed=seed)
+    texture = _small_photo(photo, matte, size)
+    if min(texture.shape[:2]) >= MIN_PHOTO_SIDE:
+        result = fire(texture, (temperature, velocity), one, seed=seed)
+    else:  # a sliver fire itself accepts (it checks the photo before shrinking it)
+        result = fire(photo, (temperature, velocity), one, matte=matte, seed=seed)
     return Clip(
         result.keyframes[:1],
         fps=24.0,
