@@ -306,6 +306,7 @@ class App(W.VBox):
         self._rest_running = False  # the running task was started by a rest
         self._superseded = False  # ... and newer values made it obsolete
         self._preview_refused = False  # the last preview was refused (inputs not ready)
+        self._changed_at = None  # ms since the epoch of the last change heard
         #: Seconds without a newer value after a preview before :meth:`warm` runs.
         self.warm_after = 0.08
         self._warm_only = False  # the next preview run only warms
@@ -466,6 +467,7 @@ class App(W.VBox):
         )
 
     def _drawing_changed(self, change):
+        self._changed_at = time.time() * 1000
         self.request_preview()
 
     # ------------------------------------------------------------------ status
@@ -491,6 +493,7 @@ class App(W.VBox):
     # ------------------------------------------------------------------ live
     def _changed(self):
         """A parameter (or the seed) changed: preview now, the full result at rest."""
+        self._changed_at = time.time() * 1000  # when the kernel heard it (a preview's timeline)
         self._supersede()
         self.request_preview()
         if self.run_on_rest:
@@ -590,6 +593,7 @@ class App(W.VBox):
             self._warm_up()
             return
         started = time.monotonic()
+        timeline = {"changed": self._changed_at, "started": time.time() * 1000}
         generation = self._tasks_started
         params = self.panel.params
         try:
@@ -615,7 +619,8 @@ class App(W.VBox):
                 generation == self._tasks_started
             )
         if show:
-            self.preview_player.clip = clip
+            timeline["made"] = time.time() * 1000
+            self.preview_player.show_timed(clip, timeline)
             note = clip.metadata.get("note")
             note = f": {note}" if note else ""
             self.say(f"preview ({time.monotonic() - started:.2f} s){note}")
