@@ -279,13 +279,8 @@ def kernel_bench(app_name, moves, quick=False):
         app.wait_preview(900)
     app.close()
     clip = last[0]
-    return (
-        compute,
-        encode,
-        after,
-        None if clip is None else clip.shape,
-        0 if clip is None else len(clip),
-    )
+    shape, n = (None, 0) if clip is None else (clip.shape, len(clip))
+    return compute, cpu, encode, after, shape, n
 
 
 def main_kernel(apps, args):
