@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import threading
 import time
 
 import numpy as np
 
 from .._clip import Clip
+from .._kept import LastKept
 from .._random import resolve_seed
 from .._validation import check_int
 from ._params import FireParams
@@ -16,27 +16,24 @@ from ._synthesis import MIN_PHOTO_SIDE, _photo_and_matte
 
 __all__ = ["keyframe_preview"]
 
-# What the last preview made that a slider of the synthesis does not change, kept (one
-# entry each): the flame's warm-up simulation (half a preview's time; it depends on the
-# fluid's parameters, the grid and the seed alone) and the photo composited with its
-# matte and shrunk to the grid.
-_kept = {"flame": (None, None), "photo": (None, None)}
-_kept_lock = threading.Lock()
+# What the last preview made that a slider of the synthesis does not change, kept: the
+# flame's warm-up simulation (half a preview's time; it depends on the fluid's
+# parameters, the grid and the seed alone) and the photo composited with its matte and
+# shrunk to the grid.
+_FLAME = LastKept()
+_PHOTO = LastKept()
 
 
 def _flame(fluid, shape, seed, warmup):
     """The temperature at the end of the flame's warm-up, (1, *shape): simulated or kept."""
     from ..fluid import simulate
 
-    key = (fluid, shape, seed, warmup)
-    with _kept_lock:
-        kept_key, temperature = _kept["flame"]
-    if kept_key != key:
+    found, temperature = _FLAME.get(fluid, shape, seed, warmup)
+    if not found:
         sim = simulate(fluid, 1, shape=shape, seed=seed, warmup=warmup)
         temperature = sim.temperature[-1:].copy()
         temperature.flags.writeable = False
-        with _kept_lock:
-            _kept["flame"] = (key, temperature)
+        _FLAME.keep((fluid, shape, seed, warmup), temperature)
     return temperature
 
 
@@ -45,22 +42,11 @@ def _small_photo(photo, matte, size):
 
     As :func:`fire` makes its texture; passed to it with no matte, it is left as it is.
     """
-    if isinstance(photo, np.ndarray) and (matte is None or isinstance(matte, np.ndarray)):
-        with _kept_lock:
-            key, small = _kept["photo"]
-        if (
-            key is not None
-            and key[2] == size
-            and (key[1] is None) == (matte is None)
-            and np.array_equal(key[0], photo)
-            and (matte is None or np.array_equal(key[1], matte))
-        ):
-            return small
-    small = _resize_photo(*_photo_and_matte(photo, matte), size)[0]
-    if isinstance(photo, np.ndarray) and (matte is None or isinstance(matte, np.ndarray)):
-        key = (photo.copy(), None if matte is None else np.array(matte, copy=True), size)
-        with _kept_lock:
-            _kept["photo"] = (key, small)
+    found, small = _PHOTO.get(photo, matte, size)
+    if not found:
+        small = _resize_photo(*_photo_and_matte(photo, matte), size)[0]
+        if isinstance(photo, np.ndarray) and (matte is None or isinstance(matte, np.ndarray)):
+            _PHOTO.keep((photo, matte, size), small)  # (a path may change on disk)
     return small
 
 

@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import math
 import os
-import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 
@@ -39,6 +38,7 @@ import numpy as np
 
 from .._clip import Clip
 from .._image import as_image, as_mask
+from .._kept import LastKept
 from .._progress import Progress
 from .._random import resolve_seed, rng
 from .._stream import FrameStream, timed
@@ -948,21 +948,13 @@ def flicker(image, mask=None, params=None, *, flow=None, seed=None, stream=False
 
 # The last reduced photo and region, kept: a live preview reduces the same photo and
 # region at every slider move, and the anti-aliased resize was a quarter of its time.
-_reduced_kept = [None, None]  # [(image, region, shape), (small, small_mask)]
-_reduced_lock = threading.Lock()
+_REDUCED = LastKept()
 
 
 def _reduced_inputs(img, region, shape, resize):
     """``img`` and ``region`` reduced to ``shape`` (as :meth:`FlickerModel.reduced` does)."""
-    with _reduced_lock:
-        key, value = _reduced_kept
-    if (
-        key is not None
-        and key[2] == shape
-        and (key[1] is None) == (region is None)
-        and np.array_equal(key[0], img)
-        and (region is None or np.array_equal(key[1], region))
-    ):
+    found, value = _REDUCED.get(img, region, shape)
+    if found:
         return value
     small = np.clip(resize(img, shape), 0.0, 1.0)
     small_mask = None
@@ -973,9 +965,7 @@ def _reduced_inputs(img, region, shape, resize):
     for a in (small, small_mask):
         if a is not None:
             a.flags.writeable = False  # shared by every model made from them
-    key = (img.copy(), None if region is None else region.copy(), shape)
-    with _reduced_lock:
-        _reduced_kept[:] = [key, (small, small_mask)]
+    _REDUCED.keep((img, region, shape), (small, small_mask))
     return small, small_mask
 
 

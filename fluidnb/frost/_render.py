@@ -33,13 +33,13 @@ Pixels without ice are the photo exactly, and outside the region nothing changes
 from __future__ import annotations
 
 import math
-import threading
 import time
 
 import numpy as np
 from scipy import ndimage
 
 from .._image import as_image
+from .._kept import LastKept
 from .._progress import Progress
 from .._stream import FrameStream
 from .._validation import check_fps, check_int, check_range
@@ -539,36 +539,23 @@ def _base(image, lattice, shape):
 # The last small clip's background and surface, kept: a live preview draws the same
 # picture on the same lattice again and again while a slider moves (only the growth
 # changes), and building them (triangles, soft edge, blurred photo, grain) was a
-# fifth of a preview's time. Only small pictures (a preview's), one entry.
+# fifth of a preview's time. Only small pictures (a preview's).
 _KEPT_PIXELS = 320 * 320
-_kept = {"key": None, "value": None}
-_kept_lock = threading.Lock()
+_SURFACE = LastKept()
 
 
 def _surface(image, lattice, shape, look):
     """``(base, _Surface)`` for a clip: built, or the last ones if nothing they use changed."""
     keep = shape[0] * shape[1] <= _KEPT_PIXELS and (image is None or isinstance(image, np.ndarray))
+    inputs = (image, lattice, shape, dict(vars(look)))
     if keep:
-        settings = dict(vars(look))
-        with _kept_lock:
-            key, value = _kept["key"], _kept["value"]
-        if (
-            key is not None
-            and key[0] is lattice
-            and key[1] == shape
-            and key[2] == settings
-            and (
-                (image is None and key[3] is None)
-                or (image is not None and key[3] is not None and np.array_equal(image, key[3]))
-            )
-        ):
+        found, value = _SURFACE.get(*inputs)
+        if found:
             return value
     base = _base(image, lattice, shape)
     value = (base, _Surface(base, lattice, look))
     if keep:
-        copy = None if image is None else np.array(image, copy=True)
-        with _kept_lock:
-            _kept["key"], _kept["value"] = (lattice, shape, settings, copy), value
+        _SURFACE.keep(inputs, value)
     return value
 
 

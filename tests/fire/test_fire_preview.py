@@ -10,7 +10,8 @@ from fluidnb.fluid import flame_preset, simulate
 
 
 def forget():
-    impl._kept["flame"] = impl._kept["photo"] = (None, None)
+    impl._FLAME.forget()
+    impl._PHOTO.forget()
 
 
 @pytest.fixture(scope="module")

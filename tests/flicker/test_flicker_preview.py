@@ -15,7 +15,7 @@ def scene():
 
 
 def fresh(*args, **kwargs):
-    impl._reduced_kept[:] = [None, None]
+    impl._REDUCED.forget()
     return preview(*args, **kwargs)
 
 
