@@ -130,7 +130,7 @@ def split(move, drawn, timeline, origin):
     return [b - a for a, b in zip(marks, marks[1:])]
 
 
-def measure_previews(page, name, moves):
+def measure_previews(page, name, moves, shot=None):
     """Hold the handle, move it ``moves`` times: the lags (ms) from each move to its picture.
 
     Returns ``(lags, parts)``: ``parts`` the split of each lag (:func:`split`).
@@ -163,6 +163,8 @@ def measure_previews(page, name, moves):
                     parts.append(split(move[0], new[0][0], new[0][3], origin))
                     break
                 page.wait_for_timeout(10)
+        if shot is not None:  # the last preview, the handle still held
+            page.screenshot(path=str(shot))
     finally:
         page.mouse.up()
     return lags, [p for p in parts if p is not None]
@@ -215,7 +217,11 @@ def bench_app(page, url, root, app, args):
     page.wait_for_timeout(1500)  # the first preview and its warm-up
     page.evaluate(WATCH)
     load = os.getloadavg()[0]
-    lags, parts = measure_previews(page, slider, args.moves)
+    held = None
+    if args.shots:
+        args.shots.mkdir(parents=True, exist_ok=True)
+        held = args.shots / f"live-{app}-preview.png"
+    lags, parts = measure_previews(page, slider, args.moves, held)
     released = now(page)
     first, rate, fps = measure_result(page, released, args.timeout)
     if args.shots:
