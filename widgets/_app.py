@@ -621,6 +621,8 @@ class App(W.VBox):
         if show:
             timeline["made"] = time.time() * 1000
             self.preview_player.show_timed(clip, timeline)
+            if len(clip) > 1:  # a loop (flicker) or a growth (frost) is seen playing:
+                self.preview_player.play(True)  # paused, frost's first frame shows no ice
             note = clip.metadata.get("note")
             note = f": {note}" if note else ""
             self.say(f"preview ({time.monotonic() - started:.2f} s){note}")
