@@ -36,12 +36,14 @@ GROUPS = (
 
 # The live preview runs on a lattice at most this many points across the region, a
 # few hundred frames at most, on the picture and region shrunk to this size (drawing
-# the ice at the photo's size took most of a preview's time), a few frames of it:
-# ~40 ms on a quiet core, cheap enough to follow a slider.
+# the ice at the photo's size took most of a preview's time), a few frames of it.
+# The lattice, the picture and the ice's surface are kept while only the automaton's
+# values move; the growth and drawing the frames are then the whole preview, half
+# each: 7 frames (6 steps and the last) rather than 11 took 170 -> 126 ms at load 8.
 _PREVIEW_CELLS = 28
 _PREVIEW_FRAMES = 400
 _PREVIEW_SIZE = 160
-_PREVIEW_CLIP_FRAMES = 10
+_PREVIEW_CLIP_FRAMES = 6
 # A full run's clip plays every frame at the panel's fps (the clip lasts as long as
 # the frost grows). It is drawn smaller for long runs so it stays under this many
 # bytes (480 x 360 RGB float32 costs 2 MB a frame), down to _RUN_MIN_SIZE pixels;
@@ -160,6 +162,7 @@ class FrostApp(App):
         self._gamma_button.on_click(lambda _: self.fit_gamma())
         self.estimate = None  #: The last EndFrameEstimate (full lattice), or None.
         self._small_image = None  # (picture, scale) of the live preview
+        self._lattices = {}  # "run" / "preview" -> ((spacing, drawing version), lattices)
         self.gamma_fit = None  #: The last GammaFit.
         super().__init__(
             panel=panel,
@@ -214,8 +217,40 @@ class FrostApp(App):
         return points
 
     def _lattice(self, spacing):
-        lattice = HexLattice.from_mask(self.region(), spacing)
-        return lattice, lattice.snap(self.starts())
+        """(the region's lattice at ``spacing``, the start cells), kept while the drawing is.
+
+        A slider move asks for them again (the length estimate): the same drawing
+        and spacing give the same lattice.
+        """
+        key = (float(spacing), self.canvas.version)
+        kept = self._lattices.get("run")
+        if kept is None or kept[0] != key:
+            lattice = HexLattice.from_mask(self.region(), spacing)
+            kept = self._lattices["run"] = (key, (lattice, lattice.snap(self.starts())))
+        return kept[1]
+
+    def _preview_lattice(self, params):
+        """(small picture, the coarse lattice, its start cells, its spacing) of the preview.
+
+        Kept while the drawing and the spacing are: a slider of the automaton changes
+        only the growth.
+        """
+        key = (float(params.spacing), self.canvas.version)
+        kept = self._lattices.get("preview")
+        if kept is not None and kept[0] == key:
+            return kept[1]
+        region, starts = self.region(), self.starts()
+        small, f = self._small()
+        region = resize(region.astype(np.float32), small.shape[:2]) > 0.5
+        if not region.any():
+            raise ValueError("region is too small for the preview: paint a larger one")
+        rows, cols = np.nonzero(region)
+        extent = max(rows.max() - rows.min(), cols.max() - cols.min()) + 1
+        spacing = max(params.spacing * f, extent / _PREVIEW_CELLS)
+        lattice = HexLattice.from_mask(region, spacing)
+        value = (small, lattice, lattice.snap(starts * f), spacing)
+        self._lattices["preview"] = (key, value)
+        return value
 
     # ------------------------------------------------------------------ library calls
     def _small(self):
@@ -228,17 +263,11 @@ class FrostApp(App):
         return self._small_image
 
     def _preview(self, params):
-        region, starts = self.region(), self.starts()
-        self._show_length(params)
-        small, f = self._small()
-        region = resize(region.astype(np.float32), small.shape[:2]) > 0.5
-        if not region.any():
-            raise ValueError("region is too small for the preview: paint a larger one")
-        rows, cols = np.nonzero(region)
-        extent = max(rows.max() - rows.min(), cols.max() - cols.min()) + 1
-        spacing = max(params.spacing * f, extent / _PREVIEW_CELLS)
-        lattice = HexLattice.from_mask(region, spacing)
-        cells = lattice.snap(starts * f)
+        try:
+            small, lattice, cells, spacing = self._preview_lattice(params)
+        except ValueError:
+            self._show_length(params)  # what it says about the region, too
+            raise
         coarse = params.replace(
             spacing=spacing,
             max_frames=min(params.max_frames, _PREVIEW_FRAMES),
@@ -254,6 +283,10 @@ class FrostApp(App):
             smooth=True,
             note=f"a coarse lattice, {every * 8 / params.fps:.3g}× faster than the run",
         )
+
+    def after_preview(self, params):
+        """The Length line for the values previewed (after the picture: it can wait)."""
+        self._show_length(params)
 
     def _run(self, params, progress):
         self._show_length(params)  # the estimate of this very run (no preview came after)

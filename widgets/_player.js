@@ -35,6 +35,7 @@ function reset(s, clip) {
   s.bitmaps = new Map();
   s.pending = new Map();
   s.have = 0;
+  s.timeline = null;
 }
 
 function decode(s, i) {
@@ -91,6 +92,8 @@ function initialize(s, model) {
       reset(s, msg.clip);
     }
     s.lastMessage = performance.now();
+    if (msg.start === 0 && msg.sent)
+      s.timeline = { ...(msg.timeline || {}), sent: msg.sent, arrived: performance.timeOrigin + s.lastMessage };
     buffers.forEach((buf, k) => {
       const i = msg.start + k;
       if (!s.blobs[i]) s.blobs[i] = new Blob([buf], { type: msg.mime || "image/jpeg" });
@@ -215,7 +218,15 @@ function render(s, model, root) {
     canvas.dispatchEvent(
       new CustomEvent("fluidnb-frame", {
         bubbles: true,
-        detail: { clip, frame: i, t: performance.now(), playing: !!model.get("playing") },
+        detail: {
+          clip,
+          frame: i,
+          t: performance.now(),
+          playing: !!model.get("playing"),
+          // The kernel's times of this clip's making and its first frame's trip (ms
+          // since the epoch; see FramePlayer.show_timed), when it said them.
+          timeline: s.timeline,
+        },
       }),
     );
     controls();

@@ -615,7 +615,7 @@ class VideoDBApp(FlowSketch, App):
         stop = self._stop_when_moved(a)
         # Stopped by a newer value, or settings the render will refuse (and say so).
         with contextlib.suppress(Cancelled, ValueError):
-            prefetch_preview(a, self._preview_cache_for(a), progress=stop)
+            prefetch_preview(a, self._preview_cache_for(a, fill=True), progress=stop)
             if a is not self._base:
                 prefetch(a, params, progress=stop)
 
@@ -632,13 +632,18 @@ class VideoDBApp(FlowSketch, App):
 
         return moved
 
-    def _preview_cache_for(self, a):
-        """The difference frames kept for previews of ``a``'s database (filled for ``a``)."""
+    def _preview_cache_for(self, a, fill=False):
+        """The difference frames kept for previews of ``a``'s database.
+
+        With ``fill``, those of ``a``'s fragments are made now (while the values rest);
+        a preview fills the cache itself as it makes its frame (filling first made the
+        frame twice: a third of a preview's time).
+        """
         db, cache = self._preview_cache
         if db is not a.db or len(cache) > _PREVIEW_CACHE:
             cache = {}
             self._preview_cache = (a.db, cache)
-        if not set(a.fragments.tolist()) <= cache.keys():
+        if fill and not set(a.fragments.tolist()) <= cache.keys():
             preview_frame(a, factor=_PREVIEW_FACTOR, levels=_PREVIEW_LEVELS, cache=cache)
         return cache
 

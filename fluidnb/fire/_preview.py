@@ -7,12 +7,47 @@ import time
 import numpy as np
 
 from .._clip import Clip
+from .._kept import LastKept
 from .._random import resolve_seed
 from .._validation import check_int
 from ._params import FireParams
-from ._pipeline import fire
+from ._pipeline import _resize_photo, fire
+from ._synthesis import MIN_PHOTO_SIDE, _photo_and_matte
 
 __all__ = ["keyframe_preview"]
+
+# What the last preview made that a slider of the synthesis does not change, kept: the
+# flame's warm-up simulation (half a preview's time; it depends on the fluid's
+# parameters, the grid and the seed alone) and the photo composited with its matte and
+# shrunk to the grid.
+_FLAME = LastKept()
+_PHOTO = LastKept()
+
+
+def _flame(fluid, shape, seed, warmup):
+    """The temperature at the end of the flame's warm-up, (1, *shape): simulated or kept."""
+    from ..fluid import simulate
+
+    found, temperature = _FLAME.get(fluid, shape, seed, warmup)
+    if not found:
+        sim = simulate(fluid, 1, shape=shape, seed=seed, warmup=warmup)
+        temperature = sim.temperature[-1:].copy()
+        temperature.flags.writeable = False
+        _FLAME.keep((fluid, shape, seed, warmup), temperature)
+    return temperature
+
+
+def _small_photo(photo, matte, size):
+    """The photo composited with its matte and shrunk to ``size``: made, or the last kept.
+
+    As :func:`fire` makes its texture; passed to it with no matte, it is left as it is.
+    """
+    found, small = _PHOTO.get(photo, matte, size)
+    if not found:
+        small = _resize_photo(*_photo_and_matte(photo, matte), size)[0]
+        if isinstance(photo, np.ndarray) and (matte is None or isinstance(matte, np.ndarray)):
+            _PHOTO.keep((photo, matte, size), small)  # (a path may change on disk)
+    return small
 
 
 def keyframe_preview(photo, params=None, *, fluid_params=None, size=48, matte=None, seed=None):
@@ -54,7 +89,7 @@ def keyframe_preview(photo, params=None, *, fluid_params=None, size=48, matte=No
     >>> keyframe_preview(photo, matte=matte, size=24, seed=0)
     Clip(1 frame, 24x24 RGB, 24 fps, method='fire')
     """
-    from ..fluid import flame_preset, simulate
+    from ..fluid import flame_preset
 
     size = check_int("size", size, 16)
     params = FireParams() if params is None else params
@@ -65,13 +100,16 @@ def keyframe_preview(photo, params=None, *, fluid_params=None, size=48, matte=No
     preset = flame_preset()
     fluid = preset.params if fluid_params is None else fluid_params
     shape = (size, size)
-    sim = simulate(fluid, 1, shape=shape, seed=seed, warmup=preset.warmup_for(shape))
+    temperature = _flame(fluid, shape, seed, preset.warmup_for(shape))
     simulated = time.perf_counter() - started
     # One frame: a (temperature, velocity) pair with no motion to advect.
-    temperature = sim.temperature[-1:]
     velocity = np.zeros((1, size, size, 2), np.float32)
     one = params.replace(input_size=size, output_size=size, interval=max(params.overlap + 1, 2))
-    result = fire(photo, (temperature, velocity), one, matte=matte, seed=seed)
+    texture = _small_photo(photo, matte, size)
+    if min(texture.shape[:2]) >= MIN_PHOTO_SIDE:
+        result = fire(texture, (temperature, velocity), one, seed=seed)
+    else:  # a sliver fire itself accepts (it checks the photo before shrinking it)
+        result = fire(photo, (temperature, velocity), one, matte=matte, seed=seed)
     return Clip(
         result.keyframes[:1],
         fps=24.0,

@@ -382,10 +382,16 @@ class HexLattice:
         >>> np.bincount(lat.hops([lat.center_cell()])).tolist()  # 1 + 6 + 12 + 18 cells
         [1, 6, 12, 18]
         """
+        front = np.unique(np.asarray(cells, dtype=np.intp))
+        # The last answer is kept: the app's length estimate asks again for the same
+        # start cells at every slider move (the lattice does not change).
+        kept = getattr(self, "_hops_kept", None)
+        if kept is not None and np.array_equal(kept[0], front):
+            return kept[1].copy()
         n = self.n_cells
         nbrs = self.neighbours[:n]
         dist = np.full(n, -1, np.int32)
-        front = np.unique(np.asarray(cells, dtype=np.intp))
+        starts = front
         dist[front] = 0
         k = 0
         while front.size:  # breadth-first, one whole layer per pass
@@ -394,6 +400,7 @@ class HexLattice:
             nxt = np.unique(nxt[(nxt >= 0) & (nxt < n)])
             front = nxt[dist[nxt] < 0]
             dist[front] = k
+        self._hops_kept = (starts, dist.copy())
         return dist
 
     # ------------------------------------------------------------------ start points

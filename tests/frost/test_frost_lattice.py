@@ -134,3 +134,16 @@ def test_to_grid_and_pixel_cells():
     r, c = np.nonzero(inside)
     d = np.hypot(*(lat.points[owner[r, c]] - np.stack([r, c], 1)).T)
     assert d.max() <= 3.0  # every painted pixel shows a nearby cell
+
+
+def test_hops_asked_again_are_the_same_and_a_caller_cannot_spoil_them():
+    lat = HexLattice.hexagon(4)
+    c = lat.center_cell()
+    first = lat.hops([c])
+    first[:] = 99  # the caller's own copy
+    again = lat.hops([c])
+    assert np.bincount(again).tolist() == [1, 6, 12, 18, 24]
+    other = lat.hops([0])  # another start: computed, not the kept answer
+    assert other[0] == 0
+    assert other.max() > 4
+    assert np.array_equal(lat.hops([c]), again)

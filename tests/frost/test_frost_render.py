@@ -287,3 +287,23 @@ def test_ice_mass_grows_by_exactly_gamma_a_step_once_frozen():
 )
 def test_ordinals_in_messages(n, word):
     assert _ordinal(n) == word
+
+
+def test_a_kept_surface_draws_what_a_fresh_one_draws_and_never_a_stale_picture(scene):
+    from fluidnb.frost import _render as impl
+
+    image, region = scene
+    image = image.copy()
+    lat = HexLattice.from_mask(region, 6.0)
+    res = grow(lat, lat.snap([[36, 48]]), FrostParams(), seed=1, frames=60)
+    impl._SURFACE.forget()
+    fresh = render(image, lat, res, every=20)
+    kept = render(image, lat, res, every=20)  # the surface of the call before
+    assert np.array_equal(fresh.frames, kept.frames)
+    image[:, :, 2] = 1.0  # the same array, another picture
+    changed = render(image, lat, res, every=20)
+    impl._SURFACE.forget()
+    assert np.array_equal(changed.frames, render(image, lat, res, every=20).frames)
+    assert not np.array_equal(changed.frames, fresh.frames)
+    bright = render(image, lat, res, every=20, look=FrostLook(opacity=0.5))
+    assert not np.array_equal(bright.frames, changed.frames)  # another look, not kept

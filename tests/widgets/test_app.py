@@ -367,3 +367,18 @@ def test_runs_start_by_themselves_only_in_a_notebook():
         assert app.result is None
     finally:
         app.close()
+
+
+def test_a_preview_of_several_frames_plays_one_frame_is_shown_still():
+    app, _ = make_app(preview=lambda params: level_clip(params, 1 if params.level <= 0.5 else 3))
+    try:
+        app.panel.controls["level"].value = 0.25
+        app.wait_preview()
+        assert len(app.player.clip) == 1
+        assert not app.player.playing  # one frame: nothing to play
+        app.panel.controls["level"].value = 0.75
+        app.wait_preview()
+        assert len(app.player.clip) == 3
+        assert app.player.playing  # a loop or a growth is seen moving
+    finally:
+        app.close()

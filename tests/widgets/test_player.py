@@ -203,3 +203,20 @@ def test_a_clip_streams_in_and_keeps_playing_when_finished(tmp_path):
     assert p._encode(1) is not encoded
     with pytest.raises(ValueError, match="ready must be in"):
         p.stream(clip(3), 0)
+
+
+def test_a_timed_clip_tells_the_page_how_it_was_made_with_its_first_frame_only():
+    p = FramePlayer()
+    messages = []
+    p.view.send = lambda content, buffers=None: messages.append(dict(content))
+    before = time.time() * 1000
+    p.show_timed(clip(40), {"changed": 1.0, "started": 2.0, "made": 3.0})
+    wait_for(lambda: sum(1 for m in messages if m["clip"] == 1) >= 3)
+    first = next(m for m in messages if m["start"] == 0)
+    assert first["timeline"] == {"changed": 1.0, "started": 2.0, "made": 3.0}
+    assert before <= first["sent"] <= time.time() * 1000  # ms since the epoch
+    assert all("timeline" not in m and "sent" not in m for m in messages if m["start"] > 0)
+    p.clip = clip(3)  # a clip set plainly has no timeline, whatever came before
+    wait_for(lambda: any(m["clip"] == 2 for m in messages))
+    assert "timeline" not in next(m for m in messages if m["clip"] == 2)
+    p.close()
