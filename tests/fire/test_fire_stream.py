@@ -45,7 +45,8 @@ def test_the_stream_makes_the_frames_of_the_in_memory_clip(photo, params, monkey
     result = fire(image, _simulation(), params, matte=matte, seed=5, stream=True)
     stream = result.clip
     assert isinstance(stream, FrameStream)
-    assert result.keyframes is None and result.sources is None  # as large as the clip
+    assert result.keyframes is None  # as large as the clip
+    assert result.sources is None
     first = stream.clip()
     assert np.array_equal(first.frames, held.clip.frames)
     # Every pass the same (the generator as it was when the stream was made).
@@ -74,7 +75,8 @@ def test_a_streamed_fire_writes_the_file_of_the_in_memory_one(photo, tmp_path, s
     assert np.array_equal(a, b)
     if suffix == ".npz":
         assert np.array_equal(b, held.frames)
-    assert fps == held.fps and metadata["seed"] == 2
+    assert fps == held.fps
+    assert metadata["seed"] == 2
 
 
 def test_a_generator_given_as_the_seed_advances_as_before(photo):
