@@ -12,7 +12,9 @@ regions resized alike, written as PNG files the way a user would give them:
   start point in its middle, 240 simulation steps drawn every 4th (61 frames), to
   MP4 (a fixed number of frames, so the cost is per pixel);
 - ``fire``: the "fire" photo (portrait: the width is its longer side) and its alpha
-  as a painted matte, the flame preset simulated, to MP4;
+  as a painted matte, the flame preset simulated for 12 frames (34 clip frames, 3
+  keyframes), keyframes and clip at the photo's size (``--output-size``), streamed to
+  MP4;
 - ``animate`` (the video database): the "stream" photo and its region, ``--db water``
   (``--quick``: the small starter database), to ``.npz``, as the issue measured it.
 
@@ -86,7 +88,8 @@ def arguments(method, width, folder, quick=False):
         photo, alpha = data.sample("fire", size=size, return_alpha=True)
         photo_path = _save(folder, f"fire{width}", photo)
         matte = _save(folder, f"fire{width}_matte", alpha)
-        return ["fire", photo_path, "--matte", matte, "--seed", "1", "-o", f"{out}.mp4"]
+        args = ["fire", photo_path, "--matte", matte, "--seed", "1", "--frames", "12"]
+        return args + ["--output-size", str(width), "-o", f"{out}.mp4"]
     if method == "animate":
         size = _sized("stream", width)
         photo = _save(folder, f"stream{width}", data.sample("stream", size=size))

@@ -109,6 +109,8 @@ def _fire(args):
                 f"--frames must be <= the simulation's {len(simulation[0])} frames, got {frames}"
             )
     given.note(args.prog)
+    # Streamed: the keyframes and frames are made as they are written, a few at a time
+    # (at --output-size 1920 the clip would be gigabytes).
     result = fire(
         photo,
         simulation,
@@ -116,11 +118,12 @@ def _fire(args):
         matte=matte,
         n_frames=frames,
         seed=args.seed,
+        stream=True,
         progress=TextProgress(),
     )
     clip = result.clip.with_metadata(**given.metadata())
     out = clip.save(args.output)
-    print(f"wrote {out} ({len(clip)} frames, {clip.fps:g} fps, seed {clip.metadata['seed']})")
+    print(f"wrote {out} ({len(clip)} frames, {clip.fps:g} fps, seed {result.seed})")
     if args.temperature_output is not None:
         tout = result.temperature_clip.save(args.temperature_output)
         print(f"wrote {tout} (temperature)")

@@ -5,6 +5,7 @@ Furukawa et al. (2013), sec. 3.3-3.4, Fig. 5-6.
 
 from __future__ import annotations
 
+import copy
 import time
 from dataclasses import dataclass
 
@@ -13,6 +14,7 @@ import numpy as np
 from .._clip import Clip
 from .._progress import Progress
 from .._random import resolve_seed, rng
+from .._stream import FrameStream, timed
 from .._validation import check_array, check_int
 from ..fields import resize, resize_vector_field
 from . import _advance
@@ -182,7 +184,7 @@ class FireResult:
 
     Attributes
     ----------
-    clip : Clip
+    clip : Clip or FrameStream
         The fire, (T, H, W, 3) at ``params.fps``, H and W from
         ``params.output_size``, with ``method="fire"``, params, the seed used,
         timings, the keyframe frame numbers and the simulation's grid and frame rate
@@ -190,10 +192,11 @@ class FireResult:
     temperature_clip : Clip
         The normalised temperature :math:`I_t`, colour-mapped, for comparison: one
         frame per simulation frame, on the simulation's grid, at its frame rate.
-    keyframes : ndarray, shape (K, H, W, 3), float32
-        The synthesised keyframes, before advection and blending.
-    sources : ndarray, shape (K, H, W, 2), int64
-        For each keyframe pixel its (row, col) in ``texture``.
+    keyframes : ndarray, shape (K, H, W, 3), float32, or None
+        The synthesised keyframes, before advection and blending (``None`` for a
+        stream, ``fire(..., stream=True)``).
+    sources : ndarray, shape (K, H, W, 2), int64, or None
+        For each keyframe pixel its (row, col) in ``texture`` (``None`` for a stream).
     starts : ndarray, shape (K,), int
         The frame of each keyframe.
     weights : ndarray, shape (K, T)
@@ -218,10 +221,10 @@ class FireResult:
         makes the same clip.
     """
 
-    clip: Clip
+    clip: Clip | FrameStream
     temperature_clip: Clip
-    keyframes: np.ndarray
-    sources: np.ndarray
+    keyframes: np.ndarray | None
+    sources: np.ndarray | None
     starts: np.ndarray
     weights: np.ndarray
     texture: np.ndarray
@@ -241,6 +244,7 @@ def fire(
     n_frames=None,
     fluid_params=None,
     seed=None,
+    stream=False,
     progress=None,
 ):
     r"""Animate fire that looks like ``photo`` and moves like a fluid simulation.
@@ -296,13 +300,24 @@ def fire(
     seed : None, int or numpy.random.Generator
         Seeds the simulation (when run here) and the synthesis; the int used is
         recorded in ``result.seed`` and ``clip.metadata["seed"]``.
+    stream : bool
+        Make ``result.clip`` a :class:`fluidnb.FrameStream` of the same frames
+        instead of a clip: the simulation and the photo's features are made now, the
+        keyframes and frames as it is saved, a few frames at a time (each pass the
+        same, from the generator as it was here), so a 1920-px fire needs memory for
+        the two keyframes of a cross-dissolve and a few frames, not the clip
+        (docs/conventions.md, "Streams"). ``result.keyframes`` and
+        ``result.sources`` are then ``None``: they are as large as the clip.
     progress : callable, optional
         ``progress(fraction, message)``; raise :class:`fluidnb.Cancelled` to stop.
+        With ``stream=True``, for the simulation and the photo; the frames report to
+        the same callable as they are made.
 
     Returns
     -------
     FireResult
-        ``result.clip`` is the fire, a :class:`fluidnb.Clip`.
+        ``result.clip`` is the fire, a :class:`fluidnb.Clip` (a
+        :class:`fluidnb.FrameStream` with ``stream=True``).
 
     Raises
     ------
@@ -368,66 +383,24 @@ def fire(
     starts, weights = dissolve_weights(len(times), interval, overlap)
     fields = _Fields(temperature, velocity, shape)
 
-    frames = np.zeros((len(times), *shape, 3), np.float32)
-    keyframes = np.empty((len(starts), *shape, 3), np.float32)
-    sources = np.empty((len(starts), *shape, 2), np.int64)
     prepared = _Prepared(texture, alpha, params)  # the photo's features, once
-    t_synth = t_advect = 0.0
-    done, total = 0, sum(min(s + interval, len(times)) - s for s in starts)
-    for k, s in enumerate(starts):
-        report(done / total, f"keyframe {k + 1}/{len(starts)} (frame {s})")
-        clock = time.perf_counter()
-        keyframe, src, _ = _run(
-            texture, alpha, target_of(fields.temperature(times[s])), params, False, gen, prepared
-        )
-        t_synth += time.perf_counter() - clock
-        keyframes[k], sources[k] = keyframe, src
-        clock = time.perf_counter()
-        displacement = np.zeros((*shape, 2), np.float32)  # d_s = 0: the keyframe itself
-        spare = np.empty_like(displacement)
-        for t in range(s, min(s + interval, len(times))):
-            weight = weights[k, t].astype(np.float32)
-            if t == s:
-                frames[t] += weight * keyframe
-            else:
-                # d_t(x) = -u(x) + d_{t-1}(x - u(x)): one more backtrace (Fig. 5), with
-                # u the velocity over [times[t - 1], times[t]] on the keyframes' grid;
-                # then frame += weight * K(x + d_t(x)). Compiled (_advance); the same
-                # in numpy is _reference.advance_reference.
-                for u in fields.steps(times[t - 1], times[t]):
-                    _advance.compose(displacement, u, spare)
-                    displacement, spare = spare, displacement
-                _advance.warp_add(keyframe, displacement, weight, frames[t])
-            done += 1
-            if t > s and (t - s) % 8 == 0:
-                report(done / total, f"advecting segment {k + 1}")
-        t_advect += time.perf_counter() - clock
-    np.clip(frames, 0.0, 1.0, out=frames)
-    report(1.0, "done")
     meta.update(
         method="fire",
         params=params.to_dict(),
         seed=seed,
-        timings={
-            "synthesis": t_synth,
-            "advection": t_advect,
-            "total": time.perf_counter() - started,
-        },
-        keyframes=starts.tolist(),
         simulation_shape=[h, w],
         simulation_fps=sim_fps,
     )
-    clip = Clip(frames, fps=params.fps, metadata=meta)
+    maker = _Frames(
+        texture, alpha, target_of, fields, times, starts, weights, interval, params, prepared
+    )
     tclip = Clip(
         colour_temperature(target),
         fps=sim_fps,
         metadata={"method": "fire", "what": "temperature (normalised, inferno)", "seed": seed},
     )
-    return FireResult(
-        clip=clip,
+    result = dict(
         temperature_clip=tclip,
-        keyframes=keyframes,
-        sources=sources,
         starts=starts,
         weights=weights,
         texture=texture,
@@ -437,6 +410,136 @@ def fire(
         simulation=None if isinstance(simulation, tuple) else simulation,
         seed=seed,
     )
+    if stream:
+        # Every pass starts from the generator as it is now (after the simulation),
+        # so every pass makes the same keyframes.
+        state = copy.deepcopy(gen)
+        frames = maker.stream(lambda: copy.deepcopy(state), meta, started, report)
+        return FireResult(clip=frames, keyframes=None, sources=None, **result)
+    keyframes = np.empty((len(starts), *shape, 3), np.float32)
+    sources = np.empty((len(starts), *shape, 2), np.int64)
+
+    def keep(k, keyframe, src):
+        keyframes[k], sources[k] = keyframe, src
+
+    # The in-memory clip is the stream collected (one code path), with the generator
+    # itself: a Generator given as the seed advances as it always did.
+    clip = maker.stream(lambda: gen, meta, started, report, keep=keep).clip()
+    return FireResult(clip=clip, keyframes=keyframes, sources=sources, **result)
+
+
+class _Frames:
+    """The frames of :func:`fire` made in order, a block at a time (sec. 3.3-3.4).
+
+    Frame ``t`` is the sum over the segments that cover it (at most two, with the
+    paper's overlap) of ``weight * K_k(x + d_t(x))``, added in the order of the
+    keyframes; a segment's keyframe is synthesised when the clip reaches its start
+    and let go of at its end. So a pass holds the keyframes of the segments under way
+    and a block of frames, and makes the frames of the in-memory clip bit for bit
+    (the same operations in the same order, the generator drawn in keyframe order).
+    """
+
+    def __init__(
+        self, texture, alpha, target_of, fields, times, starts, weights, interval, params, prepared
+    ):
+        self.texture, self.alpha, self.target_of = texture, alpha, target_of
+        self.fields, self.times, self.starts, self.weights = fields, times, starts, weights
+        self.interval, self.params, self.prepared = interval, params, prepared
+        self.shape = fields.shape
+
+    def _per_block(self):
+        """Frames a block holds: about 32 MB (one at 1920 px, all of a short clip at 256)."""
+        size = self.shape[0] * self.shape[1] * 3 * 4
+        return int(max(1, min(len(self.times), (32 << 20) // size)))
+
+    def blocks(self, gen, report, timings, keep=None):
+        """The frames in blocks (n, H, W, 3) float32 in [0, 1], in order (one pass)."""
+        times, starts, weights, interval = self.times, self.starts, self.weights, self.interval
+        n = len(times)
+        per = self._per_block()
+        segments = []  # [k, start, keyframe, displacement, spare] of the segments under way
+        following = 0  # the next keyframe to synthesise
+        total = sum(min(s + interval, n) - s for s in starts)
+        done = 0
+        block = None
+        for t in range(n):
+            while following < len(starts) and starts[following] == t:
+                k, s = following, int(starts[following])
+                report(done / total, f"keyframe {k + 1}/{len(starts)} (frame {s})")
+                clock = time.perf_counter()
+                target = self.target_of(self.fields.temperature(times[s]))
+                keyframe, src, _ = _run(
+                    self.texture, self.alpha, target, self.params, False, gen, self.prepared
+                )
+                timings["synthesis"] += time.perf_counter() - clock
+                if keep is not None:
+                    keep(k, keyframe, src)
+                # d_s = 0: the keyframe itself.
+                displacement = np.zeros((*self.shape, 2), np.float32)
+                segments.append([k, s, keyframe, displacement, np.empty_like(displacement)])
+                following += 1
+            if block is None:
+                block = np.zeros((min(per, n - t), *self.shape, 3), np.float32)
+                i = 0
+            frame = block[i]
+            clock = time.perf_counter()
+            for segment in segments:
+                k, s, keyframe, displacement, spare = segment
+                weight = weights[k, t].astype(np.float32)
+                if t == s:
+                    frame += weight * keyframe
+                else:
+                    # d_t(x) = -u(x) + d_{t-1}(x - u(x)): one more backtrace (Fig. 5),
+                    # with u the velocity over [times[t - 1], times[t]] on the
+                    # keyframes' grid; then frame += weight * K(x + d_t(x)). Compiled
+                    # (_advance); the same in numpy is _reference.advance_reference.
+                    for u in self.fields.steps(times[t - 1], times[t]):
+                        _advance.compose(displacement, u, spare)
+                        displacement, spare = spare, displacement
+                    segment[3], segment[4] = displacement, spare
+                    _advance.warp_add(keyframe, displacement, weight, frame)
+                done += 1
+            # A segment ends after its interval's last frame: its keyframe is let go of.
+            segments = [g for g in segments if g[1] + interval > t + 1]
+            np.clip(frame, 0.0, 1.0, out=frame)
+            timings["advection"] += time.perf_counter() - clock
+            if t % 8 == 0:
+                report(done / total, f"frame {t + 1}/{n}")
+            i += 1
+            if i == len(block):
+                yield block
+                block = None
+        report(1.0, "done")
+
+    def stream(self, generator, meta, started, progress, keep=None):
+        """The frames as a :class:`~fluidnb.FrameStream`; ``generator()`` gives a pass its own."""
+        setup = time.perf_counter() - started
+        timings = {}
+
+        def blocks():
+            timings.update(synthesis=0.0, advection=0.0, total=setup)
+            report = Progress(progress)
+            yield from timed(self.blocks(generator(), report, timings, keep), timings, "total")
+
+        def metadata():
+            return {
+                **{
+                    k: v for k, v in meta.items() if k not in ("simulation_shape", "simulation_fps")
+                },
+                "timings": dict(timings),
+                "keyframes": self.starts.tolist(),
+                "simulation_shape": meta["simulation_shape"],
+                "simulation_fps": meta["simulation_fps"],
+            }
+
+        return FrameStream(
+            blocks,
+            n_frames=len(self.times),
+            shape=self.shape,
+            color=True,
+            fps=self.params.fps,
+            metadata=metadata,
+        )
 
 
 def output_shape(shape, size):
@@ -509,6 +612,8 @@ class _Fields:
         self._temperature = temperature
         self._velocity = velocity
         self._shape = tuple(shape)
+        #: (H, W) of the keyframes' grid.
+        self.shape = self._shape
         self._range = float(temperature.min()), float(temperature.max())
         self._same = self._shape == tuple(temperature.shape[1:])
         self._cache = {}

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
 
@@ -42,6 +43,7 @@ from .._kept import LastKept
 from .._progress import Progress
 from .._random import resolve_seed, rng
 from .._stream import FrameStream, timed
+from .._threads import blas_single_threaded
 from .._validation import check_int, check_range
 from ._flow import as_velocity
 from ._kernels import shade_relight, soft_heights
@@ -491,31 +493,32 @@ class FlickerModel:
         self.timings["normalise"] = time.perf_counter() - clock
         report(1.0, "ready")
 
-    def _raw_heights(self, t0, t1, columns=slice(None)):
+    def _raw_heights(self, t0, t1, columns=slice(None), out=None):
         r""":math:`A \, \mathrm{Im}\, I_{out}` of frames t0..t1 before normalisation, (n, m).
 
         With ``noise_regions > 1`` the regions' independent heights blended by their
-        weights (Notes of the class).
+        weights (Notes of the class). ``out`` (n, m) float32, if given, receives them.
         """
         basis = self._basis if isinstance(columns, slice) else self._basis[:, columns]
-        rows = self._region_coefficients[0][t0:t1] @ basis
+        rows = _product(self._region_coefficients[0][t0:t1], basis, out)
         if self._blend is not None:
             rows *= self._blend[0, columns]
             for coefficients, weight in zip(self._region_coefficients[1:], self._blend[1:]):
-                part = coefficients[t0:t1] @ basis
+                part = _product(coefficients[t0:t1], basis)
                 part *= weight[columns]
                 rows += part
         return rows
 
-    def _heights(self, t0, t1):
+    def _heights(self, t0, t1, out=None):
         r"""Heights relative to C of frames t0..t1 of one aligned block, (n, h * w).
 
         With noise, :math:`A \, \mathrm{Im}\, I_{out}` divided by
-        :attr:`normalisation` (and, for ``"rms"``, bent by :func:`soft_clip`).
+        :attr:`normalisation` (and, for ``"rms"``, bent by :func:`soft_clip`). ``out``
+        as for :meth:`_raw_heights`.
         """
         if not self._noisy:
-            return self._coefficients[t0:t1] @ self._basis
-        rows = self._raw_heights(t0, t1)
+            return _product(self._coefficients[t0:t1], self._basis, out)
+        rows = self._raw_heights(t0, t1, out=out)
         p = self.params
         if p.noise_norm == "peak":
             rows *= np.float32(1.0 / self.normalisation)
@@ -554,7 +557,9 @@ class FlickerModel:
         # Without noise each bin is a pure turn, g_c(t) = e^{j 2 pi c t / T}.
         turns = np.mod(np.outer(self.bins, np.arange(T)), T)
         quiet_signals = np.exp(2j * np.pi * turns / T)
-        quiet = self._make_coefficients(self.params.A, quiet_signals) @ self._basis[:, inside]
+        quiet = _product(
+            self._make_coefficients(self.params.A, quiet_signals), self._basis[:, inside]
+        )
         noisy = self._raw_heights(0, T, inside)
         target = float(np.sqrt(np.mean(np.square(quiet, dtype=np.float64))))
         actual = float(np.sqrt(np.mean(np.square(noisy, dtype=np.float64))))
@@ -625,19 +630,20 @@ class FlickerModel:
         coef[:, 1::2] = g.real
         return coef
 
-    def _slopes(self, t0, t1):
+    def _slopes(self, t0, t1, out=None):
         """The shading kernel's input for frames t0..t1 of one aligned block, (n, h * w).
 
         Made by whole aligned blocks (a matrix product's rounding depends on its number
         of rows), so any frame alone is bit-identical to the same frame of the clip.
         Without noise one product with the slope scale folded in; with noise the
-        normalised heights, scaled.
+        normalised heights, scaled. ``out`` (n, h * w) float32, if given, receives
+        them (the render reuses one: at 1920 px a block's rows are 0.1 GB).
         """
         if self._noisy:
-            rows = self._heights(t0, t1)
+            rows = self._heights(t0, t1, out=out)
             rows *= self._slope_scale
             return rows
-        return self._slope_coefficients[t0:t1] @ self._basis
+        return _product(self._slope_coefficients[t0:t1], self._basis, out)
 
     def _row(self, which, t):
         """Frame ``t`` (any integer: period T), (h, w): heights relative to C or slopes."""
@@ -779,16 +785,21 @@ class FlickerModel:
         h, w = self.alpha.shape
         per = self._per_yield()
         blocks = self._n_blocks
+        # Two buffers for the heights, in turn: the threads may still shade the last
+        # frames of one block while the next block's are made.
+        buffers = np.empty((min(2, blocks), min(_BLOCK, T), h * w), np.float32)
+        recycled = _Recycled(scene, per)
         with ThreadPoolExecutor(_THREADS, thread_name_prefix="fluidnb-flicker") as pool:
             pending = None
             for b in range(blocks):
                 t0, t1 = b * _BLOCK, min((b + 1) * _BLOCK, T)
                 report(b / blocks, f"frames {t0 + 1}-{t1}")
                 # The next block's heights while the last frames are still shaded.
-                rows = self._slopes(t0, t1).reshape(t1 - t0, h, w)
+                rows = self._slopes(t0, t1, out=buffers[b % 2, : t1 - t0])
+                rows = rows.reshape(t1 - t0, h, w)
                 for s0 in range(t0, t1, per):
                     s1 = min(s0 + per, t1)
-                    frames = scene.empty_clip(s1 - s0) if out is None else out[s0:s1]
+                    frames = recycled.take(s1 - s0) if out is None else out[s0:s1]
                     # Shaded straight into the frames (a strided view when the window is
                     # a box inside the image).
                     target = frames[(slice(None), *self.window)]
@@ -862,6 +873,47 @@ class FlickerModel:
             fps=float(self.params.fps),
             metadata=lambda: self._metadata(timings),
         )
+
+
+def _product(coefficients, basis, out=None):
+    """``coefficients @ basis`` (into ``out``, if given) on one BLAS thread.
+
+    The render makes these while its own threads shade the frames before, and
+    OpenBLAS's second thread would spin between products on the cores they need. One
+    thread for every product of the model, not only the render's: OpenBLAS rounds
+    differently on one thread and on two, and a frame made alone must be the clip's
+    frame bit for bit.
+    """
+    with blas_single_threaded():
+        return np.matmul(coefficients, basis, out=out)
+
+
+class _Recycled:
+    """Blocks of frames for a stream, written again once nothing else holds them.
+
+    A new block of 1920-px frames is fresh memory, which the system maps and zeroes
+    page by page, and the photo outside the window is copied into it again: a
+    64-frame loop asked for 2.2 GB of it, a block every two frames. A block the
+    consumer has let go of is used again instead (it still holds the photo outside
+    the window). "Let go" is exact: a block, and every view of it, refers to the
+    array made here, so its reference count says whether anything else still holds
+    it -- a consumer that keeps the blocks (``list(stream)``) gets new ones.
+    """
+
+    def __init__(self, scene, per):
+        self._scene = scene
+        self._per = per
+        self._made = []
+
+    def take(self, n):
+        """A block of ``n`` frames, (n, H, W[, 3]), the photo outside the window."""
+        for block in self._made:
+            # Held by the list, this loop and getrefcount's argument alone: free.
+            if sys.getrefcount(block) == 3:
+                return block[:n]
+        block = self._scene.empty_clip(max(n, self._per))
+        self._made.append(block)
+        return block[:n]
 
 
 def _finished(futures, frames):

@@ -335,6 +335,27 @@ def test_single_frames_are_bit_identical_to_the_whole_clip(T, masked):
     assert np.array_equal(model.frames(), clip.frames)
 
 
+@pytest.mark.parametrize("T", [64, 13])
+def test_a_stream_kept_block_by_block_holds_the_clip(T):
+    # The stream writes a block again once nothing holds it (at 1920 px fresh memory
+    # for every block cost time): blocks a consumer keeps must never be overwritten,
+    # blocks it lets go of are reused, and either way the frames are the clip's.
+    img = photo((24, 30, 3), seed=4)
+    mask = np.zeros(img.shape[:2], bool)
+    mask[3:20, 5:26] = True
+    model = FlickerModel(img, mask, FlickerParams(T=T, f0=3), seed=2)
+    clip = model.clip()
+    kept = list(model.stream())  # every block held at once
+    assert np.array_equal(np.concatenate(kept), clip.frames)
+    seen, owners = [], set()
+    for block in model.stream():  # one block at a time, copied
+        seen.append(block.copy())
+        owners.add(id(block.base))
+    assert np.array_equal(np.concatenate(seen), clip.frames)
+    if T == 64:  # 4 blocks of 16: the fourth is the first, let go of, used again
+        assert len(owners) < len(seen)
+
+
 # ---------------------------------------------------------------------- the result
 
 
