@@ -326,6 +326,43 @@ def test_videodb_ex5_solve_is_never_worse_than_alpha_expansion():
         assert both <= alpha_expansion(u, w, edges, lam).energy + 1e-9
 
 
+def test_videodb_ex6_a_leaf_looks_as_close_as_water_and_flat_blocks_share_candidates(
+    stream_and_clouds,
+):
+    """ex6's cell at quick size: the leaf's best V_p is no worse than the stream's, and
+    most fragments of the flat-block painting share their candidate list (the stream's
+    none); the painting's motion stays coherent (the solution says so)."""
+    from fluidnb import data
+    from fluidnb.lessons import videodb_animation as lesson
+    from fluidnb.videodb import assign
+
+    stream, _ = stream_and_clouds
+    photo = data.sample("stream", size=240)
+    side = int(96 * photo.shape[1] / 480)  # the cell's blocks
+    painting = photo.copy()
+    for r in range(0, photo.shape[0], side):
+        for c in range(0, photo.shape[1], side):
+            painting[r : r + side, c : c + side] = photo[r : r + side, c : c + side].mean((0, 1))
+    leaf = assign(data.sample("leaf", size=240), None, stream.db, stream.params)
+    flat = assign(painting, data.region("stream", size=240), stream.db, stream.params)
+
+    def shared(asg):
+        return 1 - len({tuple(row) for row in asg.candidates}) / len(asg.candidates)
+
+    def best(asg):
+        return asg.unary[:, 0].mean()
+
+    assert best(leaf) <= best(stream) + 0.01  # not "clearly worse" (b)
+    assert shared(stream) == 0
+    assert shared(leaf) == 0
+    assert shared(flat) > 0.5  # most of the painting's fragments (a; not c)
+    assert best(flat) > best(stream)  # "rises too on the small quick database"
+    assert flat.motion_coherence() > stream.motion_coherence()  # coherent, not random
+    assert lesson.ex6.check("a")
+    assert not lesson.ex6.check("b")
+    assert not lesson.ex6.check("c")
+
+
 # ------------------------------------------------------------------ 08_scene.ipynb
 
 

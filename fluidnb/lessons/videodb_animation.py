@@ -25,7 +25,7 @@ question      what it asks
 ``ex3``       sigma on water, up to 1e6
 ``ex4``       fewer and more candidates
 ``ex5``       brute force on 2 x 2 windows with 8 labels
-``ex6``       a painting: where the looks match nothing
+``ex6``       where the looks match nothing: a leaf, a painting of flat blocks
 ``ex7``       your own video in the database
 ============  =================================================================
 """
@@ -597,26 +597,52 @@ ex5 = Question(
 
 ex6 = Question(
     "ex6",
-    "Animate a painting of water (or a photo of your own), paint its matte, draw two "
-    "strokes. What goes wrong where the looks match nothing in the database?",
+    "Where the looks match nothing: the cell assigns the stream, the leaf (not water) and "
+    "a painting of flat blocks with the water database, and prints each one's mean "
+    "$V_p$ of the best candidates and the share of fragments that share their candidate "
+    "list. What do the numbers show?",
     Choice(
         "a",
         {
-            "a": "the candidates there are poor matches: their motion (and texture) need not "
-            "fit the painting, so those areas move wrongly or inconsistently (Fig. 11-d)",
-            "b": "nothing: the method works on anything",
+            "a": "the leaf's best candidates are as close as the stream's (Eq. (1) compares "
+            "the texture of the gradients, not whether the picture shows water, so nothing "
+            "warns you); in the painting's flat blocks most fragments get the very same "
+            "candidate list, so the looks cannot tell those places apart",
+            "b": "the leaf and the painting get clearly worse candidates (a larger $V_p$) "
+            "than the stream: the distances show where the looks match nothing",
+            "c": "every fragment of all three gets a candidate list of its own, as on the stream",
         },
-        why={"b": "the paper's Fig. 11-d shows the failure."},
+        why={
+            "b": "compare the printed $V_p$ of the leaf with the stream's.",
+            "c": "read the painting's printed share.",
+        },
     ),
-    hints=["Eq. (1) finds the K most similar fragments, however dissimilar they are."],
+    hints=[
+        "Eq. (1) ranks by histograms of visual words, words of dense SIFT: of gradients.",
+        "What are the visual words of a fragment that lies inside one flat block?",
+    ],
     solution="""
-    Eq. (1) always returns $K$ candidates, however poorly they match. Where nothing in
-    the database looks like the painting, the chosen motions are arbitrary: strokes
-    still set the direction, but the texture of the motion does not fit (the paper's
-    Fig. 11-d).
+    Eq. (1) always returns $K$ candidates, and what it compares is the texture of the
+    gradients (visual words of dense SIFT), not what the picture shows: the leaf finds
+    database fragments as close as the stream's water does, so $V_p$ does not warn you
+    that a picture is not water. In a painting, the flat areas are where the looks say
+    nothing: a fragment inside a flat block has no gradients, so its words, its
+    candidates and its $V_p$ are those of every other fragment there; which video moves
+    which place is left to the smoothness term (and your strokes), and one motion,
+    whichever, spreads over the flat area (the map: parallel arrows). The painting's
+    $V_p$ rises too on the small quick database, but the leaf shows that a low $V_p$
+    does not mean the picture is water.
+
+    The paper's worst result, Fig. 11-d (an abstract oil painting of smoke with large
+    flat areas), failed, its authors say, for the first reason: the candidates could
+    not be chosen well in the flat areas; and its chosen fragments moved randomly at
+    small scale although the direction and speed maps set the overall flow. Here the
+    MRF keeps the painting's motion coherent instead (compare the printed coherence
+    with the stream's): the same missing information, another symptom, a motion that
+    nothing in the picture chose.
     """,
     right=("a",),
-    wrong=("b",),
+    wrong=("b", "c"),
 )
 
 ex7 = Question(
