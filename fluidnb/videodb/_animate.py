@@ -51,7 +51,8 @@ def animate(
     stream : bool
         ``.clip`` a :class:`fluidnb.FrameStream` of the same frames, made as it is
         saved (:func:`render`): a file of a full-size photo's animation then needs
-        memory for a few frames, not the clip.
+        memory for a few frames, not the clip. The assignment then keeps no
+        smoothness tables (``assignment.tables`` is None; assign again to re-solve).
 
     Returns
     -------
@@ -67,5 +68,9 @@ def animate(
     seed = resolve_seed(seed)  # validated and recorded, as at every entry point
     first, second = Progress(progress).split(0.5)
     assignment = assign(image, matte, db, params, direction=direction, speed=speed, progress=first)
+    if stream:
+        # A file needs no re-solve: the smoothness tables (3 x E x K x K float64, a
+        # gigabyte at 1920 px) are let go before the frames are made.
+        assignment = dataclasses.replace(assignment, tables=None)
     result = render(assignment, background=background, fps=fps, progress=second, stream=stream)
     return dataclasses.replace(result, clip=result.clip.with_metadata(seed=seed))

@@ -306,8 +306,12 @@ def test_a_streamed_render_writes_the_frames_of_the_in_memory_one(
     assert streamed.timings["render"] > 0  # complete once a pass has made the frames
     # A second pass makes the same frames (a recipe, not a buffer).
     np.testing.assert_array_equal(streamed.clip.clip().frames, held.clip.frames)
-    # No lesson stages of every frame are kept for a stream.
+    # No lesson stages of every frame are kept for a stream, nor the tables of a
+    # re-solve (a gigabyte at 1920 px).
     assert max(np.asarray(v).ndim for v in streamed.stages.values()) <= 3
+    assert streamed.assignment.tables is None
+    with pytest.raises(ValueError, match="assign again"):
+        streamed.assignment.resolve(sigma=10)
     with pytest.raises(ValueError, match="on_frames"):
         render(held.assignment, params, stream=True, on_frames=lambda clip, done: None)
 

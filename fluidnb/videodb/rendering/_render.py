@@ -470,7 +470,7 @@ def _flow_work(assignment, params, n):
     # The first run's maps first: its frames wait for no others (with offsets, every
     # frame needs them all).
     first = np.concatenate([loop.ages(t) for t in range(min(FIRST_RUN, plan["n_frames"]))])
-    plan.update(loop=loop, maps=_Maps(plan["velocity"], loop.steps, first))
+    plan.update(loop=loop, maps=_Maps(plan["velocity"], loop.steps, first, compact=True))
     plan["velocity"].flags.writeable = False
     with _SHARED_LOCK:
         _SHARED.setdefault(assignment.target, {})["flow"] = (weakref.ref(assignment), key, plan)

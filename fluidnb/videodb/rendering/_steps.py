@@ -271,7 +271,7 @@ class _FlowFrames(_Frames):
         # The photo carried by the loop (a phase of weight 0 everywhere is not even
         # sampled, unless the lesson shows it), with the detail D_i on top, in the
         # colour axes.
-        maps = self.maps.wait(*self.loop.ages(t)).maps
+        maps = self.maps.wait(*self.loop.ages(t))  # a compact _Maps
         clock = _tick(times, "field", clock)
         at = self.loop.coordinates(maps, self.grid, t, scale=SUPERSAMPLE, both=self.keep)
         a, b, wa = _sample(self.fine, at)
