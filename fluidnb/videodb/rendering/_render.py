@@ -381,9 +381,9 @@ FIRST_RUN = 4
 
 #: At most this many canvas pixels (frames times pixels) in a run: the run's played
 #: differences, the blend's pyramids and its frames grow with it, so a large photo
-#: is made in shorter runs (four frames at 1920 x 1280; the app's sizes in runs of
-#: :data:`CHUNK`). Issue 39: memory bounded by a few frames.
-RUN_PIXELS = 4 * 1944 * 1296
+#: is made in shorter runs (two frames at 1920 x 1280, seven at 960 x 640; the app's
+#: sizes in runs of :data:`CHUNK`). Issue 39: memory bounded by a few frames.
+RUN_PIXELS = 2 * 1968 * 1320
 
 
 def _runs(total, canvas=(0, 0)):
