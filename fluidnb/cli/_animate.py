@@ -148,7 +148,10 @@ def _animate(args):
         fps=args.fps,
         seed=args.seed,
         progress=report,
+        stream=True,
     )
+    # Streamed: the frames go to the file a run at a time as they are made (a
+    # full-size photo's clip is never held: issue 39).
     out = result.clip.with_metadata(**picture.metadata()).save(args.output)
     a = result.assignment
     t = result.timings

@@ -29,6 +29,7 @@ def animate(
     fps=24.0,
     seed=None,
     progress=None,
+    stream=False,
 ):
     r"""Animate a still image of fluid from a video database (Okabe et al. 2011).
 
@@ -47,11 +48,16 @@ def animate(
         recorded in the clip's metadata, as every method does.
     progress : callable, optional
         ``progress(fraction, message)``; raise :class:`fluidnb.Cancelled` to stop.
+    stream : bool
+        ``.clip`` a :class:`fluidnb.FrameStream` of the same frames, made as it is
+        saved (:func:`render`): a file of a full-size photo's animation then needs
+        memory for a few frames, not the clip. The assignment then keeps no
+        smoothness tables (``assignment.tables`` is None; assign again to re-solve).
 
     Returns
     -------
     Animation
-        ``.clip`` is the animation.
+        ``.clip`` is the animation (a clip, or with ``stream`` a stream).
 
     References
     ----------
@@ -62,7 +68,9 @@ def animate(
     seed = resolve_seed(seed)  # validated and recorded, as at every entry point
     first, second = Progress(progress).split(0.5)
     assignment = assign(image, matte, db, params, direction=direction, speed=speed, progress=first)
-    result = render(assignment, background=background, fps=fps, progress=second)
-    meta = result.clip.metadata
-    meta["seed"] = seed
-    return dataclasses.replace(result, clip=result.clip.with_metadata(**meta))
+    if stream:
+        # A file needs no re-solve: the smoothness tables (3 x E x K x K float64, a
+        # gigabyte at 1920 px) are let go before the frames are made.
+        assignment = dataclasses.replace(assignment, tables=None)
+    result = render(assignment, background=background, fps=fps, progress=second, stream=stream)
+    return dataclasses.replace(result, clip=result.clip.with_metadata(seed=seed))

@@ -277,6 +277,74 @@ def test_render_hands_out_its_frames_as_they_are_made(anim, monkeypatch):
     assert "differences" not in bare.stages
 
 
+@pytest.mark.parametrize("run_pixels", [None, 80 * 110])
+def test_a_streamed_render_writes_the_frames_of_the_in_memory_one(
+    anim, db, photo, tmp_path, monkeypatch, run_pixels
+):
+    # Issue 39: the command line streams the frames to the file a run at a time; one
+    # loop (_made) makes both, so the file holds the in-memory clip's frames bit for
+    # bit -- also cut in runs of one frame, as a large photo is.
+    from fluidnb import FrameStream
+    from fluidnb._media import read
+    from fluidnb.videodb.rendering import _render
+
+    if run_pixels is not None:
+        monkeypatch.setattr(_render, "RUN_PIXELS", run_pixels)
+        assert [t1 - t0 for t0, t1 in _render._runs(5, (80, 110))] == [1] * 5
+    params = AnimateParams.from_dict(anim.clip.metadata["params"])
+    held = animate(*photo, db, params, seed=5)
+    streamed = animate(*photo, db, params, seed=5, stream=True)
+    assert isinstance(streamed.clip, FrameStream)
+    assert len(streamed.clip) == len(held.clip)
+    streamed.clip.save(tmp_path / "out.npz")
+    frames, fps, metadata = read(tmp_path / "out.npz")
+    np.testing.assert_array_equal(frames, held.clip.frames)
+    assert fps == held.clip.fps
+    assert metadata["seed"] == 5
+    assert metadata["params"] == held.clip.metadata["params"]
+    assert metadata["timings"]["render"] > 0
+    assert streamed.timings["render"] > 0  # complete once a pass has made the frames
+    # A second pass makes the same frames (a recipe, not a buffer).
+    np.testing.assert_array_equal(streamed.clip.clip().frames, held.clip.frames)
+    # No lesson stages of every frame are kept for a stream, nor the tables of a
+    # re-solve (a gigabyte at 1920 px).
+    assert max(np.asarray(v).ndim for v in streamed.stages.values()) <= 3
+    assert streamed.assignment.tables is None
+    with pytest.raises(ValueError, match="assign again"):
+        streamed.assignment.resolve(sigma=10)
+    with pytest.raises(ValueError, match="on_frames"):
+        render(held.assignment, params, stream=True, on_frames=lambda clip, done: None)
+
+
+def test_saving_a_streamed_render_holds_a_few_frames_not_the_clip(db, photo, tmp_path, monkeypatch):
+    import tracemalloc
+
+    from fluidnb.videodb.rendering import _render
+
+    # Runs of one frame: the stream holds a frame or two of the clip at a time.
+    monkeypatch.setattr(_render, "CHUNK", 1)
+    monkeypatch.setattr(_render, "FIRST_RUN", 1)
+    params = FEW.replace(loop=2, rendering="flow")
+    assignment = assign(*photo, db, params)
+    stream = render(assignment, params, stream=True).clip
+    assert len(stream) >= 12
+    stream.save(tmp_path / "warm.npz")  # compiled kernels loaded (not frames)
+
+    def peak(fn):
+        tracemalloc.start()
+        try:
+            fn()
+            return tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+
+    streamed = peak(lambda: stream.save(tmp_path / "out.npz"))
+    held = peak(lambda: render(assignment, params, stages=False))
+    frame = stream.nbytes // len(stream)
+    # Holding the clip costs the clip; the stream saves all of it but a few frames.
+    assert held - streamed > stream.nbytes - 4 * frame, (streamed, held, stream.nbytes)
+
+
 def test_a_render_stopped_between_runs_stops_cleanly(anim, monkeypatch):
     # The next run is blended while the frames of the one before are made: stopping
     # (the app's Cancel) raises at once, and what was handed out is final.

@@ -75,8 +75,9 @@ class Assignment:
         reward dissimilarity under minimisation).
     edges : ndarray, shape (E, 2)
         Neighbouring target fragments (4-neighbourhood).
-    tables : PairTables
-        The three per-edge tables of Eq. (2), (3), (6).
+    tables : PairTables or None
+        The three per-edge tables of Eq. (2), (3), (6); None where they were let go
+        (:func:`animate` with ``stream=True``: a file needs no re-solve).
     solution : MRFSolution
         Labels, energy per sweep, ICM's energy (Eq. 4).
     direction, speed : ndarray or None
@@ -138,6 +139,11 @@ class Assignment:
 
     def pairwise(self, sigma=None, rho=None):
         """:math:`W_{pq}` (Eq. 6) for every edge and label pair, (E, K, K)."""
+        if self.tables is None:
+            raise ValueError(
+                "this assignment did not keep its smoothness tables (animate(..., "
+                "stream=True) lets them go: 1 GB at 1920 px); assign again to re-solve"
+            )
         sigma = self.params.sigma if sigma is None else sigma
         rho = self.params.rho if rho is None else rho
         return self.tables.smoothness(sigma, rho)

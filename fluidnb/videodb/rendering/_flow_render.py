@@ -27,6 +27,7 @@ to move the photo along that motion:
 
 from __future__ import annotations
 
+import functools
 import math
 import threading
 
@@ -419,14 +420,28 @@ class _Maps:
     its first frames while the others are made. The maps of the ages ``first`` are
     made first (forwards as far as they go, then backwards), then the rest: the first
     frames of a loop need a young phase and an old one.
+
+    ``compact``: each map :math:`D_s` is kept as its float16 residual
+    :math:`R_s = D_s + s v` (the displacement less the straight line the local flow
+    would carry it along: 0 in a uniform flow, a few pixels where the flow bends)
+    and read back as :math:`R_s - s v` in float32 (:meth:`at`, :func:`_staggered`),
+    half the bytes of float32 maps: a loop of 96 frames needs 97 maps, 2 GB at
+    1920 x 1280 as float32 (issue 39). float16 keeps 11 bits: a residual of up to
+    2 px is kept to 1/1000 px, of 32 px to 1/64 px, below what the bicubic remap
+    resolves (OpenCV tabulates its weights per 1/32 px). The recurrence itself runs
+    in float32, so the error does not build up from map to map.
     """
 
-    def __init__(self, v, steps, first=()):
+    def __init__(self, v, steps, first=(), *, compact=False):
         h, w = v.shape[:2]
         self.steps = steps
-        self.maps = np.empty((2 * steps + 1, h, w, 2), np.float32)
+        self.compact = compact
+        self.v = v
+        self.maps = np.empty((2 * steps + 1, h, w, 2), np.float16 if compact else np.float32)
         self.maps[steps] = 0.0
         self._made = {1: 0, -1: 0}  # steps made forwards and backwards
+        # The float32 map each recurrence last made (compact maps are not read back).
+        self._last = {1: np.zeros((h, w, 2), np.float32), -1: np.zeros((h, w, 2), np.float32)}
         self._error = None
         self._ready = threading.Condition()
         early = _reach(first)
@@ -445,11 +460,20 @@ class _Maps:
         try:
             grid = _grid(v.shape[:2])
             for sign, upto in order:
-                _chain(self.maps, v, grid, self.steps, sign, self._made[sign], upto, made)
+                if self.compact:
+                    _chain_compact(self, grid, sign, self._made[sign], upto, made)
+                else:
+                    _chain(self.maps, v, grid, self.steps, sign, self._made[sign], upto, made)
         except BaseException as error:  # handed to whoever waits
             with self._ready:
                 self._error = error
                 self._ready.notify_all()
+
+    def at(self, i):
+        """Map ``i`` (of age ``i - steps``) as float32 :math:`D` (made: :meth:`wait`)."""
+        if not self.compact:
+            return self.maps[i]
+        return self.maps[i].astype(np.float32) - np.float32(i - self.steps) * self.v
 
     def wait(self, *ages):
         """Wait until the maps of these ages (fractional: both whole ones around) are made."""
@@ -460,6 +484,31 @@ class _Maps:
             if self._error is not None:
                 raise self._error
         return self
+
+
+def _chain_compact(maps, grid, sign, start, stop, made):
+    """:func:`_chain` for a compact :class:`_Maps`: the float32 recurrence, kept as residuals.
+
+    The same float32 operations as :func:`_chain` (each map warped from the one
+    before, in float32), each map then stored as :math:`R_s = D_s + s v` in float16.
+    """
+    import cv2
+
+    if stop <= start:
+        return
+    v = maps.v
+    mx = grid[1] + (-sign * v)[..., 1]
+    my = grid[0] + (-sign * v)[..., 0]
+    step = sign * v
+    prev = maps._last[sign]
+    for s in range(start + 1, stop + 1):
+        d = np.empty_like(prev)
+        cv2.remap(prev, mx, my, cv2.INTER_LINEAR, dst=d, borderMode=cv2.BORDER_REPLICATE)
+        np.subtract(d, step, out=d)
+        age = sign * s
+        maps.maps[maps.steps + age] = d + np.float32(age) * v
+        maps._last[sign] = prev = d
+        made(sign, s)
 
 
 def _reach(ages):
@@ -498,14 +547,25 @@ def _chain(out, v, grid, steps, sign, start, stop, made):
         made(sign, s)
 
 
-def _at_age(maps, steps, age):
-    """The displacement map of a (possibly fractional) age, linear between whole ones."""
+def _at_age(at, steps, age):
+    """The displacement map of a (possibly fractional) age, linear between whole ones.
+
+    ``at(i)`` is map ``i`` (of age ``i - steps``) as float32.
+    """
     lo = math.floor(age)
     frac = age - lo
-    d = maps[steps + lo]
+    d = at(steps + lo)
     if frac > 1e-9:
-        d = d + np.float32(frac) * (maps[steps + lo + 1] - d)
+        d = d + np.float32(frac) * (at(steps + lo + 1) - d)
     return d
+
+
+@functools.cache
+def _half_table():
+    """float32 of every float16 bit pattern (65,536 entries): an exact conversion table."""
+    table = np.arange(1 << 16, dtype=np.uint16).view(np.float16).astype(np.float32)
+    table.setflags(write=False)
+    return table
 
 
 def phase_offsets(shape, scale, *, seed=0):
@@ -698,23 +758,32 @@ class _Loop:
         (no offsets or not ``staggered``: the loop at offset 0; a phase of weight 0
         then has None coordinates unless ``both``) or (H, W).
         """
-        have = (maps.shape[0] - 1) // 2
+        # The maps as an array of D_s, or a _Maps that keeps them compact (float16
+        # residuals: decoded here, the same values wherever they are read).
+        compact = isinstance(maps, _Maps) and maps.compact
+        array = maps.maps if isinstance(maps, _Maps) else maps
+        have = (array.shape[0] - 1) // 2
         if self.offsets is None or not staggered:
             sa, sb, wa = self.age_a[t], self.age_b[t], self.weight_a[t]
             xa = ya = xb = yb = None
             k = np.float32(scale)
+            at = maps.at if compact else (lambda i: array[i])
             if wa > 0 or both:
-                d = _at_age(maps, have, sa)
+                d = _at_age(at, have, sa)
                 xa, ya = (grid[1] + d[..., 1]) * k, (grid[0] + d[..., 0]) * k
             if wa < 1 or both:
-                d = _at_age(maps, have, sb)
+                d = _at_age(at, have, sb)
                 xb, yb = (grid[1] + d[..., 1]) * k, (grid[0] + d[..., 0]) * k
             return xa, ya, xb, yb, wa
         h, w = grid[0].shape
         xa, ya, xb, yb, wa = (np.empty((h, w), np.float32) for _ in range(5))
+        if compact:
+            array, table, v = array.view(np.uint16), _half_table(), maps.v
+        else:
+            table, v = None, np.zeros((1, 1, 2), np.float32)
         _staggered(
-            maps, have, float(t), float(self.period), self.offsets, np.float32(scale),
-            xa, ya, xb, yb, wa,
+            array, table, v, have, float(t), float(self.period), self.offsets,
+            np.float32(scale), xa, ya, xb, yb, wa,
         )  # fmt: skip
         return xa, ya, xb, yb, wa
 
@@ -726,12 +795,27 @@ class _Loop:
         return _sample(fine, self.coordinates(maps, grid, t, scale=SUPERSAMPLE, both=both))
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _displacement(maps, table, v, i, steps, r, c):
+    """``D`` of map ``i`` at pixel (r, c), float32.
+
+    float32 maps as they are (``table`` None), or a compact map's float16 residual
+    (its bits, through ``table``) less ``(i - steps) v``.
+    """
+    if table is None:
+        return maps[i, r, c, 0], maps[i, r, c, 1]
+    age = np.float32(i - steps)
+    return table[maps[i, r, c, 0]] - age * v[r, c, 0], table[maps[i, r, c, 1]] - age * v[r, c, 1]
+
+
 @njit(cache=True, nogil=True)
-def _staggered(maps, steps, t, period, offsets, scale, xa, ya, xb, yb, wa):
+def _staggered(maps, table, v, steps, t, period, offsets, scale, xa, ya, xb, yb, wa):
     r"""Each pixel's phase coordinates (times ``scale``) and weight at frame ``t``, by its offset.
 
     The ages in float64: :math:`u = t + o P`, :math:`s_b = (u \bmod P) - P/2`,
     :math:`s_a = ((u + P/2) \bmod P) - P/2` (the modulo as ``u - P floor(u / P)``).
+    ``maps`` float32 :math:`D_s` (``table`` None) or a compact :class:`_Maps`'s
+    float16 bits (``table`` :func:`_half_table`, ``v`` the flow).
     """
     h, w = offsets.shape
     half = period / 2.0
@@ -748,11 +832,12 @@ def _staggered(maps, steps, t, period, offsets, scale, xa, ya, xb, yb, wa):
                 lo = math.floor(age)
                 frac = np.float32(age - lo)
                 i = min(max(steps + int(lo), 0), top)
-                dy, dx = maps[i, r, c, 0], maps[i, r, c, 1]
+                dy, dx = _displacement(maps, table, v, i, steps, r, c)
                 if frac > 1e-9:
                     j = min(i + 1, top)
-                    dy = dy + frac * (maps[j, r, c, 0] - dy)
-                    dx = dx + frac * (maps[j, r, c, 1] - dx)
+                    ey, ex = _displacement(maps, table, v, j, steps, r, c)
+                    dy = dy + frac * (ey - dy)
+                    dx = dx + frac * (ex - dx)
                 x, y = (c + dx) * scale, (r + dy) * scale
                 if k == 0:
                     xa[r, c], ya[r, c] = x, y

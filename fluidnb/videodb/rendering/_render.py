@@ -23,6 +23,7 @@ import numpy as np
 from ..._clip import Clip
 from ..._image import as_image
 from ..._progress import Progress
+from ..._stream import FrameStream
 from ..._validation import check_fps, check_shape_match
 from .._common._geometry import FRAGMENT
 from ..assignment._assign import Assignment, _check_params
@@ -42,7 +43,7 @@ from ._shared import (
 )
 from ._steps import _BlendedFrames, _FlowFrames, _PaperFrames
 
-__all__ = ["CHUNK", "FIRST_RUN", "Animation", "prefetch", "render"]
+__all__ = ["CHUNK", "FIRST_RUN", "RUN_PIXELS", "Animation", "prefetch", "render"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -51,9 +52,11 @@ class Animation:
 
     Attributes
     ----------
-    clip : Clip
+    clip : Clip or FrameStream
         The animation (the target's size; the paper's rendering: ``N`` frames, or
-        ``N - loop`` looping; the flow rendering: whole repeats of those).
+        ``N - loop`` looping; the flow rendering: whole repeats of those); rendered
+        with ``stream=True`` (:func:`render`), a :class:`fluidnb.FrameStream` of the
+        same frames, made as it is saved.
     assignment : Assignment
         The fragments chosen, with the energy per sweep.
     stages : dict of ndarray
@@ -89,6 +92,7 @@ def render(
     progress=None,
     on_frames=None,
     stages=True,
+    stream=False,
 ):
     r"""Render the animation of an assignment (Okabe et al., sec. 6, or beyond it).
 
@@ -154,6 +158,15 @@ def render(
         differences, the frames before matching, the flow rendering's phases...), for
         the lesson. An app that only plays the clip passes False: at 480 px a
         96-frame clip's stages take about a gigabyte. The clip is the same.
+    stream : bool
+        Make the frames as they are saved, a run at a time, instead of holding the
+        clip: the animation's ``clip`` is then a :class:`fluidnb.FrameStream` of the
+        same frames, bit for bit (one code path makes both), so writing a full-size
+        photo's animation to a file needs memory for a few frames and the work they
+        share, not for the clip (docs/conventions.md, "Streams"). The work all frames
+        share is done here; each pass over the stream (``clip.save(path)``) makes
+        the frames. No stages are kept (``stages`` must be False or left as is),
+        and ``timings`` is complete once a pass has made every frame.
 
     Returns
     -------
@@ -173,6 +186,12 @@ def render(
     if background is not None:
         background = as_image(background, mode="rgb", name="background")
         check_shape_match("background", background, (h, w))
+    if stream and on_frames is not None:
+        raise ValueError(
+            "on_frames is for a clip rendered in memory; a stream (stream=True) hands "
+            "its frames to whatever it is saved to"
+        )
+    stages = stages and not stream
     report = Progress(progress)
     rebuild, setup, making = report.split(0.3, 0.35)
     clock = dict.fromkeys(("rebuild", "blend"), 0.0)
@@ -212,46 +231,86 @@ def render(
         frames = _PaperFrames(assignment, params, blended, mirrors, background, clock, stages)
     else:
         frames = _FlowFrames(assignment, params, blended, flow, background, clock, stages)
-    # The frames a few at a time (CHUNK): each is made from its own inputs only
-    # (blend, warp, matching, composite), so the clip is the same however it is cut,
-    # the first frames can be shown while the rest are made, and the blend's
-    # pyramids stay small.
+    # The frames a few at a time (_runs): each is made from its own inputs only
+    # (blend, warp, matching, composite), so the clip is the same however it is cut
+    # (to the round-off of the batched pyramids), the first frames can be shown while
+    # the rest are made, and the blend's pyramids stay small.
     total = frames.n_frames
+    desync = (offsets, mirrors)
+    if stream:
+        return _streamed(assignment, params, frames, making, clock, desync, fps)
     out = np.empty((total, h, w, 3), np.float32)
     live = None  # the clip being made, as on_frames sees it (a read-only view of out)
-
-    def hand_out(run):
-        nonlocal live
-        future, t1 = run
-        future.result()
+    for _, t1, _ in _made(frames, making, lambda t0, t1: out[t0:t1]):
         if on_frames is not None:
             if live is None:
                 live = Clip._trusted(out.view(), fps, {})
             on_frames(live, t1)
+    clip = Clip._trusted(out, fps, {})  # the render's own fresh frames, in [0, 1]
+    meta, timings = _metadata(assignment, params, clock)
+    return _animation(assignment, clip.with_metadata(**meta), frames.stages, timings, desync)
 
-    # After the first run, each run is blended here while the frames of the one before
-    # are made on the other threads (both cores busy); the first is handed out as
-    # soon as it is made.
+
+def _made(frames, making, into):
+    """The frames, a run at a time: ``(t0, t1, block)`` once each run is final, in order.
+
+    ``into(t0, t1)`` is the (t1 - t0, H, W, 3) float32 array a run's frames are made
+    in. Each run is blended here while the frames of the one before are made on the
+    other threads (both cores busy); the first is handed out as soon as it is made.
+    The one loop of the clip held in memory and of the stream (:func:`render`), so
+    both hold the same frames.
+    """
+    total = frames.n_frames
     pending = None
     with ThreadPoolExecutor(1) as maker:
         try:
-            for t0, t1 in _runs(total):
+            for t0, t1 in _runs(total, frames.blended.canvas):
                 making(t0 / total, f"rendering frames {t0 + 1}-{t1} of {total}")
                 d = frames.blend(t0, t1)
                 if pending is not None:
-                    hand_out(pending)
-                pending = (maker.submit(frames.frames, t0, d, out[t0:t1]), t1)
+                    yield _handed(pending)
+                block = into(t0, t1)
+                pending = (maker.submit(frames.frames, t0, d, block), t0, t1, block)
+                del d
                 if t0 == 0:
-                    hand_out(pending)
+                    yield _handed(pending)
                     pending = None
             if pending is not None:
-                hand_out(pending)
+                yield _handed(pending)
                 pending = None
         finally:
             if pending is not None:
                 pending[0].cancel()  # a cancelled render: what is under way ends
     making(1.0, "done")
-    return _animation(assignment, params, out, frames.stages, clock, (offsets, mirrors), fps)
+
+
+def _handed(run):
+    """A run's ``(t0, t1, block)`` once its frames are made."""
+    future, t0, t1, block = run
+    future.result()
+    return t0, t1, block
+
+
+def _streamed(assignment, params, frames, making, clock, desync, fps):
+    """:func:`render`'s animation whose clip is a stream: each pass runs :func:`_made`."""
+    h, w = assignment.target.shape
+    timings = {}
+
+    def blocks():
+        for _, _, block in _made(
+            frames, making, lambda t0, t1: np.empty((t1 - t0, h, w, 3), np.float32)
+        ):
+            yield block
+        timings.update(_metadata(assignment, params, clock)[1])
+
+    def metadata():
+        return _metadata(assignment, params, clock)[0]
+
+    clip = FrameStream(
+        blocks, n_frames=frames.n_frames, shape=(h, w), color=True, fps=fps, metadata=metadata
+    )
+    timings.update(_metadata(assignment, params, clock)[1])
+    return _animation(assignment, clip, frames.stages, timings, desync)
 
 
 def prefetch(assignment, params=None, *, progress=None):
@@ -320,20 +379,26 @@ def _rebuild(assignment, params, progress):
 CHUNK = 12
 FIRST_RUN = 4
 
+#: At most this many canvas pixels (frames times pixels) in a run: the run's played
+#: differences, the blend's pyramids and its frames grow with it, so a large photo
+#: is made in shorter runs (two frames at 1920 x 1280, seven at 960 x 640; the app's
+#: sizes in runs of :data:`CHUNK`). Issue 39: memory bounded by a few frames.
+RUN_PIXELS = 2 * 1968 * 1320
 
-def _runs(total):
+
+def _runs(total, canvas=(0, 0)):
     """The runs of frames (t0, t1) :func:`render` makes one after the other."""
+    most = max(1, min(CHUNK, RUN_PIXELS // max(1, canvas[0] * canvas[1])))
     t0 = 0
     while t0 < total:
-        t1 = min(t0 + (min(FIRST_RUN, CHUNK) if t0 == 0 else CHUNK), total)
+        t1 = min(t0 + (min(FIRST_RUN, most) if t0 == 0 else most), total)
         yield t0, t1
         t0 = t1
 
 
-def _animation(assignment, params, out, stages, clock, desync, fps):
-    """The Animation: the clip with its metadata, the stages and the timings."""
+def _metadata(assignment, params, clock):
+    """The clip's metadata and the timings, as the clock stands."""
     db = assignment.db
-    stages["offsets"], stages["mirrors"] = desync
     timings = {**{f"assign_{k}": v for k, v in assignment.timings.items()}, **clock}
     timings["render"] = sum(clock.values())
     meta = {
@@ -348,9 +413,12 @@ def _animation(assignment, params, out, stages, clock, desync, fps):
         },
         "energy": float(assignment.solution.energy),
     }
-    # Trusted: the render's own fresh float32 frames, clipped to [0, 1] (Clip() would
-    # copy and check them again).
-    clip = Clip._trusted(np.ascontiguousarray(out, np.float32), fps, {}).with_metadata(**meta)
+    return meta, timings
+
+
+def _animation(assignment, clip, stages, timings, desync):
+    """The Animation: the clip (or stream) with its metadata, the stages and the timings."""
+    stages["offsets"], stages["mirrors"] = desync
     return Animation(clip=clip, assignment=assignment, stages=stages, timings=timings)
 
 
@@ -402,7 +470,7 @@ def _flow_work(assignment, params, n):
     # The first run's maps first: its frames wait for no others (with offsets, every
     # frame needs them all).
     first = np.concatenate([loop.ages(t) for t in range(min(FIRST_RUN, plan["n_frames"]))])
-    plan.update(loop=loop, maps=_Maps(plan["velocity"], loop.steps, first))
+    plan.update(loop=loop, maps=_Maps(plan["velocity"], loop.steps, first, compact=True))
     plan["velocity"].flags.writeable = False
     with _SHARED_LOCK:
         _SHARED.setdefault(assignment.target, {})["flow"] = (weakref.ref(assignment), key, plan)

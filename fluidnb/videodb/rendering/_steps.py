@@ -53,27 +53,36 @@ class _BlendedFrames:
         self.frames = np.empty((self.length,) + canvas, np.float32)
         self.plan = None  # the blend's weights (_BlendPlan), kept for the target
 
-    def get(self, idx):
+    def get(self, idx, *, keep=True):
+        """The blended frames ``idx`` (T, Hc, Wc); ``keep=False``: made, not kept.
+
+        A clip that plays each frame of the loop once (its length is the loop's)
+        need not keep them: a full-size photo's 96 blended frames are a gigabyte.
+        """
         idx = np.asarray(idx)
+        if not keep:
+            return self._make(idx)
         todo = np.unique(idx[~self.done[idx]])
         if len(todo):
-            t = time.perf_counter()
-            # Every fragment's loop played from its offset, mirrored, at its rate (what
-            # stagger does), pixel-major as the blend reads it.
-            played = play_loops(
-                self.loops, self.offsets, rates=self.rates, mirrors=self.mirrors, frames=todo
-            )
-            t = _tick(self.clock, "rebuild", t)
-            if self.plan is None:
-                self.plan = _blend_plan(self.target)
-            # The private entry: these differences were made just above (finite,
-            # checked shape).
-            self.frames[todo] = _blend(
-                played, self.positions, self.canvas, MARGIN, BLEND_LEVELS, FEATHER, self.plan
-            )
+            self.frames[todo] = self._make(todo)
             self.done[todo] = True
-            _tick(self.clock, "blend", t)
         return self.frames[idx]
+
+    def _make(self, todo):
+        t = time.perf_counter()
+        # Every fragment's loop played from its offset, mirrored, at its rate (what
+        # stagger does), pixel-major as the blend reads it.
+        played = play_loops(
+            self.loops, self.offsets, rates=self.rates, mirrors=self.mirrors, frames=todo
+        )
+        t = _tick(self.clock, "rebuild", t)
+        if self.plan is None:
+            self.plan = _blend_plan(self.target)
+        # The private entry: these differences were made just above (finite,
+        # checked shape).
+        made = _blend(played, self.positions, self.canvas, MARGIN, BLEND_LEVELS, FEATHER, self.plan)
+        _tick(self.clock, "blend", t)
+        return made
 
 
 class _Frames:
@@ -97,8 +106,12 @@ class _Frames:
         self.centre, self.axes, self.matching = _colour_matching(target, cell)
 
     def blend(self, t0, t1):
-        """The run's blended differences (T, Hc, Wc) (the loop repeated to the clip's length)."""
-        return self.blended.get(np.arange(t0, t1) % self.blended.length)
+        """The run's blended differences (T, Hc, Wc) (the loop repeated to the clip's length).
+
+        Kept for the repeats only: a clip as long as the loop blends each frame once.
+        """
+        length = self.blended.length
+        return self.blended.get(np.arange(t0, t1) % length, keep=length < self.n_frames)
 
     def frames(self, t0, d, out):
         """Each frame of the run from its differences ``d``, on the cores, into ``out``."""
@@ -258,7 +271,7 @@ class _FlowFrames(_Frames):
         # The photo carried by the loop (a phase of weight 0 everywhere is not even
         # sampled, unless the lesson shows it), with the detail D_i on top, in the
         # colour axes.
-        maps = self.maps.wait(*self.loop.ages(t)).maps
+        maps = self.maps.wait(*self.loop.ages(t))  # a compact _Maps
         clock = _tick(times, "field", clock)
         at = self.loop.coordinates(maps, self.grid, t, scale=SUPERSAMPLE, both=self.keep)
         a, b, wa = _sample(self.fine, at)

@@ -467,6 +467,45 @@ def test_the_maps_are_the_recurrence_step_by_step_and_usable_as_made():
     assert displacement_maps(v, 0).shape == (1, 40, 52, 2)
 
 
+def test_compact_maps_read_back_the_maps_to_float16_precision():
+    # The renderer keeps its maps as float16 residuals D_s + s v (issue 39: half the
+    # bytes); read back they are the float32 maps to well below OpenCV's 1/32 px, and
+    # the staggered kernel reads them as the array path does.
+    from fluidnb.videodb.rendering._flow_render import _grid, _Loop, _Maps, phase_offsets
+
+    yy, xx = np.mgrid[:40, :52]
+    v = np.stack([0.7 * np.sin(xx / 7.0), 1.3 + 0.4 * np.cos(yy / 6.0)], axis=-1)
+    v = v.astype(np.float32)
+    steps = 12
+    exact = displacement_maps(v, steps)
+    compact = _Maps(v, steps, compact=True).wait(-steps, steps)
+    assert compact.maps.dtype == np.float16
+    assert compact.maps.nbytes * 2 == exact.nbytes
+    ages = np.arange(-steps, steps + 1, dtype=np.float32)[:, None, None, None]
+    residual = np.abs(exact + ages * v).max()
+    assert 2 < residual < 16  # the flow bends: residuals of pixels
+    error = max(np.abs(compact.at(i) - exact[i]).max() for i in range(2 * steps + 1))
+    # Lossy by float16's rounding of the residual (2^-11 relative), far below 1/32 px.
+    assert 0 < error <= residual * 2.0**-11 + 1e-5, (error, residual)
+    assert error < 1 / 128
+    # A uniform flow is carried in straight lines (away from the clamped border): the
+    # residuals are 0 and the maps exact.
+    uniform = np.broadcast_to(np.float32([0.5, -1.25]), v.shape).copy()
+    flat = _Maps(uniform, 4, compact=True).wait(-4, 4)
+    for i in range(9):
+        inner = (slice(8, -8), slice(8, -8))
+        assert np.array_equal(flat.at(i)[inner], displacement_maps(uniform, 4)[i][inner])
+    # The staggered coordinates from the compact maps are those of the decoded array.
+    loop = _Loop(24, 24, phase_offsets((40, 52), 16), (40, 52))
+    grid = _grid((40, 52))
+    decoded = np.stack([compact.at(i) for i in range(2 * steps + 1)])
+    for t in (0, 5, 17):
+        got = loop.coordinates(compact, grid, t, scale=2)
+        want = loop.coordinates(decoded, grid, t, scale=2)
+        for g, w in zip(got, want):
+            np.testing.assert_array_equal(g, w)
+
+
 def test_what_renders_share_is_kept_and_the_clip_stays_the_same(assignment, monkeypatch):
     # What renders of one photo share (the blend's weights, the colour axes and the
     # matching's reference side, the advected layer) is kept with the target; the
