@@ -631,3 +631,17 @@ def test_repr_html_sizes():
     assert w >= 128
     assert w % 2 == 0
     assert h % 2 == 0
+
+
+def test_an_npz_clip_is_stored_not_deflated(tmp_path):
+    # Deflating float32 photo frames saves ~30 % at 15-28x the time (issue 39): stored
+    # members, which numpy.load reads as any .npz, the frames exactly.
+    import zipfile
+
+    frames = np.random.default_rng(0).random((3, 8, 10, 3), dtype=np.float32)
+    Clip(frames, fps=12).save(tmp_path / "c.npz")
+    with zipfile.ZipFile(tmp_path / "c.npz") as archive:
+        assert {i.compress_type for i in archive.infolist()} == {zipfile.ZIP_STORED}
+    with np.load(tmp_path / "c.npz") as f:
+        np.testing.assert_array_equal(f["frames"], frames)
+    np.testing.assert_array_equal(Clip.load(tmp_path / "c.npz").frames, frames)
