@@ -59,6 +59,13 @@ _RETRIEVAL_FIELDS = ("candidates", "max_angle", "max_speed_ratio")
 #: Fields that change the clip but not the assignment.
 _RENDER_FIELDS = ("shutter", "denoise", "cell", "tau", "loop", "rendering", "travel", "detail")
 
+
+def _rendering(params):
+    """The values of ``params`` that change the clip but not the assignment."""
+    values = params.to_dict()
+    return tuple(values.get(k) for k in _RENDER_FIELDS)
+
+
 # Live previews: one frame, FACTOR times smaller than the photo; their cache of
 # difference frames is dropped beyond this many fragments (~9 KB each).
 _PREVIEW_FACTOR = 2
@@ -182,6 +189,7 @@ class VideoDBApp(FlowSketch, App):
         self.quiver_segments = 0  #: Arrows of the direction field on the canvas now.
         self.previews = 0  #: Preview frames shown.
         self._preview_cache = (None, {})  # (database, fragment id -> D_t)
+        self._previewed = None  # (assignment, rendering values) of the last preview
 
         name = photo if isinstance(photo, str) and photo in PHOTOS else None
         self.photo, self.photo_alpha = self._load_photo(photo, matte)
@@ -565,6 +573,11 @@ class VideoDBApp(FlowSketch, App):
             return None
         wanted = {k: getattr(params, k) for k in _SOLVE_FIELDS}
         if all(getattr(current.params, k) == v for k, v in wanted.items()):
+            # A second request for the values a preview already showed (it read them
+            # while their own request still waited): nothing changed, keep its note.
+            shown = self._previewed
+            if shown is not None and shown[0] is current and shown[1] == _rendering(params):
+                return None
             if self.live_preview and not self._clip_is_current():
                 return self._preview_clip(current, params, "a rendering setting changed")
             return None
@@ -593,6 +606,7 @@ class VideoDBApp(FlowSketch, App):
             a, params, factor=_PREVIEW_FACTOR, levels=_PREVIEW_LEVELS, cache=cache
         )
         self.previews += 1
+        self._previewed = (a, _rendering(params))
         caption = (
             f"preview: σ = {a.params.sigma:.3g}, λ = {a.params.lam:.3g}, ρ = {a.params.rho:.3g}"
         )

@@ -599,6 +599,13 @@ def test_dragging_sigma_shows_the_map_and_a_preview_then_the_clip_when_it_rests(
     assert app.renders == renders
     assert app.result is first_clip
     assert "re-solved from the kept tables" in app.status
+    # A second request for the same values (a preview read them while their own request
+    # still waited, as in a fast drag) makes nothing again and keeps the note.
+    previews = app.previews
+    app.request_preview()
+    app.wait_resolve()
+    assert app.previews == previews
+    assert "re-solved from the kept tables" in app.status
     # The preview is one frame of what the render will make (the last picture made
     # is the one shown, as JPEG).
     preview = made[-1]
