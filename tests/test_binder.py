@@ -33,7 +33,8 @@ def rank(p):
 
 
 def run(p):
-    folder = pathlib.Path(tempfile.mkdtemp(prefix=p.stem))
+    # inside the copied repo, under the test's tmp_path: pytest removes it
+    folder = pathlib.Path(tempfile.mkdtemp(prefix=p.stem, dir="."))
     shutil.copy(p, folder / p.name)
     cmd = [sys.executable, "-c", ONE, str(folder / p.name)]
     return subprocess.run(cmd, capture_output=True, text=True)
