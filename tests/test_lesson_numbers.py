@@ -984,7 +984,17 @@ CLAIMS["06_turbulence.ipynb"] = [
 
 
 CLAIMS["08_scene.ipynb"] = [
-    stated("about 20\nminutes, estimated by the engineer", "timing"),
+    stated(
+        "*Time to do this lesson's questions and exercises, from the top, in full mode:* "
+        "2.5\nminutes when the engineer of issue 40 (an AI agent that knows the library) "
+        "worked every\none in code on 2026-11-28, with a stopwatch, answering each before "
+        "reading its solution\n(the five questions and the two exercises, ex2 with the "
+        "fire drawn over the frost; the\ncells' own run time 131 s at a load average of "
+        "6-8, most of it the first scene's render\nwith the water database built into an "
+        "empty cache). That is a floor, not a plan: a\nstudent new to it should plan on "
+        "about 20 minutes (the earlier estimate).",
+        "timing",
+    ),
     stated(
         "the weight is $a = 0.25$. The\nphoto there is 0.8 (grey), the water layer's picture 0.2",
         "example",
@@ -1000,12 +1010,14 @@ CLAIMS["08_scene.ipynb"] = [
 RUN_TIMES = {
     "01_drawing_tools.ipynb": [
         (
-            "*Time to do this lesson's questions and exercises as a student, from "
-            "the top:* about 25 minutes (the five questions 8, the two warm-ups 4, "
-            "the three exercises 13), estimated by the engineer of issue 40 from "
-            "reading every question and running the exercise cells, not from "
-            "answering all of them (not a stopwatch run by a student); plan on more"
-            " the first time."
+            "*Time to do this lesson's questions and exercises, from the top, in full mode:* "
+            "1 minute when the engineer of issue 40 (an AI agent that knows the library) "
+            "worked every one in code on 2026-11-28, with a stopwatch, answering each before "
+            "reading its solution (the five questions, the two warm-ups and the three "
+            "exercises; the cells' own run time 6 s at a load average of 3). That is a "
+            "floor, not a plan: a student new to it, reading the text and writing the code, "
+            "should plan on about 25 minutes (the earlier estimate: the questions 8, the "
+            "warm-ups 4, the exercises 13)."
         ),
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "
@@ -1016,12 +1028,15 @@ RUN_TIMES = {
     ],
     "02_flicker.ipynb": [
         (
-            "*Time to do this lesson's questions and exercises as a student, from "
-            "the top:* about 40 minutes (the ten questions 20, the two warm-ups 4, "
-            "the five exercises 16), estimated by the engineer of issue 40 from "
-            "reading every question and running the exercise cells, not from "
-            "answering all of them (not a stopwatch run by a student); plan on more"
-            " the first time."
+            "*Time to do this lesson's questions and exercises, from the top, in full mode:* "
+            "1 minute when the engineer of issue 40 (an AI agent that knows the library) "
+            "worked every one in code on 2026-11-28, with a stopwatch, answering each before "
+            "reading its solution (the ten questions, the two warm-ups and the five "
+            "exercises, with q6's edit of the reference and q9's measured lean; the cells' "
+            "own run time 28 s at a load average of 3-6). That is a floor, not a plan: a "
+            "student new to it, reading the text and writing the code, should plan on about "
+            "40 minutes (the earlier estimate: the questions 20, the warm-ups 4, the "
+            "exercises 16)."
         ),
         (
             "*Run time, measured for issue 40 (2026-11-28; Run All, top to bottom, "

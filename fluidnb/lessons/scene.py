@@ -95,7 +95,7 @@ q4 = Question(
     "q4",
     "A flicker layer of $T = 16$ frames at 8 fps loops in a scene at 24 fps. Which of its "
     "frames shows at the scene's frame 30?",
-    Number(_frame_shown, atol=0.1, unit="frame"),
+    Number(_frame_shown, atol=0.1),
     hints=["Scene frame 30 is at 30/24 s; the layer shows 8 frames a second, then repeats."],
     solution="""
     $30/24 = 1.25$ s; $1.25 \\cdot 8 = 10$: frame **10** (the loop has not wrapped yet,
