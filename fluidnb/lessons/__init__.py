@@ -71,6 +71,7 @@ __all__ = [
 
 #: Notebook file name -> the module holding its questions.
 LESSONS = {
+    "00_overview.ipynb": "overview",
     "01_drawing_tools.ipynb": "drawing",
     "02_flicker.ipynb": "flicker",
     "03_frost.ipynb": "frost",
