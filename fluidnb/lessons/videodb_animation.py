@@ -455,8 +455,9 @@ q7 = Question(
             "b",
             {
                 "a": "yes, lambda changes nothing on the stream",
-                "b": "partly: sigma changes more, but on the stream lambda still changes a "
-                "share of the fragments (printed), where on the clouds it changed none",
+                "b": "partly: sigma changes more, but lambda still changes a share of the "
+                "stream's fragments (printed): how little lambda matters depends on the photo "
+                "and the database (section 7)",
             },
             why={"a": "read the fractions printed for lambda on the stream."},
         ),
@@ -465,9 +466,11 @@ q7 = Question(
     solution="""
     $\\sigma$ changes the map more (it decides whether the mean motion counts at all).
     But $\\lambda$ is not negligible on our stream: above the paper's 0.01 a share of
-    the fragments still changes (more with the quick database than the full one), while
-    on the clouds none does. The paper's *lambda
-    matters little* is a statement about its videos, not a law.
+    the fragments still changes. How large a share depends on the photo and the
+    database: with the quick starter databases far more of the stream's fragments change
+    than of the clouds' (none), with the full ones few of either, the clouds' a few more
+    (section 7's last cell prints both). The paper's *lambda matters little* is a
+    statement about its videos, not a law.
     """,
     right={"more": "sigma", "paper": "b"},
     wrong={"more": "lam", "paper": "b"},
