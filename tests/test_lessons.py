@@ -109,6 +109,17 @@ def test_feedback_reads_as_text_and_as_markdown():
     assert drawing.q4.check("(A)").correct  # letters as written in the options
 
 
+def test_plain_text_keeps_the_comparisons_of_the_maths():
+    # 03_frost's ex4 read "why can no $\\beta  130$ for every ...": the plain text took
+    # "< 0.35$ ... >" for an HTML tag and cut it out.
+    from fluidnb.lessons import frost
+
+    text = str(frost.ex4.check())
+    assert "$\\beta < 0.35$ end at 130" in text
+    assert "> 130$ for every $\\beta < 0.35$" in text
+    assert "<details>" not in str(frost.ex4.solution())
+
+
 def test_a_students_function_that_fails_is_reported_not_raised():
     from fluidnb.lessons import drawing
 

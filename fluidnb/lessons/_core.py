@@ -177,8 +177,13 @@ class Feedback:
 
 
 def _plain(markdown):
-    """Markdown as plain text: no backticks, bold or HTML tags."""
-    text = re.sub(r"<[^>]+>", "", markdown)
+    """Markdown as plain text: no backticks, bold or HTML tags.
+
+    Only real tags go (``<details>``, ``</summary>``: a letter or ``/`` after the ``<``),
+    not the text between a "less than" and a "greater than" of the maths
+    (``$\\beta < 0.35$ ... $T > 130$``).
+    """
+    text = re.sub(r"</?[A-Za-z][^<>]*>", "", markdown)
     return re.sub(r"\*\*|`", "", text)
 
 
