@@ -177,11 +177,11 @@ class Feedback:
 
 
 def _plain(markdown):
-    """Markdown as plain text: no backticks, bold or HTML tags.
+    r"""Markdown as plain text: no backticks, bold or HTML tags.
 
     Only real tags go (``<details>``, ``</summary>``: a letter or ``/`` after the ``<``),
     not the text between a "less than" and a "greater than" of the maths
-    (``$\\beta < 0.35$ ... $T > 130$``).
+    (``$\beta < 0.35$ ... $T > 130$``).
     """
     text = re.sub(r"</?[A-Za-z][^<>]*>", "", markdown)
     return re.sub(r"\*\*|`", "", text)
