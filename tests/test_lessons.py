@@ -172,3 +172,22 @@ def test_no_lesson_needs_a_private_name(notebook):
         code,
     )
     assert not private, f"{notebook} uses private names: {private}"
+
+
+def test_every_ref_name_the_fluid_lesson_asks_for_is_public():
+    # 04's step3 told the student to use `ref.to_y_faces`, which the public
+    # fluidnb.fluid.reference did not export (its check ran the private module, so it
+    # passed): a student got an AttributeError. Every `ref.NAME` in the notebook's text
+    # and code and in the checks' prompts, hints and solutions must exist.
+    from fluidnb.fluid import reference
+    from fluidnb.lessons import fluid
+
+    cells = json.loads((ROOT / "notebooks" / "04_fluid_solver.ipynb").read_text())["cells"]
+    texts = ["".join(c["source"]) for c in cells]
+    for q in questions("fluid"):
+        texts += [q.prompt, q._solution, *q.hints]
+    names = set(re.findall(r"\bref\.(\w+)", "\n".join(texts)))
+    assert "to_y_faces" in names, "the test no longer reads step3"
+    missing = sorted(n for n in names if not hasattr(reference, n))
+    assert missing == [], f"fluidnb.fluid.reference lacks {missing}"
+    assert fluid.step3.right is not None

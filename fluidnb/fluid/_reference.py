@@ -48,6 +48,8 @@ __all__ = [
     "project",
     "sample",
     "step",
+    "to_x_faces",
+    "to_y_faces",
     "vorticity_confinement",
 ]
 
