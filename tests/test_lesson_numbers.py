@@ -1134,7 +1134,7 @@ OWN_MATERIAL = {
             "Worked again from the top in full mode with a stopwatch on 2026-11-28 by the "
             "engineer of issue 40 (an AI agent that knows the library), writing the seven "
             "steps' functions and answering each question before reading its solution: 1.5 "
-            "minutes in all (the cells' own run time 25 s at a load average of 7-8)"
+            "minutes in all (the cells' own run time 25 s at a load average of 7-9)"
         ),
     ],
     "03_frost.ipynb": [
