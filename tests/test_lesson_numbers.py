@@ -1013,6 +1013,29 @@ CLAIMS["08_scene.ipynb"] = [
 ]
 
 
+# 00_overview: the page's one question is answered by fields.advect; the rest names lessons
+# and conventions.
+CLAIMS["00_overview.ipynb"] = [
+    stated("(the video\ndatabase, 07a/07b)", "definition"),
+    stated("(fire on a Stable Fluids flame, 04/05)", "definition"),
+    stated("(frost, 03)", "definition"),
+    stated(
+        "*Time to do this page's question (q1, in the advection section), from the top, in "
+        "full\nmode:* 2 minutes when the engineer of issue 40 (an AI agent that knows the "
+        "library)\nworked it in code on 2026-11-28, with a stopwatch; nearly all of it was "
+        "the cells' own\nrun time, 125 s at a load average of 6-9, which included building "
+        "the smoke and fire\ndatabases into an empty cache (the water one was cached). That "
+        "is a floor: a student\nnew to it, reading the page and watching the gallery, should "
+        "plan on about 10 minutes\n(an estimate).",
+        "timing",
+    ),
+    stated("shape (H, W) or (H, W, 3)", "definition"),
+    constant("cut into 48 x 48 fragments", lambda: [fragment()] * 2),
+    stated("Vector fields are (H, W, 2)", "definition"),
+    stated("quarter pixel, (0, 0.25)", "example"),
+]
+
+
 # Issue 40's measured run times (and 01/02's estimates) in the lessons' headers: timings
 # of this machine, stated, never asserted.
 RUN_TIMES = {

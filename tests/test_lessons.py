@@ -120,6 +120,20 @@ def test_plain_text_keeps_the_comparisons_of_the_maths():
     assert "<details>" not in str(frost.ex4.solution())
 
 
+def test_an_angle_in_degrees_is_named_as_such():
+    # 02's warm2 wants radians; 29.6 (the right angle in degrees) was told only "too large".
+    import numpy as np
+
+    from fluidnb.lessons import flicker
+
+    fb = flicker.warm2.check(float(np.degrees(0.5168)))
+    assert not fb.correct
+    assert "in degrees" in str(fb)
+    assert "radians" in str(fb)
+    assert "in degrees" not in str(flicker.warm2.check(40.0))  # merely too large
+    assert flicker.warm2.check(0.5168).correct
+
+
 def test_a_students_function_that_fails_is_reported_not_raised():
     from fluidnb.lessons import drawing
 

@@ -353,6 +353,11 @@ class Number:
                 return True, ""
             return True, f"the library gives {_fmt(want)}{' ' + self.unit if self.unit else ''}."
         side = "too large" if x > want else "too small"
+        if self.unit == "rad" and abs(x - np.degrees(want)) <= max(
+            1e-9, self.rtol * abs(np.degrees(want))
+        ):
+            # The commonest slip with an angle: the right value, in degrees.
+            return False, f"{_fmt(x)} is the right angle in degrees: the answer is in radians."
         return False, f"{_fmt(x)} is {side}."
 
 

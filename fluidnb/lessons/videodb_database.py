@@ -15,7 +15,7 @@ question      what it asks
 ============  =================================================================
 """
 
-from ._core import Choice, Number, Parts, Question
+from ._core import Choice, Number, Parts, Question, Truth
 
 __all__ = ["ex1", "ex2", "q1", "q2", "q3", "q4", "q5", "warm1", "warm2"]
 
@@ -149,9 +149,15 @@ q4 = Question(
 q5 = Question(
     "q5",
     "How many fragments got their best-looking candidate, rank 1 of $K$ (in the app: click; "
-    "in code: the cell, `a.labels == 0`)? Why would the MRF ever take one that looks worse "
-    "(`why`)? What does a small $K$ take away (`small_k`)?",
+    "in code: the cell, `a.labels == 0`): all of them (`all_rank1`, True or False)? Why "
+    "would the MRF ever take one that looks worse (`why`)? What does a small $K$ take away "
+    "(`small_k`)?",
     Parts(
+        all_rank1=Truth(
+            False,
+            why="the cell prints the share at rank 1: well under 100 % for both K, the MRF "
+            "gives up some looks for neighbours that move alike.",
+        ),
         why=Choice(
             "a",
             {
@@ -173,13 +179,15 @@ q5 = Question(
     ),
     hints=["Eq. (4): V_p plus lambda times W."],
     solution="""
-    Only part of the fragments keep rank 1: the MRF trades a little of $V_p$ for
-    neighbours that move alike ($\\lambda W$). With $K = 10$ the chosen ones rank higher
-    (there is less to choose from), but the MRF has fewer ways to make neighbours agree
-    (the cell prints the coherence for both: on the stream it barely changes).
+    Only a few of the fragments keep rank 1: the MRF trades a little of $V_p$ for
+    neighbours that move alike ($\\lambda W$). With $K = 10$ more of the chosen ones rank
+    1 (there is less to choose from), but the MRF has fewer ways to make neighbours agree:
+    the cell prints the coherence for both, and with the full databases it falls by almost
+    half on the stream (with quick mode's small databases it barely changes: there the
+    few candidates are much the same for both $K$).
     """,
-    right={"why": "a", "small_k": "a"},
-    wrong={"why": "b", "small_k": "a"},
+    right={"all_rank1": False, "why": "a", "small_k": "a"},
+    wrong={"all_rank1": True, "why": "a", "small_k": "a"},
 )
 
 ex1 = Question(
