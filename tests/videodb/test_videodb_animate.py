@@ -213,6 +213,17 @@ def test_the_clip_keeps_the_targets_appearance(anim, photo):
                     assert np.abs(a - b).mean() < 0.06  # 1-D Wasserstein distance
 
 
+def test_an_animation_prints_as_a_summary_not_its_arrays(anim):
+    # A lesson's print(animation) gave thousands of lines of arrays.
+    text = repr(anim)
+    assert len(text.splitlines()) == 1
+    assert len(text) < 600
+    p, k = anim.assignment.candidates.shape
+    assert f"Assignment({p} fragments, K={k}" in text
+    assert repr(anim.clip) in text
+    assert "VideoDatabase(" in text
+
+
 def test_same_seed_same_clip(anim, db, photo):
     params = AnimateParams.from_dict(anim.clip.metadata["params"])
     again = animate(*photo, db, params, seed=5)

@@ -101,6 +101,16 @@ class Assignment:
     field: object = None
     timings: dict = dataclasses.field(default_factory=dict)
 
+    def __repr__(self):
+        # The dataclass's own repr printed every array (thousands of lines in a lesson).
+        p, k = self.candidates.shape
+        energy = self.solution.energy if hasattr(self.solution, "energy") else None
+        return (
+            f"Assignment({p} fragments, K={k}, {len(self.edges)} edges, "
+            + (f"energy {float(energy):.4g}, " if energy is not None else "")
+            + f"{self.db!r})"
+        )
+
     @property
     def labels(self):
         """The chosen label (candidate index) of every target fragment."""

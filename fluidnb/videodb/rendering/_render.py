@@ -82,6 +82,13 @@ class Animation:
     stages: dict
     timings: dict
 
+    def __repr__(self):
+        # The dataclass's own repr printed every stage's array (thousands of lines).
+        return (
+            f"Animation({self.clip!r}, {self.assignment!r}, "
+            f"stages=[{', '.join(self.stages)}], render {self.timings.get('render', 0):.1f} s)"
+        )
+
 
 def render(
     assignment,
