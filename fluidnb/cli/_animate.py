@@ -87,6 +87,15 @@ def register(sub):
         help="what a moving outline uncovers (--tau > 0; default: the photo inpainted)",
     )
     add_max_side_option(p)
+    p.add_argument(
+        "--frames",
+        type=int,
+        default=None,
+        metavar="T",
+        help="the clip's length: whole repeats of the database's loop (N - loop frames, "
+        "24 for the starters; --rendering flow only; default: what --travel needs, "
+        "at most 4 repeats)",
+    )
     add_fps_option(p, 24.0, "frame rate of the output (24)")
     group = add_params_options(p, AnimateParams)
     group.add_argument(
@@ -149,6 +158,7 @@ def _animate(args):
         seed=args.seed,
         progress=report,
         stream=True,
+        frames=args.frames,
     )
     # Streamed: the frames go to the file a run at a time as they are made (a
     # full-size photo's clip is never held: issue 39).

@@ -30,6 +30,7 @@ def animate(
     seed=None,
     progress=None,
     stream=False,
+    frames=None,
 ):
     r"""Animate a still image of fluid from a video database (Okabe et al. 2011).
 
@@ -41,8 +42,9 @@ def animate(
     ----------
     image, matte, db, params, direction, speed
         As for :func:`assign`.
-    background, fps
-        As for :func:`render`.
+    background, fps, frames
+        As for :func:`render` (``frames``: the flow rendering's clip length, whole
+        repeats of the difference frames' loop).
     seed : None, int or numpy.random.Generator
         Nothing here is random; the int :func:`fluidnb.resolve_seed` makes of it is
         recorded in the clip's metadata, as every method does.
@@ -72,5 +74,12 @@ def animate(
         # A file needs no re-solve: the smoothness tables (3 x E x K x K float64, a
         # gigabyte at 1920 px) are let go before the frames are made.
         assignment = dataclasses.replace(assignment, tables=None)
-    result = render(assignment, background=background, fps=fps, progress=second, stream=stream)
+    result = render(
+        assignment,
+        background=background,
+        fps=fps,
+        progress=second,
+        stream=stream,
+        frames=frames,
+    )
     return dataclasses.replace(result, clip=result.clip.with_metadata(seed=seed))

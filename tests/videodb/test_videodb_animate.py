@@ -404,6 +404,30 @@ def test_an_rgba_cutout_uses_its_alpha():
     assert (t.image[rgba[..., 3] == 0] == 0).all()  # premultiplied: no junk colour
 
 
+def test_a_clip_length_asked_for_is_whole_repeats_of_the_loop(db, photo):
+    # frames= (the command line's --frames): the flow rendering makes that many frames
+    # (three repeats of the N - loop = 6 frames here), its first frame the photo's
+    # own where the motion is still and the clip still changing inside the matte.
+    img, matte = photo
+    a = assign(img, matte, db, FEW.replace(loop=2))
+    anim = render(a, frames=18, stages=False)
+    frames = anim.clip.frames
+    assert len(frames) == 18
+    change = np.abs(frames - img[None]).max(axis=(0, 3))
+    assert (change[matte == 0] == 0).all()
+    assert np.abs(np.diff(frames, axis=0)).mean(axis=(0, 3))[matte > 0.99].mean() > 1e-3
+    # The same frames streamed (what the command line writes).
+    streamed = render(a, frames=18, stream=True)
+    assert len(streamed.clip) == 18
+    np.testing.assert_array_equal(np.stack(list(streamed.clip.frames())), frames)
+    with pytest.raises(ValueError, match="frames must be a multiple of 6"):
+        render(a, frames=20)
+    paper = assign(img, matte, db, FEW.replace(loop=2, rendering="paper"))
+    with pytest.raises(ValueError, match=r"frames must be 6 \(one loop\)"):
+        render(paper, frames=12)
+    assert len(render(paper, frames=6, stages=False).clip) == 6
+
+
 def test_bad_inputs_give_clear_errors(db, photo, tmp_path):
     img, matte = photo
     with pytest.raises(ValueError, match="matte is empty"):

@@ -288,10 +288,9 @@ def _blend(d, pos, shape, m, levels, feather, plan=None):
     def bands(index):
         """One phase layer's Laplacian bands L_l(X), each weighted by G_l(W)."""
         layer = fill.copy()
-        for k in plan.layers[index]:
-            r, c = pos[k]
-            (rs, cs), (wr, wc) = _window(r, c, m, plan.tile, shape)
-            layer[rs, cs] = d[k, wr, wc]
+        # Each fragment's window pasted in (_window's slices, compiled: at 1920 px a
+        # run of two frames pasted 5,000 windows through Python, 60 ms a frame).
+        _paste_windows(layer, d, plan.positions, plan.layers[index], m, plan.tile)
         # The pyramids' float32 kernels themselves: the inputs are this function's.
         weighted = _laplacian32(layer, levels)
         for band, g in zip(weighted, plan.weights[index]):
@@ -326,6 +325,7 @@ class _BlendPlan:
 
     def __init__(self, pos, shape, m, levels, feather):
         raw = _raw_weights(feather).astype(np.float32)
+        self.positions = np.ascontiguousarray(pos, np.int64)
         self.layers = _layers(pos)
         self.tile = FRAGMENT + 2 * min(m, MARGIN)
         self.fill_den = _fill_weights(pos, m, shape)
@@ -341,6 +341,24 @@ class _BlendPlan:
                 s += g
         self.weight_sums = sums
         self.covered = _weight_sum(pos, shape, np.ones((FRAGMENT, FRAGMENT))) > 0
+
+
+@njit(cache=True, nogil=True)
+def _paste_windows(layer, d, pos, members, m, tile):
+    """``layer[rs, cs] = d[k, wr, wc]`` for each fragment ``k`` of ``members`` (in order).
+
+    The slices of :func:`_window` (the core grown to ``tile`` pixels, cut to the
+    canvas; the data's own window): a plain copy, as the numpy loop makes it.
+    """
+    grow = (tile - FRAGMENT) // 2
+    height, width = layer.shape[:2]
+    for k in members:
+        r = pos[k, 0]
+        c = pos[k, 1]
+        r0, r1 = max(r - grow, 0), min(r + FRAGMENT + grow, height)
+        c0, c1 = max(c - grow, 0), min(c + FRAGMENT + grow, width)
+        for i in range(r0, r1):
+            layer[i, c0:c1] = d[k, i - r + m, c0 - c + m : c1 - c + m]
 
 
 @njit(cache=True, nogil=True)

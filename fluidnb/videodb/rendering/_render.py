@@ -24,7 +24,7 @@ from ..._clip import Clip
 from ..._image import as_image
 from ..._progress import Progress
 from ..._stream import FrameStream
-from ..._validation import check_fps, check_shape_match
+from ..._validation import check_fps, check_int, check_shape_match
 from .._common._geometry import FRAGMENT
 from ..assignment._assign import Assignment, _check_params
 from ..database._frames import rebuild_fragments
@@ -100,6 +100,7 @@ def render(
     on_frames=None,
     stages=True,
     stream=False,
+    frames=None,
 ):
     r"""Render the animation of an assignment (Okabe et al., sec. 6, or beyond it).
 
@@ -174,6 +175,12 @@ def render(
         share is done here; each pass over the stream (``clip.save(path)``) makes
         the frames. No stages are kept (``stages`` must be False or left as is),
         and ``timings`` is complete once a pass has made every frame.
+    frames : int, optional
+        The flow rendering's clip length: a whole number of repeats of the
+        difference frames' loop (``N - loop`` frames; ``N`` without a loop, then
+        only that). Default: as many repeats (at most :data:`MAX_REPEATS`) as the
+        ``travel`` needs (:func:`flow_timing`). The paper's rendering is one loop long
+        and takes no other length.
 
     Returns
     -------
@@ -199,6 +206,13 @@ def render(
             "its frames to whatever it is saved to"
         )
     stages = stages and not stream
+    if frames is not None and params.rendering != "flow":
+        natural = n - params.loop if params.loop else n
+        if check_int("frames", frames, 1) != natural:
+            raise ValueError(
+                f"frames must be {natural} (one loop) for the paper's rendering, got "
+                f"{frames}; the flow rendering (rendering='flow') repeats the loop"
+            )
     report = Progress(progress)
     rebuild, setup, making = report.split(0.3, 0.35)
     clock = dict.fromkeys(("rebuild", "blend"), 0.0)
@@ -207,7 +221,14 @@ def render(
     # The flow rendering's motion field and timing, and its displacement maps: they
     # do not need the fragments' frames, so they are made on threads of their own
     # while the frames are rebuilt and blended.
-    flow = _Later(_flow_work, assignment, params, n) if params.rendering == "flow" else None
+    flow = None
+    if params.rendering == "flow":
+        # Checked here (a wrong length raises before any work), made on a thread.
+        length = n - params.loop if params.loop else n
+        if frames is not None:
+            flow_timing(np.zeros((1, 1, 2), np.float32), np.ones((1, 1)), length,
+                        travel=params.travel, repeats=params.loop > 0, frames=frames)  # fmt: skip
+        flow = _Later(_flow_work, assignment, params, n, frames)
     rebuild(0.0, f"rebuilding {len(target)} fragments from their source clips")
     ids = assignment.fragments
     # Each fragment's D_i = F_i - A, with ``loop`` made a loop of its own (its end
@@ -429,7 +450,7 @@ def _animation(assignment, clip, stages, timings, desync):
     return Animation(clip=clip, assignment=assignment, stages=stages, timings=timings)
 
 
-def _flow_plan(assignment, params, n):
+def _flow_plan(assignment, params, n, frames=None):
     """The flow rendering's field, clip length, cycle and per-fragment playback rates.
 
     The difference frames of a fragment play faster (or slower) by the factor its
@@ -441,7 +462,12 @@ def _flow_plan(assignment, params, n):
     target = assignment.target
     length = n - params.loop if params.loop else n
     n_frames, cycle = flow_timing(
-        velocity, target.canvas_matte, length, travel=params.travel, repeats=params.loop > 0
+        velocity,
+        target.canvas_matte,
+        length,
+        travel=params.travel,
+        repeats=params.loop > 0,
+        frames=frames,
     )
     repeats = n_frames // length
     own = np.linalg.norm(assignment.db.mean_motion[assignment.fragments], axis=1)
@@ -452,18 +478,18 @@ def _flow_plan(assignment, params, n):
     return {"velocity": velocity, "n_frames": n_frames, "cycle": cycle, "rates": rates}
 
 
-def _flow_work(assignment, params, n):
+def _flow_work(assignment, params, n, frames=None):
     """:func:`_flow_plan` with its displacement maps (made on a thread: ``plan["maps"]``).
 
     Kept for the next render of the same assignment with the same loop and travel
     (the last such only: the maps take ~150 MB at the app's size).
     """
-    key = (params.loop, params.travel, STAGGER)
+    key = (params.loop, params.travel, STAGGER, frames)
     with _SHARED_LOCK:
         last = _SHARED.setdefault(assignment.target, {}).get("flow")
     if last is not None and last[0]() is assignment and last[1] == key:
         return last[2]
-    plan = _flow_plan(assignment, params, n)
+    plan = _flow_plan(assignment, params, n, frames)
     shape = assignment.target.canvas.shape[:2]
     # Each pixel's cycle offset (phase_offsets), on a grid that grows with the travel:
     # the offsets' gradient shears the phases by the travel over the grid's spacing.

@@ -232,6 +232,24 @@ def test_the_timing_fits_the_travel_in_whole_repeats():
     assert flow_timing(np.zeros((10, 10, 2)), ones, 24, travel=16) == (24, 24.0)
 
 
+def test_the_timing_takes_a_length_asked_for_in_whole_repeats():
+    v = np.zeros((10, 10, 2))
+    ones = np.ones((10, 10))
+    v[..., 1] = 3.0  # a cycle of 2 * 16 / 3 = 10.7 frames wanted: one repeat of 24, two cycles
+    assert flow_timing(v, ones, 24, travel=16) == (24, 12.0)
+    total, cycle = flow_timing(v, ones, 24, travel=16, frames=96)  # beyond MAX_REPEATS
+    assert (total, cycle) == (96, 96 / 9)  # the most whole cycles at least 32/3 long
+    v[..., 1] = 0.25  # slow: one cycle of 128 frames wanted, 48 asked for
+    assert flow_timing(v, ones, 24, travel=16, frames=48) == (48, 48.0)
+    assert flow_timing(np.zeros((10, 10, 2)), ones, 24, travel=16, frames=72) == (72, 72.0)
+    with pytest.raises(ValueError, match="frames must be a multiple of 24"):
+        flow_timing(v, ones, 24, travel=16, frames=60)
+    with pytest.raises(ValueError, match="frames must be 24"):
+        flow_timing(v, ones, 24, travel=16, repeats=False, frames=48)
+    with pytest.raises(ValueError, match="frames"):
+        flow_timing(v, ones, 24, travel=16, frames=12)
+
+
 # ------------------------------------------------------------------- the rendering
 
 
