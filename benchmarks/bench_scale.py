@@ -48,7 +48,7 @@ METHODS = ("flicker", "frost", "fire", "animate")
 SIZES = (480, 960, 1920)
 #: (seconds, GB) the issue asks of each method at 1920 px on a quiet 2-core machine.
 GOALS = {"flicker": (8.0, 2.0), "frost": (None, 3.0), "fire": (None, 3.0), "animate": (45.0, 3.0)}
-_MAIN = "import sys; from fluidnb.cli import main; sys.exit(main(sys.argv[1:]))"
+_MAIN = "import sys; from fluidnb.cli import main; sys.exit(main())"
 
 
 def _save(folder, name, image):
