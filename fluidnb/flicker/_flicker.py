@@ -31,7 +31,9 @@ from __future__ import annotations
 
 import math
 import os
+import queue
 import sys
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 
@@ -133,6 +135,12 @@ def _basis_symmetric(alpha, index, bins, step):
     inverse DFT is done as its two 1-D passes: a bin is an annulus of spatial
     frequencies, so the first pass (along y) only needs the columns the annulus
     crosses, about half of them on average.
+
+    The bins are shared out among ``_THREADS`` threads, each doing whole bins with
+    single-threaded transforms: besides the transforms, a bin is a few passes of
+    numpy (selecting it, zeroing, copying its rows) that one thread did while the
+    other core waited (at 1920 px 1.2 s before the first frame; issue 39). A bin's
+    rows do not depend on which thread makes them.
     """
     import scipy.fft
 
@@ -144,17 +152,41 @@ def _basis_symmetric(alpha, index, bins, step):
     inverse = lookup[index[:, : w // 2 + 1]]
     k = len(bins)
     basis = np.empty((2 * k, h * w), np.float32)
-    work = np.empty((2, h, w // 2 + 1), np.complex64)
-    for i in range(k):
-        step(i, k)
-        select = inverse == i
-        cols = np.flatnonzero(select.any(axis=0))
-        c0, c1 = int(cols[0]), int(cols[-1]) + 1
-        work.fill(0)
-        work[:, :, c0:c1] = scipy.fft.ifft(
-            half[:, :, c0:c1] * select[:, c0:c1], axis=-2, workers=-1
-        )
-        basis[2 * i : 2 * i + 2] = scipy.fft.irfft(work, n=w, axis=-1, workers=-1).reshape(2, h * w)
+    done = queue.SimpleQueue()
+    stop = threading.Event()
+
+    def bins_of(first, every):
+        work = np.empty((2, h, w // 2 + 1), np.complex64)
+        try:
+            for i in range(first, k, every):
+                if stop.is_set():
+                    return
+                select = inverse == i
+                cols = np.flatnonzero(select.any(axis=0))
+                c0, c1 = int(cols[0]), int(cols[-1]) + 1
+                work.fill(0)
+                work[:, :, c0:c1] = scipy.fft.ifft(half[:, :, c0:c1] * select[:, c0:c1], axis=-2)
+                rows = scipy.fft.irfft(work, n=w, axis=-1)
+                basis[2 * i : 2 * i + 2] = rows.reshape(2, h * w)
+                done.put(True)  # a bin made
+        finally:
+            done.put(False)  # this thread has ended (or failed)
+
+    threads = min(_THREADS, k)
+    with ThreadPoolExecutor(threads, thread_name_prefix="fluidnb-flicker") as pool:
+        running = [pool.submit(bins_of, j, threads) for j in range(threads)]
+        made = ended = 0
+        try:
+            while ended < threads:
+                if done.get():
+                    step(made, k)
+                    made += 1
+                else:
+                    ended += 1
+        finally:
+            stop.set()  # a cancelled progress (or a failed thread): the others stop
+        for f in running:
+            f.result()
     return basis
 
 
