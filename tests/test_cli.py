@@ -148,3 +148,19 @@ def _commands(parser):
 
     (action,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
     return list(action.choices)
+
+
+@pytest.mark.parametrize(("setting", "advice"), [(None, "False"), ("1", "True")])
+def test_the_command_turns_numpys_huge_page_advice_off_unless_the_user_set_it(setting, advice):
+    import os
+
+    code = (
+        "import sys; from numpy._core import multiarray as m; from fluidnb.cli import main; "
+        "sys.argv = ['fluidnb']; main(); print(m._set_madvise_hugepage(True))"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "NUMPY_MADVISE_HUGEPAGE"}
+    if setting is not None:
+        env["NUMPY_MADVISE_HUGEPAGE"] = setting
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split()[-1] == advice
