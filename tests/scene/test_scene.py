@@ -379,3 +379,20 @@ def test_a_streamed_scene_writes_the_frames_of_the_clip(tmp_path, photo, regions
     ]
     # A second pass makes the same frames again.
     assert np.array_equal(stream.clip().frames, clip.frames)
+
+
+def test_the_default_frost_is_the_same_lattice_at_any_size():
+    # A 3-px lattice is for a 480-px scene; at 1920 px it had 16 times the cells and
+    # the default target of 96 frames could not be reached ("target must be >= 106
+    # frames"). Scaled with the scene, the growth lasts about its target (96 frames;
+    # gamma is fitted to it) at both sizes.
+    from fluidnb.scene import run_layer
+
+    lengths = []
+    for w in (480, 1920):
+        h = w * 9 // 16
+        yy, xx = np.mgrid[0:h, 0:w]
+        corner = (yy / (0.45 * h)) ** 2 + (xx / (0.30 * w)) ** 2 < 1
+        photo = np.full((h, w, 3), 0.4, np.float32)
+        lengths.append(len(run_layer(Layer("frost", corner, seed=1), photo, stream=True)))
+    assert all(0.8 * 96 <= n <= 1.2 * 96 for n in lengths), lengths
