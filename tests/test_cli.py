@@ -110,3 +110,57 @@ def test_parser_routes_commands_to_their_handlers(capsys):
         main(["no-such-command"])
     assert exc.value.code == 2
     assert "invalid choice" in capsys.readouterr().err
+
+
+def test_each_command_module_registers_the_names_listed():
+    # main() registers only the command it runs (start-up, issue 39): the table it
+    # looks the command up in must say what each module registers.
+    import argparse
+    import importlib
+
+    from fluidnb.cli._main import _COMMANDS
+
+    for module, names in _COMMANDS.items():
+        parser = argparse.ArgumentParser()
+        sub = parser.add_subparsers()
+        importlib.import_module(module).register(sub)
+        assert tuple(sub.choices) == names, module
+
+
+def test_a_parser_of_one_command_parses_as_the_full_one():
+    argv = ["--debug", "flicker", "in.png", "--mapping", "plane", "--seed", "3", "-o", "o.mp4"]
+    one, full = build_parser(argv), build_parser()
+    assert set(_commands(one)) == {"flicker"}
+    assert len(_commands(full)) > 5
+    parsed = [vars(p.parse_args(argv)) for p in (one, full)]
+    for args in parsed:  # actions of two parsers: compare what they check
+        args["path_options"] = [(a.dest, a.option_strings) for a in args["path_options"]]
+    assert parsed[0] == parsed[1]
+    assert parsed[0]["mapping"] == "plane"
+    assert parsed[0]["seed"] == 3
+    # No command, an unknown one, or help alone: every command is listed.
+    for argv in ([], ["--help"], ["nosuch"]):
+        assert set(_commands(build_parser(argv))) == set(_commands(full))
+
+
+def _commands(parser):
+    import argparse
+
+    (action,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    return list(action.choices)
+
+
+@pytest.mark.parametrize(("setting", "advice"), [(None, "False"), ("1", "True")])
+def test_the_command_turns_numpys_huge_page_advice_off_unless_the_user_set_it(setting, advice):
+    import os
+
+    code = (
+        "import sys; from numpy._core import multiarray as m; from fluidnb.cli import main; "
+        "sys.argv = ['fluidnb']; main(); print(m._set_madvise_hugepage(True))"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "NUMPY_MADVISE_HUGEPAGE"}
+    if setting is not None:
+        env["NUMPY_MADVISE_HUGEPAGE"] = setting
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split()[-1] == advice

@@ -117,7 +117,9 @@ def _scene(args):
         if args.strokes and args.water is None:
             raise ValueError("--strokes draws the water's flow: give --water too")
     print(f"{scene}; rendering each layer with its method…")
-    clip = render(scene, progress=TextProgress())
+    # Streamed: each layer's frames are made as the scene's are composited and written,
+    # so a full-size photo needs a few frames of each layer, not their clips.
+    clip = render(scene, stream=True, progress=TextProgress())
     if args.save_scene:
         print(f"saved the scene to {save_scene(scene, args.save_scene)}")
     out = clip.save(args.output)

@@ -31,7 +31,9 @@ from __future__ import annotations
 
 import math
 import os
+import queue
 import sys
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 
@@ -46,7 +48,6 @@ from .._stream import FrameStream, timed
 from .._threads import blas_single_threaded
 from .._validation import check_int, check_range
 from ._flow import as_velocity
-from ._kernels import shade_relight, soft_heights
 from ._params import FlickerParams
 from ._shading import _lambert_frame, _Relight, _Work, feather_weights, light_vector
 from ._spectrum import (
@@ -67,6 +68,53 @@ _THREADS = max(1, min(4, os.cpu_count() or 1))  # threads for the per-pixel shad
 _BINS_PER_REPORT = 4  # inverse DFTs per progress report
 _KNEE = 0.7  # where the soft clip of the RMS-normalised noise starts bending (units of A)
 _RMS_SAMPLES = 1 << 16  # pixels the RMS normalisation averages over, at most
+
+
+class _Compiled:
+    """The compiled kernels (:mod:`._kernels`), loaded on a thread of their own.
+
+    Importing numba and loading the kernels from its cache is ~0.5 s of CPU, nearly
+    all of it Python (holding the GIL); building a model is mostly numpy and FFTs
+    (which release it). :meth:`start` (called as a model starts, and by the command
+    line before it reads the photo) loads them beside that work, and calling the
+    object waits for them where a frame first needs them (issue 39). Importing
+    :mod:`fluidnb.flicker` no longer imports numba.
+    """
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self._thread = None
+        self._kernels = None
+        self._error = None
+
+    def start(self):
+        """Start loading the kernels (once; later calls do nothing)."""
+        with self._lock:
+            if self._thread is None:
+                self._thread = threading.Thread(
+                    target=self._load, name="fluidnb-numba", daemon=True
+                )
+                self._thread.start()
+
+    def _load(self):
+        try:
+            from . import _kernels
+
+            _kernels.warm_up()
+            self._kernels = _kernels
+        except BaseException as exc:  # raised where the kernels are asked for
+            self._error = exc
+
+    def __call__(self):
+        """The :mod:`._kernels` module, once loaded."""
+        self.start()
+        self._thread.join()
+        if self._error is not None:
+            raise RuntimeError("flicker's compiled kernels could not be loaded") from self._error
+        return self._kernels
+
+
+_COMPILED = _Compiled()
 
 
 def _check_params(params):
@@ -133,6 +181,12 @@ def _basis_symmetric(alpha, index, bins, step):
     inverse DFT is done as its two 1-D passes: a bin is an annulus of spatial
     frequencies, so the first pass (along y) only needs the columns the annulus
     crosses, about half of them on average.
+
+    The bins are shared out among ``_THREADS`` threads, each doing whole bins with
+    single-threaded transforms: besides the transforms, a bin is a few passes of
+    numpy (selecting it, zeroing, copying its rows) that one thread did while the
+    other core waited (at 1920 px 1.2 s before the first frame; issue 39). A bin's
+    rows do not depend on which thread makes them.
     """
     import scipy.fft
 
@@ -144,17 +198,41 @@ def _basis_symmetric(alpha, index, bins, step):
     inverse = lookup[index[:, : w // 2 + 1]]
     k = len(bins)
     basis = np.empty((2 * k, h * w), np.float32)
-    work = np.empty((2, h, w // 2 + 1), np.complex64)
-    for i in range(k):
-        step(i, k)
-        select = inverse == i
-        cols = np.flatnonzero(select.any(axis=0))
-        c0, c1 = int(cols[0]), int(cols[-1]) + 1
-        work.fill(0)
-        work[:, :, c0:c1] = scipy.fft.ifft(
-            half[:, :, c0:c1] * select[:, c0:c1], axis=-2, workers=-1
-        )
-        basis[2 * i : 2 * i + 2] = scipy.fft.irfft(work, n=w, axis=-1, workers=-1).reshape(2, h * w)
+    done = queue.SimpleQueue()
+    stop = threading.Event()
+
+    def bins_of(first, every):
+        work = np.empty((2, h, w // 2 + 1), np.complex64)
+        try:
+            for i in range(first, k, every):
+                if stop.is_set():
+                    return
+                select = inverse == i
+                cols = np.flatnonzero(select.any(axis=0))
+                c0, c1 = int(cols[0]), int(cols[-1]) + 1
+                work.fill(0)
+                work[:, :, c0:c1] = scipy.fft.ifft(half[:, :, c0:c1] * select[:, c0:c1], axis=-2)
+                rows = scipy.fft.irfft(work, n=w, axis=-1)
+                basis[2 * i : 2 * i + 2] = rows.reshape(2, h * w)
+                done.put(True)  # a bin made
+        finally:
+            done.put(False)  # this thread has ended (or failed)
+
+    threads = min(_THREADS, k)
+    with ThreadPoolExecutor(threads, thread_name_prefix="fluidnb-flicker") as pool:
+        running = [pool.submit(bins_of, j, threads) for j in range(threads)]
+        made = ended = 0
+        try:
+            while ended < threads:
+                if done.get():
+                    step(made, k)
+                    made += 1
+                else:
+                    ended += 1
+        finally:
+            stop.set()  # a cancelled progress (or a failed thread): the others stop
+        for f in running:
+            f.result()
     return basis
 
 
@@ -247,6 +325,7 @@ class _Scene:
         """
         relight = self.relighter
         light = self.light.astype(np.float32)
+        shade_relight = _COMPILED().shade_relight
         for i in range(slopes.shape[0]):
             frame = out[i] if out.ndim == 4 else out[i][..., None]
             shade_relight(
@@ -408,6 +487,7 @@ class FlickerModel:
     def __init__(
         self, image, mask=None, params=None, *, flow=None, seed=None, pixel_size=1.0, progress=None
     ):
+        _COMPILED.start()  # numba loads while the model is built
         report = Progress(progress)
         params = _check_params(params)
         self.velocity = _check_flow(flow, params)
@@ -527,7 +607,7 @@ class FlickerModel:
         # ratio of RMS the normalisation is in units of A already.)
         # (row *= scale; soft_clip(row, _KNEE, out=row); row *= A, compiled: one pass.)
         scale, A = np.float32(1.0 / (p.A * self.normalisation)), np.float32(p.A)
-        soft_heights(rows, scale, np.float32(_KNEE), A)
+        _COMPILED().soft_heights(rows, scale, np.float32(_KNEE), A)
         return rows
 
     def _peak(self, inside):

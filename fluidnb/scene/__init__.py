@@ -11,10 +11,17 @@ light. Outside every region each frame is the photo. :func:`save_scene` and
 :func:`load_scene` keep a scene in a folder (JSON and PNG masks).
 """
 
-from ._composite import composite, frame_index, timeline
+from ._composite import composite, composite_pictures, frame_index, timeline
 from ._file import SCENE_VERSION, load_scene, save_scene
 from ._layer import KINDS, Layer
-from ._methods import LayerClip, default_params, innermost_point, run_layer, seamless_loop
+from ._methods import (
+    LayerClip,
+    LayerStream,
+    default_params,
+    innermost_point,
+    run_layer,
+    seamless_loop,
+)
 from ._scene import Scene, render
 
 __all__ = [
@@ -22,8 +29,10 @@ __all__ = [
     "SCENE_VERSION",
     "Layer",
     "LayerClip",
+    "LayerStream",
     "Scene",
     "composite",
+    "composite_pictures",
     "default_params",
     "frame_index",
     "innermost_point",

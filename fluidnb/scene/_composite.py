@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-__all__ = ["composite", "frame_index", "timeline"]
+__all__ = ["composite", "composite_pictures", "frame_index", "timeline"]
 
 
 def timeline(layers, fps, duration=None):
@@ -56,11 +56,19 @@ def frame_index(t, fps, layer):
 
 def composite(photo, layers, blends, indices, t):
     """Scene frame ``t``: the photo, then every layer in order (module docstring)."""
+    pictures = [layer.picture(int(index[t])) for layer, index in zip(layers, indices)]
+    return composite_pictures(photo, pictures, blends)
+
+
+def composite_pictures(photo, pictures, blends):
+    """One scene frame from each layer's ``(colour, alpha)`` at that moment, in order.
+
+    What :func:`composite` does with the layers' frames at ``t``; a streamed scene
+    (``render(..., stream=True)``) calls it with frames made as they are needed, so
+    both give the same frames.
+    """
     out = np.array(photo, np.float32, copy=True)
-    for layer, blend, index in zip(layers, blends, indices):
-        k = int(index[t])
-        colour = layer.colour[k]
-        alpha = layer.alpha[k] if layer.alpha.ndim == 3 else layer.alpha
+    for (colour, alpha), blend in zip(pictures, blends):
         a = alpha[..., None]
         if blend == "replace":
             out += a * (colour - out)

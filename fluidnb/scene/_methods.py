@@ -15,12 +15,21 @@ from scipy import ndimage as ndi
 
 from .._clip import Clip
 
-__all__ = ["LayerClip", "default_params", "innermost_point", "run_layer", "seamless_loop"]
+__all__ = [
+    "LayerClip",
+    "LayerStream",
+    "default_params",
+    "innermost_point",
+    "run_layer",
+    "seamless_loop",
+]
 
 #: Seconds of fire a fire layer simulates (its loop, before the cross-fade).
 FIRE_SECONDS = 4.0
 #: Seconds over which a clip that does not loop by itself is cross-faded into its start.
 LOOP_SECONDS = 0.5
+#: The scene size the default parameters are chosen for (frost's lattice spacing).
+DEFAULT_SIZE = 480
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,6 +66,61 @@ class LayerClip:
         """Seconds the layer lasts (one loop, or its growth)."""
         return len(self) / self.fps
 
+    def picture(self, k):
+        """Its frame ``k`` to composite: ``(colour (H, W, 3), alpha (H, W))``."""
+        return self.colour[k], self.alpha[k] if self.alpha.ndim == 3 else self.alpha
+
+
+class LayerStream:
+    """One layer's animation made in order as it is composited (a streamed scene).
+
+    What :class:`LayerClip` holds, made a frame at a time from its method's stream,
+    so a scene of a full-size photo holds a few frames of each layer, not its clip
+    (``render(scene, stream=True)``; docs/conventions.md, "Streams"). The frames are
+    those of the layer's clip.
+
+    Parameters
+    ----------
+    n_frames : int
+    fps : float
+    loops : bool
+    pictures : callable
+        ``pictures()`` returns an iterator over ``(colour, alpha)`` of each frame in
+        order (one pass of the method's stream).
+    """
+
+    def __init__(self, n_frames, fps, loops, pictures):
+        self.n_frames = int(n_frames)
+        self.fps = float(fps)
+        self.loops = bool(loops)
+        self._pictures = pictures
+        self.restart()
+
+    def __len__(self):
+        return self.n_frames
+
+    @property
+    def duration(self):
+        """Seconds the layer lasts (one loop, or its growth)."""
+        return self.n_frames / self.fps
+
+    def restart(self):
+        """Start the next :meth:`picture` from a new pass (a scene's pass starts so)."""
+        self._frames, self._k, self._value = None, -1, None
+
+    def picture(self, k):
+        """Frame ``k``: onwards from the last one asked for, or a new pass if earlier.
+
+        A scene asks for its layers' frames in order, a loop starting again at 0, so
+        each frame is made once per time it is shown in a new place of the loop.
+        """
+        if self._frames is None or k < self._k:
+            self._frames, self._k = iter(self._pictures()), -1
+        while self._k < k:
+            self._value = next(self._frames)
+            self._k += 1
+        return self._value
+
 
 def default_params(kind):
     """The parameters a layer of ``kind`` gets when it has none: chosen to look good.
@@ -65,7 +129,8 @@ def default_params(kind):
     ``flicker``: the paper's (:class:`FlickerParams`) at 24 fps over 96 frames (4 s,
     as long as the other loops); ``fire``: :class:`FireParams` (256 px, 24 fps);
     ``frost``: :class:`FrostParams` with the target at 96 frames (4 s at 24 fps) and a
-    3-pixel lattice; its gamma is then fitted to the region (:func:`run_layer`).
+    3-pixel lattice; :func:`run_layer` then scales the lattice with a scene larger
+    than 480 px (the same cells at any size) and fits its gamma to the region.
     """
     if kind in ("water", "clouds"):
         from ..videodb import AnimateParams
@@ -111,7 +176,7 @@ def _reach(region, margin):
     return np.clip(np.maximum(soft, region), 0, 1).astype(np.float32)
 
 
-def run_layer(layer, photo, *, quick=False, progress=None):
+def run_layer(layer, photo, *, quick=False, progress=None, stream=False):
     """Animate one layer on ``photo`` with its method; returns a :class:`LayerClip`.
 
     Parameters
@@ -123,6 +188,10 @@ def run_layer(layer, photo, *, quick=False, progress=None):
         The small starter databases (tests, CI).
     progress : callable, optional
         ``progress(fraction, message)``; raise :class:`fluidnb.Cancelled` to stop.
+    stream : bool
+        A :class:`LayerStream` instead: what can be made before the frames (a
+        video database's assignment, frost's growth, the fire at its own size) is
+        made now, the frames at the photo's size as they are composited.
     """
     params = layer.params if layer.params is not None else default_params(layer.kind)
     run = {
@@ -132,10 +201,16 @@ def run_layer(layer, photo, *, quick=False, progress=None):
         "fire": _fire,
         "frost": _frost,
     }[layer.kind]
-    return run(layer, photo, params, quick, progress)
+    return run(layer, photo, params, quick, progress, stream)
 
 
-def _videodb(layer, photo, params, quick, progress):
+def _frames_of(stream):
+    """A method's stream as ``(colour, alpha)`` pictures need it: RGB frames, in order."""
+    for frame in stream.frames():
+        yield frame if frame.ndim == 3 else np.repeat(frame[..., None], 3, axis=-1)
+
+
+def _videodb(layer, photo, params, quick, progress, stream=False):
     from ..videodb import animate, starter_database
 
     db = starter_database("water" if layer.kind == "water" else "smoke", quick=quick)
@@ -147,21 +222,33 @@ def _videodb(layer, photo, params, quick, progress):
         direction=list(layer.strokes) or None,
         speed=layer.speed,
         progress=progress,
+        stream=stream,
     )
     clip = anim.clip
     margin = max(2, round(max(photo.shape[:2]) / 24))
-    return LayerClip(_rgb(clip), _reach(layer.region, margin), clip.fps, True, clip)
+    reach = _reach(layer.region, margin)
+    if stream:
+        return LayerStream(
+            len(clip), clip.fps, True, lambda: ((f, reach) for f in _frames_of(clip))
+        )
+    return LayerClip(_rgb(clip), reach, clip.fps, True, clip)
 
 
-def _flicker(layer, photo, params, quick, progress):
+def _flicker(layer, photo, params, quick, progress, stream=False):
     from ..flicker import flicker
 
-    clip = flicker(photo, layer.region > 0.5, params, seed=layer.seed, progress=progress)
+    mask = layer.region > 0.5
+    clip = flicker(photo, mask, params, seed=layer.seed, progress=progress, stream=stream)
     # Outside its mask every frame is the photo: the mask itself is the reach.
-    return LayerClip(_rgb(clip), (layer.region > 0.5).astype(np.float32), clip.fps, True, clip)
+    reach = mask.astype(np.float32)
+    if stream:
+        return LayerStream(
+            len(clip), clip.fps, True, lambda: ((f, reach) for f in _frames_of(clip))
+        )
+    return LayerClip(_rgb(clip), reach, clip.fps, True, clip)
 
 
-def _fire(layer, photo, params, quick, progress):
+def _fire(layer, photo, params, quick, progress, stream=False):
     from ..data import sample
     from ..fire import SIMULATION_FPS, fire
 
@@ -171,14 +258,22 @@ def _fire(layer, photo, params, quick, progress):
     result = fire(exemplar, None, params, matte=matte, n_frames=n_sim, seed=layer.seed,
                   progress=progress)  # fmt: skip
     clip = result.clip
+    # The fire's own frames are small (its keyframes' size): held, and each placed in
+    # the region at the photo's size as it is needed (a stream) or all at once.
     frames = seamless_loop(_rgb(clip), max(1, round(LOOP_SECONDS * clip.fps)))
-    light = _place(frames, layer.region)
+    place = _Placement(frames, layer.region)
     # Its own region at full strength, and a faint glow a little beyond it.
     rows, cols = np.nonzero(layer.region > 0.5)
     extent = max(rows.max() - rows.min(), cols.max() - cols.min()) + 1
     glow = ndi.gaussian_filter(layer.region, max(1.0, extent / 6))
     reach = np.clip(np.maximum(layer.region, 0.35 * glow / max(glow.max(), 1e-6)), 0, 1)
-    return LayerClip(light, reach.astype(np.float32), clip.fps, True, clip)
+    reach = reach.astype(np.float32)
+    if stream:
+        return LayerStream(
+            len(frames), clip.fps, True, lambda: ((place(i), reach) for i in range(len(frames)))
+        )
+    light = np.stack([place(i) for i in range(len(frames))])
+    return LayerClip(light, reach, clip.fps, True, clip)
 
 
 def seamless_loop(frames, k):
@@ -204,35 +299,46 @@ def seamless_loop(frames, k):
     return out
 
 
-def _place(frames, region):
+class _Placement:
     """Fire frames (T, s, s, 3) on black scaled into ``region``'s bounding box.
 
     The flame's own extent (where any frame is bright) is stretched to the box, its
-    base on the box's bottom: a flame fills the region painted for it.
+    base on the box's bottom: a flame fills the region painted for it. Called with a
+    frame's index, returns that frame placed, (H, W, 3) float32.
     """
-    from ..fields import resize
 
-    t, _, _, _ = frames.shape
-    lum = frames.max(axis=(0, 3))
-    ys, xs = np.nonzero(lum > 0.05 * max(float(lum.max()), 1e-6))
-    if not len(ys):
-        ys, xs = np.nonzero(np.ones_like(lum))
-    flame = frames[:, ys.min() : ys.max() + 1, xs.min() : xs.max() + 1]
-    rows, cols = np.nonzero(region > 0.5)
-    r0, r1, c0, c1 = rows.min(), rows.max() + 1, cols.min(), cols.max() + 1
-    out = np.zeros((t, *region.shape, 3), np.float32)
-    for i in range(t):
-        out[i, r0:r1, c0:c1] = resize(flame[i], (r1 - r0, c1 - c0))
-    return np.clip(out, 0, None)
+    def __init__(self, frames, region):
+        lum = frames.max(axis=(0, 3))
+        ys, xs = np.nonzero(lum > 0.05 * max(float(lum.max()), 1e-6))
+        if not len(ys):
+            ys, xs = np.nonzero(np.ones_like(lum))
+        self.flame = frames[:, ys.min() : ys.max() + 1, xs.min() : xs.max() + 1]
+        rows, cols = np.nonzero(region > 0.5)
+        self.box = (slice(rows.min(), rows.max() + 1), slice(cols.min(), cols.max() + 1))
+        self.shape = region.shape
+
+    def __call__(self, i):
+        from ..fields import resize
+
+        rows, cols = self.box
+        out = np.zeros((*self.shape, 3), np.float32)
+        out[rows, cols] = resize(self.flame[i], (rows.stop - rows.start, cols.stop - cols.start))
+        return np.clip(out, 0, None, out=out)
 
 
-def _frost(layer, photo, params, quick, progress):
+def _frost(layer, photo, params, quick, progress, stream=False):
     from .._progress import Progress
     from ..frost import HexLattice, gamma_for_target, grow, render
 
     report = Progress(progress)
     mask = layer.region > 0.5
     starts = layer.starts if layer.starts is not None else innermost_point(layer.region)
+    if layer.params is None:
+        # The same lattice at any size: its spacing is for a 480-px scene, and a 1920-px
+        # photo with a 3-px lattice had 16 times the cells, too far apart to freeze in
+        # the target's frames (issue 39).
+        scale = max(1.0, max(photo.shape[:2]) / DEFAULT_SIZE)
+        params = params.replace(spacing=params.spacing * scale)
     lattice = HexLattice.from_mask(mask, params.spacing)
     cells = lattice.snap(starts)
     if layer.params is None:  # the scene's default: the growth lasts about its target
@@ -244,12 +350,22 @@ def _frost(layer, photo, params, quick, progress):
     # Drawn on a black and a white plate: the ice's premultiplied colour and its
     # opacity, so it covers whatever the layers under it show (not only the photo).
     h, w = photo.shape[:2]
-    black = render(np.zeros((h, w, 3), np.float32), lattice, result)
-    white = render(np.ones((h, w, 3), np.float32), lattice, result)
-    colour = _rgb(black)
-    alpha = np.clip(1.0 - (_rgb(white) - colour).mean(axis=-1), 0, 1)
+    black = render(np.zeros((h, w, 3), np.float32), lattice, result, stream=True)
+    white = render(np.ones((h, w, 3), np.float32), lattice, result, stream=True)
+
+    def pictures():
+        for colour, light in zip(_frames_of(black), _frames_of(white)):
+            alpha = np.clip(1.0 - (light - colour).mean(axis=-1), 0, 1).astype(np.float32)
+            yield colour, alpha
+
+    if stream:
+        return LayerStream(len(black), black.fps, False, pictures)
+    made = list(pictures())
+    colour = np.stack([c for c, _ in made])
+    alpha = np.stack([a for _, a in made])
+    del made
     clip = render(photo, lattice, result, progress=draw_report)
-    return LayerClip(colour, alpha.astype(np.float32), clip.fps, False, clip)
+    return LayerClip(colour, alpha, clip.fps, False, clip)
 
 
 def _rgb(clip):

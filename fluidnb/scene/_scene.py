@@ -8,13 +8,13 @@ from collections import OrderedDict
 
 import numpy as np
 
-from .._clip import Clip
 from .._image import as_image
 from .._progress import Progress
+from .._stream import FrameStream
 from .._validation import check_range
-from ._composite import composite, timeline
+from ._composite import composite_pictures, timeline
 from ._layer import Layer
-from ._methods import run_layer
+from ._methods import LayerStream, run_layer
 
 __all__ = ["Scene", "render"]
 
@@ -140,7 +140,7 @@ class Scene:
         return f"Scene({w}x{h}, {self.fps:g} fps: {names})"
 
 
-def render(scene, *, quick=None, progress=None):
+def render(scene, *, quick=None, stream=False, progress=None):
     """Render a scene: each visible layer by its method (cached), composited in order.
 
     Parameters
@@ -149,12 +149,20 @@ def render(scene, *, quick=None, progress=None):
     quick : bool, optional
         The small starter databases for water and clouds (default: on when
         ``FLUIDNB_QUICK`` is set).
+    stream : bool
+        Return a :class:`fluidnb.FrameStream` of the same frames instead of the
+        clip: each layer's method runs now up to its frames (a video database's
+        assignment, frost's growth, the fire at its own size), and the frames of
+        every layer are made as the scene's are composited and saved, so a file of
+        a full-size photo holds a few frames of each layer, not their clips
+        (docs/conventions.md, "Streams"). A stream does not use or fill the scene's
+        cache.
     progress : callable, optional
         ``progress(fraction, message)``; raise :class:`fluidnb.Cancelled` to stop.
 
     Returns
     -------
-    Clip
+    Clip or FrameStream
         ``scene.fps`` frames a second, as long as ``scene.duration`` or the longest
         layer; metadata ``method="scene"``, ``layers`` (name, kind, method, frames,
         fps, seconds it took or ``"cached"``) and ``timings``.
@@ -172,38 +180,61 @@ def render(scene, *, quick=None, progress=None):
     photo_key = scene.photo_key
     for layer, part in zip(visible, parts):
         key = layer.key(photo_key, scene.shape)
-        if key in scene.cache:
+        if not stream and key in scene.cache:
             scene.cache.move_to_end(key)
             clips.append(scene.cache[key])
             seconds = "cached"
         else:
             part(0.0, f"{layer.name}: {layer.method}")
             started = time.perf_counter()
-            clips.append(run_layer(layer, scene.photo, quick=quick, progress=part))
+            clips.append(run_layer(layer, scene.photo, quick=quick, progress=part, stream=stream))
             seconds = round(time.perf_counter() - started, 2)
             scene.renders += 1
-            scene.cache[key] = clips[-1]
-            while len(scene.cache) > CACHE_SIZE:
-                scene.cache.popitem(last=False)
+            if not stream:
+                scene.cache[key] = clips[-1]
+                while len(scene.cache) > CACHE_SIZE:
+                    scene.cache.popitem(last=False)
         c = clips[-1]
         info.append(
             {"name": layer.name, "kind": layer.kind, "method": layer.method,
              "frames": len(c), "fps": c.fps, "loops": c.loops, "seconds": seconds}
         )  # fmt: skip
     last = parts[-1]  # the compositing
-    started = time.perf_counter()
     n, indices = timeline(clips, scene.fps, scene.duration)
     blends = [layer.blend for layer in visible]
-    frames = np.empty((n, *scene.shape, 3), np.float32)
-    for t in range(n):
-        frames[t] = composite(scene.photo, clips, blends, indices, t)
-    last(1.0, "composited")
-    return Clip(
-        frames,
-        fps=scene.fps,
-        metadata={
+    photo = scene.photo
+    timings = {"composite": 0.0}
+
+    def blocks():
+        # About 32 MB of scene frames at a time (a few at 1920 px).
+        per = max(1, min(n, (32 << 20) // photo.nbytes))
+        for c in clips:
+            if isinstance(c, LayerStream):
+                c.restart()  # each pass makes every layer's frames again from its start
+        for t0 in range(0, n, per):
+            started = time.perf_counter()
+            out = np.empty((min(per, n - t0), *photo.shape), np.float32)
+            for i in range(len(out)):
+                t = t0 + i
+                pictures = [c.picture(int(index[t])) for c, index in zip(clips, indices)]
+                out[i] = composite_pictures(photo, pictures, blends)
+            timings["composite"] += time.perf_counter() - started
+            last((t0 + len(out)) / n, f"frame {t0 + len(out)} of {n}")
+            yield out
+
+    def metadata():
+        return {
             "method": "scene",
             "layers": info,
-            "timings": {"composite": round(time.perf_counter() - started, 3)},
-        },
+            "timings": {"composite": round(timings["composite"], 3)},
+        }
+
+    frames = FrameStream(
+        blocks, n_frames=n, shape=scene.shape, color=True, fps=scene.fps, metadata=metadata
     )
+    if stream:
+        return frames
+    # The clip is the stream collected: one code path, the same frames.
+    clip = frames.clip()
+    last(1.0, "composited")
+    return clip

@@ -286,3 +286,48 @@ def test_feather_weights():
     assert 0 < w[4, 10] < w[5, 10] < w[6, 10] < 1
     assert np.array_equal(feather_weights(m, 0), m.astype(np.float32))
     assert np.all(feather_weights(np.ones((5, 5), bool), 10) == 1)
+
+
+def test_near_distance_is_scipys_euclidean_distance_up_to_its_reach():
+    # feather_weights measures the few pixels a feather needs itself (issue 39: no
+    # scipy.ndimage import); up to its reach it is the exact Euclidean distance, and
+    # beyond it only says "farther".
+    from scipy import ndimage
+
+    from fluidnb.flicker._shading import _near_squared_distance
+
+    rng = np.random.default_rng(3)
+    checked = 0
+    for trial in range(120):
+        h, w = (int(n) for n in rng.integers(1, 40, 2))
+        if trial % 2:
+            m = rng.random((h, w)) < rng.uniform(0.5, 1.0)
+        else:  # blobs: long distances, concave edges
+            m = ndimage.gaussian_filter(rng.random((h, w)), 3) > 0.45
+        if m.all() or not m.any():
+            continue
+        exact = ndimage.distance_transform_edt(m)
+        for reach in (1, 2, 5, 12):
+            d = np.sqrt(_near_squared_distance(m, reach))
+            near = exact <= reach
+            assert np.array_equal(d[near], exact[near])
+            assert np.all(d[~near] > reach)
+            checked += 1
+    assert checked > 200
+
+
+@pytest.mark.parametrize("feather", [0.5, 4.0, 11.0, 30.0])
+def test_feather_weights_follow_the_distance_transform(feather):
+    # The smoothstep of scipy's distance transform, bit for bit, for short feathers
+    # (our own distance) and long ones (scipy's).
+    from scipy import ndimage
+
+    rng = np.random.default_rng(4)
+    m = ndimage.gaussian_filter(rng.random((90, 120)), 6) > 0.48
+    d = ndimage.distance_transform_edt(m)
+    x = np.clip((d - 0.5) / feather, 0.0, 1.0)
+    expected = (x * x * (3 - 2 * x)).astype(np.float32)
+    assert np.array_equal(feather_weights(m, feather), expected)
+    assert np.array_equal(
+        feather_weights(m, 2 * feather, pixel_size=2.0), feather_weights(m, feather)
+    )

@@ -339,3 +339,60 @@ def test_a_region_of_another_size_is_scaled_with_its_points(photo):
     layer = scene.add(Layer("frost", big, starts=[[80, 40]]))
     assert layer.region.shape == scene.shape
     assert layer.starts.tolist() == [[40.0, 20.0]]
+
+
+# ---------------------------------------------------------------- streams (issue 39)
+def test_a_streamed_scene_writes_the_frames_of_the_clip(tmp_path, photo, regions, monkeypatch):
+    # render(stream=True) makes each layer's frames as they are composited (at HD a
+    # file holds a few frames of each layer, not their clips): the same frames, for
+    # every kind of layer, a loop shorter than the scene made again from its start.
+    from fluidnb import Clip, FrameStream
+
+    monkeypatch.setenv("FLUIDNB_QUICK", "1")  # the quick starter database, cached
+    water = _box(photo.shape[:2], (0.7, 1.0), (0.0, 1.0))
+    scene = Scene(
+        photo,
+        [
+            Layer("water", water, strokes=[[[80, 5], [80, 90]]]),
+            Layer("flicker", regions["flicker"], FLICKER),
+            Layer("fire", regions["fire"], FIRE, seed=1),
+            Layer("frost", regions["frost"], FROST, seed=2),
+        ],
+        size=None,
+        fps=12.0,
+    )
+    stream = render(scene, stream=True)
+    assert isinstance(stream, FrameStream)
+    assert scene.renders == 4
+    assert not scene.cache  # a stream neither uses nor fills the cache
+    path = stream.save(tmp_path / "scene.npz")
+    clip = render(scene)
+    assert len(clip) == len(stream)
+    # The flicker loop (2 s) is shorter than the scene: it is shown more than once.
+    flicker = next(x for x in clip.metadata["layers"] if x["kind"] == "flicker")
+    assert len(clip) / clip.fps > 1.5 * flicker["frames"] / flicker["fps"]
+    saved = Clip.load(path)
+    assert np.array_equal(saved.frames, clip.frames)
+    assert saved.metadata["layers"] == [
+        {**x, "seconds": y["seconds"]}
+        for x, y in zip(clip.metadata["layers"], saved.metadata["layers"])
+    ]
+    # A second pass makes the same frames again.
+    assert np.array_equal(stream.clip().frames, clip.frames)
+
+
+def test_the_default_frost_is_the_same_lattice_at_any_size():
+    # A 3-px lattice is for a 480-px scene; at 1920 px it had 16 times the cells and
+    # the default target of 96 frames could not be reached ("target must be >= 106
+    # frames"). Scaled with the scene, the growth lasts about its target (96 frames;
+    # gamma is fitted to it) at both sizes.
+    from fluidnb.scene import run_layer
+
+    lengths = []
+    for w in (480, 1920):
+        h = w * 9 // 16
+        yy, xx = np.mgrid[0:h, 0:w]
+        corner = (yy / (0.45 * h)) ** 2 + (xx / (0.30 * w)) ** 2 < 1
+        photo = np.full((h, w, 3), 0.4, np.float32)
+        lengths.append(len(run_layer(Layer("frost", corner, seed=1), photo, stream=True)))
+    assert all(0.8 * 96 <= n <= 1.2 * 96 for n in lengths), lengths
