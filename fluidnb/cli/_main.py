@@ -120,11 +120,11 @@ def main(argv=None):
     8.1-9.5 s (2.7-3.9 s system), the frames the same.
     """
     as_process = argv is None
-    if as_process:
-        _small_pages()
     try:
+        if as_process:
+            _small_pages()  # imports numpy: inside the try, so Ctrl-C there is one line too
         return _run(argv)
-    except KeyboardInterrupt:  # before the command started: building the parser
+    except KeyboardInterrupt:  # before the command started: numpy, the parser
         print("fluidnb: cancelled", file=sys.stderr)
         return 130
     finally:

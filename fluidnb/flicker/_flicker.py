@@ -109,6 +109,8 @@ class _Compiled:
         """The :mod:`._kernels` module, once loaded."""
         self.start()
         self._thread.join()
+        if isinstance(self._error, KeyboardInterrupt):
+            raise KeyboardInterrupt  # Ctrl-C as they loaded: the caller's "cancelled"
         if self._error is not None:
             raise RuntimeError("flicker's compiled kernels could not be loaded") from self._error
         return self._kernels
