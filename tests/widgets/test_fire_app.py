@@ -229,3 +229,13 @@ def test_an_uploaded_rgba_cutout_is_matted_by_its_alpha(app):
     cold = app.fire_result.target == 0
     assert cold.mean() > 0.3
     assert (clip.frames @ np.array([0.2126, 0.7152, 0.0722]))[cold].mean() < 0.02
+
+
+def test_the_live_preview_is_a_photo_shown_smoothed(app):
+    # Issue 36: the 48 x 48 keyframe, enlarged 5x, showed as a mosaic of square cells.
+    app.panel.set("weight", 0.4)
+    app.wait_preview(60)
+    clip = app.preview_player.clip
+    assert clip.shape == (48, 48)
+    assert clip.metadata["smooth"] is True
+    assert app.preview_player.view.smooth  # the page draws it smoothed
