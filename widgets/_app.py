@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import html
 import os
+import sys
 import threading
 import time
 import traceback
@@ -58,6 +59,24 @@ def _kernel_loop():
         return asyncio.get_running_loop()
     except RuntimeError:
         return None
+
+
+#: The kernel's GIL switch interval while an app is open, seconds (Python's default: 5 ms).
+GIL_SWITCH = 0.001
+
+
+def _prompt_gil_handover():
+    """Have the kernel's threads hand the GIL over within :data:`GIL_SWITCH` seconds.
+
+    A slider's value reaches the kernel's main thread, which wakes the preview's worker
+    and goes on with the message (ipywidgets' echo, the kernel's replies); the worker
+    waited up to Python's 5 ms switch interval for the GIL, at every hand-over: before
+    it began, and while it computed beside the main thread's messages and drawing (and
+    the main thread, for the next value, beside the worker's Python). The interval is
+    the interpreter's, so only shortened, in a kernel with an app, never lengthened.
+    """
+    if sys.getswitchinterval() > GIL_SWITCH:
+        sys.setswitchinterval(GIL_SWITCH)
 
 
 class LatestWins:
@@ -330,6 +349,8 @@ class App(W.VBox):
         self._closed = False
         # ipycanvas drawing from a worker goes through the kernel's loop (on_main).
         self._loop = _kernel_loop()
+        if self._loop is not None:
+            _prompt_gil_handover()
         self._main_thread = threading.get_ident()
         self._tasks_started = 0  # a preview begun before a task started is stale
         self._watched = set()  # ids of the players whose exports the status line reports

@@ -420,3 +420,20 @@ def test_a_preview_of_several_frames_plays_one_frame_is_shown_still():
         assert app.player.playing  # a loop or a growth is seen moving
     finally:
         app.close()
+
+
+def test_an_app_in_a_kernel_shortens_the_gil_switch_interval_never_lengthens_it():
+    # Issue 36: the preview's worker waited up to Python's 5 ms for the GIL at every
+    # hand-over with the kernel's main thread (queued 8-13 ms -> 5-7 ms in Chromium).
+    from fluidnb.widgets import _app
+
+    before = sys.getswitchinterval()
+    try:
+        sys.setswitchinterval(0.005)
+        _app._prompt_gil_handover()
+        assert sys.getswitchinterval() == pytest.approx(_app.GIL_SWITCH)
+        sys.setswitchinterval(0.0002)  # someone wants it shorter still: kept
+        _app._prompt_gil_handover()
+        assert sys.getswitchinterval() == pytest.approx(0.0002)
+    finally:
+        sys.setswitchinterval(before)
