@@ -112,12 +112,17 @@ def shown_clip(page, canvas=CANVAS):
 #: waiting for the preview worker, computing the preview, encoding and sending its
 #: first frame, the message's trip to the page, decoding and drawing it.
 PARTS = ("to kernel", "queued", "compute", "encode+send", "to page", "decode+draw")
+#: The compute's CPU (ms): the preview worker's own, and the whole kernel's meanwhile
+#: (the kernel's main thread and the preview's helpers too). Far below the compute's
+#: wall time: the preview waited (for the GIL or for a core), rather than computed.
+CPU_PARTS = ("compute CPU", "kernel CPU")
 
 
 def split(move, drawn, timeline, origin):
     """The parts (ms) of one preview; None without the kernel's timeline."""
     if not timeline or timeline.get("changed") is None:
         return None
+    cpu = [timeline.get("cpu", float("nan")), timeline.get("kernel_cpu", float("nan"))]
     marks = [
         origin + move,
         timeline["changed"],
@@ -127,7 +132,7 @@ def split(move, drawn, timeline, origin):
         timeline["arrived"],
         origin + drawn,
     ]
-    return [b - a for a, b in zip(marks, marks[1:])]
+    return [b - a for a, b in zip(marks, marks[1:])] + cpu
 
 
 def measure_previews(page, name, moves, shot=None):
@@ -333,7 +338,10 @@ def main():
         for app in apps:
             lags, parts, first, rate, fps, load = bench_app(page, url, root, app, args)
             if parts:
-                medians = [statistics.median(p[k] for p in parts) for k in range(len(PARTS))]
+                medians = [
+                    statistics.median(p[k] for p in parts)
+                    for k in range(len(PARTS) + len(CPU_PARTS))
+                ]
                 split_rows.append(
                     f"| {app} | " + " | ".join(f"{m:.0f}" for m in medians) + f" | {load:.2f} |"
                 )
@@ -355,8 +363,8 @@ def main():
     print("\n".join(rows))
     if split_rows:
         print()
-        print(f"| app | {' | '.join(PARTS)} | load (1 min) |  (medians, ms)")
-        print("|---" * (len(PARTS) + 2) + "|")
+        print(f"| app | {' | '.join(PARTS + CPU_PARTS)} | load (1 min) |  (medians, ms)")
+        print("|---" * (len(PARTS) + len(CPU_PARTS) + 2) + "|")
         print("\n".join(split_rows))
     print(f"\nload average after: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
 

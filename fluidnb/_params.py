@@ -21,6 +21,7 @@ and the command line builds options.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import numbers
 from dataclasses import dataclass
@@ -198,13 +199,7 @@ class Params:
     @classmethod
     def specs(cls):
         """Mapping of field name to :class:`ParamSpec`, in declaration order."""
-        out = {}
-        for f in dataclasses.fields(cls):
-            spec = f.metadata.get(_KEY)
-            if spec is None:
-                spec = ParamSpec(name=f.name, default=f.default)
-            out[f.name] = dataclasses.replace(spec, name=f.name)
-        return out
+        return dict(_specs_of(cls))
 
     def replace(self, **changes):
         """A new, validated object with some fields changed."""
@@ -246,3 +241,21 @@ class Params:
     def _unknown_message(cls, unknown):
         names = ", ".join(sorted(unknown))
         return f"unknown parameter(s) {names} for {cls.__name__}; allowed: {', '.join(cls.specs())}"
+
+
+@functools.cache
+def _specs_of(cls):
+    """:meth:`Params.specs` of ``cls``, made once per class (the specs are frozen).
+
+    Every Params object validates its fields with them when it is made: a slider's
+    move made ~1000 of them (the panel probes which values the other sliders accept),
+    and building the specs was most of that (FireApp: 7.5 ms of the kernel's thread
+    per move, beside the preview).
+    """
+    out = {}
+    for f in dataclasses.fields(cls):
+        spec = f.metadata.get(_KEY)
+        if spec is None:
+            spec = ParamSpec(name=f.name, default=f.default)
+        out[f.name] = dataclasses.replace(spec, name=f.name)
+    return out

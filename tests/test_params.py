@@ -66,3 +66,18 @@ def test_json_round_trip():
         Demo.from_dict({"nope": 1})
     with pytest.raises(ValueError, match="not valid JSON"):
         Demo.from_json("{")
+
+
+def test_specs_are_made_once_per_class_and_each_caller_gets_its_own_mapping():
+    # The specs are built once per class (a slider's move makes ~1000 Params when the
+    # panel probes the other sliders' ranges); a caller changing its mapping changes
+    # no one else's.
+    first = Demo.specs()
+    first.pop(next(iter(first)))
+    first["bogus"] = None
+    again = Demo.specs()
+    assert "bogus" not in again
+    assert list(again) == [f for f in Demo.__dataclass_fields__]
+    assert all(again[name] is spec for name, spec in Demo.specs().items())  # made once
+    with pytest.raises(ValueError, match="bogus"):
+        Demo().replace(bogus=1)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import html
 import os
+import sys
 import threading
 import time
 import traceback
@@ -58,6 +59,24 @@ def _kernel_loop():
         return asyncio.get_running_loop()
     except RuntimeError:
         return None
+
+
+#: The kernel's GIL switch interval while an app is open, seconds (Python's default: 5 ms).
+GIL_SWITCH = 0.001
+
+
+def _prompt_gil_handover():
+    """Have the kernel's threads hand the GIL over within :data:`GIL_SWITCH` seconds.
+
+    A slider's value reaches the kernel's main thread, which wakes the preview's worker
+    and goes on with the message (ipywidgets' echo, the kernel's replies); the worker
+    waited up to Python's 5 ms switch interval for the GIL, at every hand-over: before
+    it began, and while it computed beside the main thread's messages and drawing (and
+    the main thread, for the next value, beside the worker's Python). The interval is
+    the interpreter's, so only shortened, in a kernel with an app, never lengthened.
+    """
+    if sys.getswitchinterval() > GIL_SWITCH:
+        sys.setswitchinterval(GIL_SWITCH)
 
 
 class LatestWins:
@@ -311,6 +330,7 @@ class App(W.VBox):
         self.warm_after = 0.08
         self._warm_only = False  # the next preview run only warms
         self._warm_pending = False  # a warm-up waits for the run going on
+        self._warm_on_release = False  # a warm-up waits for the slider's release
         self._task_active = False  # a task's worker has not finished yet
         self._live = _LiveChannel()
         self._live.observe(self._held_changed, "held")
@@ -329,6 +349,8 @@ class App(W.VBox):
         self._closed = False
         # ipycanvas drawing from a worker goes through the kernel's loop (on_main).
         self._loop = _kernel_loop()
+        if self._loop is not None:
+            _prompt_gil_handover()
         self._main_thread = threading.get_ident()
         self._tasks_started = 0  # a preview begun before a task started is stale
         self._watched = set()  # ids of the players whose exports the status line reports
@@ -506,7 +528,13 @@ class App(W.VBox):
         return self._live.held
 
     def _held_changed(self, change):
-        if not change["new"] and self._rest_wanted:
+        if change["new"]:
+            return
+        with self._settle_lock:
+            warm, self._warm_on_release = self._warm_on_release, False
+        if warm:
+            self._request_warm()  # the warm-up skipped while the slider was held
+        if self._rest_wanted:
             self._schedule_rest()  # let go: the full result once the values rest
 
     def _schedule_rest(self):
@@ -594,6 +622,9 @@ class App(W.VBox):
             return
         started = time.monotonic()
         timeline = {"changed": self._changed_at, "started": time.time() * 1000}
+        # CPU seconds of this thread and of the whole kernel while the preview is made:
+        # beside the wall time, they tell computing from waiting (for the GIL or a core).
+        cpu = time.thread_time(), time.process_time()
         generation = self._tasks_started
         params = self.panel.params
         try:
@@ -620,6 +651,8 @@ class App(W.VBox):
             )
         if show:
             timeline["made"] = time.time() * 1000
+            timeline["cpu"] = 1000 * (time.thread_time() - cpu[0])
+            timeline["kernel_cpu"] = 1000 * (time.process_time() - cpu[1])
             self.preview_player.show_timed(clip, timeline)
             if len(clip) > 1:  # a loop (flicker) or a growth (frost) is seen playing:
                 self.preview_player.play(True)  # paused, frost's first frame shows no ice
@@ -631,7 +664,13 @@ class App(W.VBox):
         self._warm_up()
 
     def _warm_up(self):
-        """:meth:`warm` on the preview's worker, once no newer value came for a moment."""
+        """:meth:`warm` on the preview's worker, once no newer value came for a moment.
+
+        Not while a slider is held: the next value comes any moment, and a warm-up
+        beside its preview took a core from it (the video-database app's preview
+        waited for its prefetch's threads: 230 ms instead of 100 at load 6). The
+        release asks for it (:meth:`_held_changed`).
+        """
         deadline = time.monotonic() + self.warm_after
         while time.monotonic() < deadline:
             if self._closed or self._previews.pending():
@@ -639,6 +678,9 @@ class App(W.VBox):
             with self._settle_lock:
                 if self._task_active:
                     self._warm_pending = True  # after the task (it may be waiting on us)
+                    return
+                if self.held:
+                    self._warm_on_release = True
                     return
             time.sleep(0.005)
         self.warm(self.panel.params)

@@ -133,17 +133,17 @@ def shown_path(path):
         return str(path)
 
 
-def jpeg(picture):
+def jpeg(picture, quality=95):
     """An RGB float picture in [0, 1] as JPEG bytes, for a player's ``W.Image(format="jpeg")``.
 
     What the apps show while they play or preview: about 1.3 ms and 125 KB for a 480 x 376
     frame, where a PNG takes 15 ms and 370 KB (at 24 frames a second, a third of a core
     and 9 MB/s through the notebook's socket). Quality 95 without colour subsampling:
     no visible loss on the apps' pictures (the exports are made from the frames, not
-    from these).
+    from these). Live previews use a lower ``quality`` (the player's).
     """
     buf = io.BytesIO()
-    Image.fromarray(to_uint8(picture)).save(buf, format="jpeg", quality=95, subsampling=0)
+    Image.fromarray(to_uint8(picture)).save(buf, format="jpeg", quality=quality, subsampling=0)
     return buf.getvalue()
 
 

@@ -99,10 +99,13 @@ function initialize(s, model) {
       if (!s.blobs[i]) s.blobs[i] = new Blob([buf], { type: msg.mime || "image/jpeg" });
     });
     while (s.blobs[s.have]) s.have += 1;
-    // Decode ahead while the budget allows (the first frames first).
+    // Decode ahead while the budget allows (the first frames first). The first frame
+    // is on screen before the others are decoded: they would share the cores with it.
+    const first = s.bitmaps.has(0) ? null : s.pending.get(0);
     for (let i = msg.start; i < msg.start + buffers.length; i++) {
       if (i < 16 || s.bitmaps.size * 4 * model.get("width") * model.get("height") < DECODED_BYTES)
-        decode(s, i);
+        if (first && i > 0) first.then(() => decode(s, i));
+        else decode(s, i);
     }
     for (const v of s.views) v.arrived();
   });

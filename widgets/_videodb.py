@@ -589,15 +589,19 @@ class VideoDBApp(FlowSketch, App):
         changed = int((new.labels != current.labels).sum())
         self.assignment = new
         self.resolves += 1
-        self.on_main(self._show_assignment)  # the map first (the kernel's thread draws it)
         note = (
             f"re-solved from the kept tables in {solved:.2f} s: {changed} of "
             f"{plural(len(new.labels), 'fragment')} changed"
         )
         if not self.live_preview:
+            self.on_main(self._show_assignment)  # the map (the kernel's thread draws it)
             self.say(note)
             return None
-        return self._preview_clip(new, params, note)
+        clip = self._preview_clip(new, params, note)
+        # The map once the frame is made: drawn beside it, on the kernel's thread, it
+        # took the GIL from it (8 ms of Python), and the frame waited.
+        self.on_main(self._show_assignment)
+        return clip
 
     def _preview_clip(self, a, params, note):
         """One frame of ``a``'s clip at half size (:func:`fluidnb.videodb.preview_frame`)."""

@@ -79,6 +79,33 @@ def test_vectorised_kernel_matches_the_rule_written_cell_by_cell(rth):
     np.testing.assert_allclose(res.vapour, vapour, rtol=0, atol=1e-12)
 
 
+@pytest.mark.parametrize("rth", [0.0, 0.4])
+def test_the_compiled_step_is_the_numpy_step_bit_for_bit(rth):
+    # _Kernel.advance (numba) against _Kernel.advance_numpy on a region with a ring
+    # (a disc inside the lattice's storage): vapour, receptive set and gamma cells.
+    from fluidnb.frost._reiter import _Kernel
+
+    yy, xx = np.mgrid[:90, :110]
+    lattice = HexLattice.from_mask((yy - 45) ** 2 + (xx - 50) ** 2 < 38**2, 3.0)
+    params = FrostParams(beta=0.45, rth=rth, alpha=1.3)
+    fast, slow = (_Kernel(lattice, params.alpha, params.gamma, params.rth) for _ in range(2))
+    u = np.zeros(lattice.storage_size)
+    u[lattice.cells] = np.random.default_rng(3).uniform(0.3, 0.6, lattice.n_cells)
+    u[lattice.cells[lattice.snap([[45, 50]])]] = 1.0
+    u_fast, u_slow = u.copy(), u.copy()
+    gen = np.random.default_rng(4)
+    for _ in range(150):
+        fast.classify(u_fast)
+        slow.classify(u_slow)
+        r = gen.random(fast.random_shape, dtype=np.float32) if rth > 0 else None
+        assert fast.advance(u_fast, r) == slow.advance_numpy(u_slow, r)
+        np.testing.assert_array_equal(u_fast.view(np.uint64), u_slow.view(np.uint64))
+        np.testing.assert_array_equal(fast.receptive, slow.receptive)
+        if rth > 0:
+            np.testing.assert_array_equal(fast.gets_gamma, slow.gets_gamma)
+    assert 0 < np.count_nonzero(fast.ice) < lattice.n_cells  # it grew, and not all over
+
+
 def test_seeded_runs_are_deterministic_and_the_seed_matters_for_rth_above_0():
     lat = ellipse_lattice()
     p = FrostParams(rth=0.6, beta=0.45)

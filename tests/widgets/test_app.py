@@ -283,6 +283,44 @@ def test_the_full_result_waits_for_the_slider_to_be_let_go_and_rest():
         app.close()
 
 
+def test_no_warm_up_while_a_slider_is_held_one_after_its_release():
+    # Issue 36: a warm-up between two values of a drag took a core from the next
+    # value's preview (the video-database app's prefetch: 230 ms instead of 100). While
+    # the handle is held, pauses longer than warm_after warm nothing; the release does.
+    warmed = []
+
+    class Warming(App):
+        def warm(self, params):
+            warmed.append(params.level)
+
+    app = Warming(panel=ParamPanel(Demo), run=lambda p, g: level_clip(p), preview=level_clip)
+    try:
+        app.warm_after = 0.02
+        app.wait_preview()
+        time.sleep(0.1)
+        assert warmed == [pytest.approx(0.5)]  # at rest, not held: the warm-up runs
+        app._live.held = True
+        for v in (0.2, 0.3):
+            app.panel.controls["level"].value = v
+            time.sleep(0.1)  # far longer than warm_after
+            app.wait_preview()
+        assert warmed == [pytest.approx(0.5)]  # nothing while held
+        app._live.held = False
+        deadline = time.monotonic() + 10
+        while len(warmed) < 2 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        app.wait_preview()
+        assert warmed == [pytest.approx(0.5), pytest.approx(0.3)]  # once, the last value
+        # A key press (no hold) warms after its preview, as before.
+        app.panel.controls["level"].value = 0.4
+        app.wait_preview()
+        time.sleep(0.1)
+        app.wait_preview()
+        assert warmed[-1] == pytest.approx(0.4)
+    finally:
+        app.close()
+
+
 def test_a_newer_value_stops_the_full_result_of_the_old_one_quietly():
     started = threading.Event()
     runs = []
@@ -382,3 +420,20 @@ def test_a_preview_of_several_frames_plays_one_frame_is_shown_still():
         assert app.player.playing  # a loop or a growth is seen moving
     finally:
         app.close()
+
+
+def test_an_app_in_a_kernel_shortens_the_gil_switch_interval_never_lengthens_it():
+    # Issue 36: the preview's worker waited up to Python's 5 ms for the GIL at every
+    # hand-over with the kernel's main thread (queued 8-13 ms -> 5-7 ms in Chromium).
+    from fluidnb.widgets import _app
+
+    before = sys.getswitchinterval()
+    try:
+        sys.setswitchinterval(0.005)
+        _app._prompt_gil_handover()
+        assert sys.getswitchinterval() == pytest.approx(_app.GIL_SWITCH)
+        sys.setswitchinterval(0.0002)  # someone wants it shorter still: kept
+        _app._prompt_gil_handover()
+        assert sys.getswitchinterval() == pytest.approx(0.0002)
+    finally:
+        sys.setswitchinterval(before)

@@ -144,6 +144,9 @@ def test_an_upload_shows_the_upload_and_the_menu_says_so(app):
     flame = app.photo.copy()
     picked = []
     app._sample.on_pick(picked.append)
+    # What the status line said (the live preview of the upload may say more after it).
+    said = []
+    app.observe(lambda change: said.append(change["new"]), "status")
     green = np.zeros((40, 60, 3), np.float32)
     green[..., 1] = 1.0
     buf = io.BytesIO()
@@ -154,7 +157,7 @@ def test_an_upload_shows_the_upload_and_the_menu_says_so(app):
     assert app.photo_name == "upload"
     assert app._sample.value == "upload"
     assert picked == ["upload"]  # never "fire" (the first option) on the way
-    assert "upload" in app.status
+    assert any("upload" in text for text in said)
     # The sample is one pick away again, and "upload" leaves the menu with the upload.
     app._sample.value = "flame"
     np.testing.assert_array_equal(app.photo, flame)
@@ -229,3 +232,13 @@ def test_an_uploaded_rgba_cutout_is_matted_by_its_alpha(app):
     cold = app.fire_result.target == 0
     assert cold.mean() > 0.3
     assert (clip.frames @ np.array([0.2126, 0.7152, 0.0722]))[cold].mean() < 0.02
+
+
+def test_the_live_preview_is_a_photo_shown_smoothed(app):
+    # Issue 36: the 48 x 48 keyframe, enlarged 5x, showed as a mosaic of square cells.
+    app.panel.set("weight", 0.4)
+    app.wait_preview(60)
+    clip = app.preview_player.clip
+    assert clip.shape == (48, 48)
+    assert clip.metadata["smooth"] is True
+    assert app.preview_player.view.smooth  # the page draws it smoothed

@@ -220,3 +220,33 @@ def test_a_timed_clip_tells_the_page_how_it_was_made_with_its_first_frame_only()
     wait_for(lambda: any(m["clip"] == 2 for m in messages))
     assert "timeline" not in next(m for m in messages if m["clip"] == 2)
     p.close()
+
+
+def test_a_preview_sends_its_first_frame_alone_then_the_others_smaller():
+    # Issue 36: a flicker preview's 63 other frames (750 KB) went out right behind its
+    # first frame, which waited for them on the way to the page. A preview (a clip
+    # shown with show_timed) sends its first frame, then the others a moment later, at
+    # a lower JPEG quality; a clip set plainly keeps quality 95 and no pause.
+    photo = data.sample("stream", size=96)
+    frames = np.stack([photo * (0.5 + 0.5 * k / 7) for k in range(8)])
+    p = FramePlayer()
+    sent = []
+    p.view.send = lambda content, buffers=None: sent.append(
+        (time.monotonic(), content["clip"], content["start"], [bytes(b) for b in buffers])
+    )
+    p.show_timed(Clip(frames, fps=8), {"changed": 1.0, "started": 2.0, "made": 3.0})
+    wait_for(lambda: sum(len(m[3]) for m in sent if m[1] == 1) == 8)
+    mine = [m for m in sent if m[1] == 1]
+    assert mine[0][2] == 0  # the first frame alone
+    assert len(mine[0][3]) == 1
+    assert mine[1][0] - mine[0][0] >= 0.03  # the others after a pause
+    preview = {m[2] + k: b for m in mine for k, b in enumerate(m[3])}
+    p.clip = Clip(frames, fps=8)
+    wait_for(lambda: sum(len(m[3]) for m in sent if m[1] == 2) == 8)
+    plain = {m[2] + k: b for m in sent if m[1] == 2 for k, b in enumerate(m[3])}
+    for i in range(8):
+        assert len(preview[i]) < 0.8 * len(plain[i])  # fewer bytes
+        shown = np.asarray(Image.open(io.BytesIO(preview[i]))).astype(float)
+        # Still the frame (quality 80 here: ~4.2 grey levels; 95: 2.2; another frame: 10+).
+        assert np.abs(shown - to_uint8(frames[i])).mean() < 6
+    p.close()

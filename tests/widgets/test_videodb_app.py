@@ -22,6 +22,8 @@ from fluidnb.widgets import VideoDBApp
 from fluidnb.widgets import _canvas as canvas_module
 from fluidnb.widgets import _videodb as module
 from fluidnb.widgets import _videodb_database as dbchoice
+from fluidnb.widgets._common import jpeg
+from fluidnb.widgets._player import _PREVIEW_QUALITY
 from tests.support.frontend import canvas_event, client_ready, mouse_drag
 
 ROW = 62  # a band across the stream photo at 160 px (125 x 160)
@@ -609,7 +611,9 @@ def test_dragging_sigma_shows_the_map_and_a_preview_then_the_clip_when_it_rests(
     # The preview is one frame of what the render will make (the last picture made
     # is the one shown, as JPEG).
     preview = made[-1]
-    assert np.abs(np.asarray(shown, np.float32) / 255 - preview).mean() < 0.015
+    assert np.abs(np.asarray(shown, np.float32) / 255 - preview).mean() < 0.03
+    # (Exactly that frame: a preview goes to the page at the player's preview quality.)
+    assert app.player._encode(0) == jpeg(preview, quality=_PREVIEW_QUALITY)
     # The slider rests: the clip of sigma = 1e4 is rendered and plays in its place.
     app.settle = 0.05
     drag_sigma(app, [1e4 * 1.0001])  # one more value (its re-solve schedules the render)
