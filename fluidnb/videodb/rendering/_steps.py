@@ -252,6 +252,9 @@ class _FlowFrames(_Frames):
     The motion field's displacement maps, the layer that is advected (the photo
     extended outside the matte) and the colour axes are made once; each run of frames
     is then warped (:func:`eulerian_loop`), given its detail, matched and composited.
+    With a still matte and no stages, a frame is made on the matte's box only
+    (:meth:`_boxed`; the stream's matte covers 37 % of the picture) and is the photo
+    elsewhere, as the composite makes it where the matte is 0.
     """
 
     def __init__(self, assignment, params, blended, plan, background, clock, keep):
