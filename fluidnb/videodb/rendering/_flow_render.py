@@ -776,14 +776,21 @@ class _Loop:
             return self.age_a[t], self.age_b[t]
         return -self.steps, self.steps
 
-    def coordinates(self, maps, grid, t, *, scale=1, both=False, staggered=True):
+    def coordinates(self, maps, grid, t, *, scale=1, both=False, staggered=True, box=None):
         """Where each phase samples the picture at frame ``t`` and phase a's weight.
 
         ``(xa, ya, xb, yb, w)``: (H, W) float32 coordinates times ``scale`` (in the
         picture :func:`supersample` made finer), and :math:`w_a` one number
         (no offsets or not ``staggered``: the loop at offset 0; a phase of weight 0
-        then has None coordinates unless ``both``) or (H, W).
+        then has None coordinates unless ``both``) or (H, W). ``box`` (r0, r1, c0, c1):
+        only the pixels ``[r0:r1, c0:c1]``, the same values (the flow rendering's
+        frames outside the matte's box are the photo: :class:`_FlowFrames`).
         """
+        if box is not None and (self.offsets is None or not staggered):
+            # The loop at offset 0 (rare: no stagger): made whole, then cut.
+            cut = (slice(box[0], box[1]), slice(box[2], box[3]))
+            full = self.coordinates(maps, grid, t, scale=scale, both=both, staggered=staggered)
+            return tuple(x if x is None or np.ndim(x) == 0 else x[cut] for x in full)
         # The maps as an array of D_s, or a _Maps that keeps them compact (float16
         # residuals: decoded here, the same values wherever they are read).
         compact = isinstance(maps, _Maps) and maps.compact
@@ -802,14 +809,15 @@ class _Loop:
                 xb, yb = (grid[1] + d[..., 1]) * k, (grid[0] + d[..., 0]) * k
             return xa, ya, xb, yb, wa
         h, w = grid[0].shape
-        xa, ya, xb, yb, wa = (np.empty((h, w), np.float32) for _ in range(5))
+        r0, r1, c0, c1 = (0, h, 0, w) if box is None else box
+        xa, ya, xb, yb, wa = (np.empty((r1 - r0, c1 - c0), np.float32) for _ in range(5))
         if compact:
             array, table, v = array.view(np.uint16), _half_table(), maps.v
         else:
             table, v = None, np.zeros((1, 1, 2), np.float32)
         _staggered(
             array, table, v, have, float(t), float(self.period), self.offsets,
-            np.float32(scale), xa, ya, xb, yb, wa,
+            np.float32(scale), r0, c0, xa, ya, xb, yb, wa,
         )  # fmt: skip
         return xa, ya, xb, yb, wa
 
@@ -836,24 +844,28 @@ def _displacement(maps, table, v, i, steps, r, c):
 
 
 @njit(cache=True, nogil=True)
-def _staggered(maps, table, v, steps, t, period, offsets, scale, xa, ya, xb, yb, wa):
+def _staggered(maps, table, v, steps, t, period, offsets, scale, r0, c0, xa, ya, xb, yb, wa):
     r"""Each pixel's phase coordinates (times ``scale``) and weight at frame ``t``, by its offset.
+
+    The pixels ``[r0 : r0 + h, c0 : c0 + w]`` of the canvas, ``(h, w)`` the outputs' shape.
 
     The ages in float64: :math:`u = t + o P`, :math:`s_b = (u \bmod P) - P/2`,
     :math:`s_a = ((u + P/2) \bmod P) - P/2` (the modulo as ``u - P floor(u / P)``).
     ``maps`` float32 :math:`D_s` (``table`` None) or a compact :class:`_Maps`'s
     float16 bits (``table`` :func:`_half_table`, ``v`` the flow).
     """
-    h, w = offsets.shape
+    h, w = xa.shape
     half = period / 2.0
     inv = 1.0 / period
     top = 2 * steps
-    for r in range(h):
-        for c in range(w):
+    for rr in range(h):
+        r = r0 + rr
+        for cc in range(w):
+            c = c0 + cc
             u = t + offsets[r, c] * period
             age_b = u - period * math.floor(u * inv) - half
             age_a = age_b + half if age_b < 0.0 else age_b - half
-            wa[r, c] = min(max(1.0 - abs(age_a) / half, 0.0), 1.0)
+            wa[rr, cc] = min(max(1.0 - abs(age_a) / half, 0.0), 1.0)
             for k in range(2):
                 age = age_a if k == 0 else age_b
                 lo = math.floor(age)
@@ -867,9 +879,9 @@ def _staggered(maps, table, v, steps, t, period, offsets, scale, xa, ya, xb, yb,
                     dx = dx + frac * (ex - dx)
                 x, y = (c + dx) * scale, (r + dy) * scale
                 if k == 0:
-                    xa[r, c], ya[r, c] = x, y
+                    xa[rr, cc], ya[rr, cc] = x, y
                 else:
-                    xb[r, c], yb[r, c] = x, y
+                    xb[rr, cc], yb[rr, cc] = x, y
 
 
 def _blend_phases(a, b, w, out):

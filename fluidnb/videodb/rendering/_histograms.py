@@ -237,9 +237,35 @@ class _Matching:
         _quantiles_kernel(counts, self.lo_ref[None], self.step_ref[None], self.q_ref)
         self.slopes = np.array(_SLOPE_RANGE)
 
-    def match(self, frame, out):
-        """Match one frame (H, W, C) float32 into ``out`` (H, W, C) float32."""
-        lo, step = _bins(frame)
+    def cropped(self, box):
+        """The same matching for the part ``[r0:r1, c0:c1]`` of the reference's canvas.
+
+        ``box`` (r0, r1, c0, c1) must hold every pixel of weight > 0: the cells, their
+        mass, the reference's quantiles and each pixel's bilinear roles are this
+        matching's, so a frame cut to the box is matched as the same pixels of the
+        whole frame would be (the histograms add the same weights in the same order;
+        the frame's bins are those of the part :meth:`match` is given as ``span``).
+        """
+        r0, r1, c0, c1 = box
+        if self.weight[:r0].any() or self.weight[r1:].any():
+            raise ValueError(f"box {box} must hold every pixel of weight > 0")
+        if self.weight[:, :c0].any() or self.weight[:, c1:].any():
+            raise ValueError(f"box {box} must hold every pixel of weight > 0")
+        cut = object.__new__(_Matching)
+        cut.__dict__.update(self.__dict__)
+        cut.cid = np.ascontiguousarray(self.cid[r0:r1, c0:c1])
+        cut.weight = np.ascontiguousarray(self.weight[r0:r1, c0:c1])
+        cut.rows = tuple(np.ascontiguousarray(x[r0:r1]) for x in self.rows)
+        cut.cols = tuple(np.ascontiguousarray(x[c0:c1]) for x in self.cols)
+        return cut
+
+    def match(self, frame, out, span=None):
+        """Match one frame (H, W, C) float32 into ``out`` (H, W, C) float32.
+
+        ``span`` (r0, r1, c0, c1): the frame's bins span its values there only (the
+        whole frame if None).
+        """
+        lo, step = _bins(frame if span is None else frame[span[0] : span[1], span[2] : span[3]])
         inv_step = 1.0 / step
         counts = np.zeros((1, self.n_ch, self.n_cells, HISTOGRAM_BINS))
         _histogram_kernel(frame, self.cid, self.weight, lo, inv_step, counts[0])

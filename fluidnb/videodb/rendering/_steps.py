@@ -100,6 +100,7 @@ class _Frames:
     """
 
     fill = None
+    span = None  # where each frame's histogram bins span its values (None: everywhere)
 
     def _axes(self, target, cell):
         """The target's colour axes and the matching to it in them (kept for the target)."""
@@ -137,7 +138,7 @@ class _Frames:
         sec. 6) in the target's principal colour axes, then laid over the background
         through ``matte`` and clipped, into ``out`` (H, W, 3).
         """
-        matched = self.matching.match(rotated, np.empty_like(rotated))
+        matched = self.matching.match(rotated, np.empty_like(rotated), self.span)
         back = self.back
         if self.fill is not None:  # a moving matte: the photo, the fill where it left
             h, w = matte.shape
@@ -204,12 +205,56 @@ class _PaperFrames(_Frames):
         _tick(times, "composite", clock)
 
 
+#: The flow rendering with a still matte makes each frame on the matte's bounding box
+#: only (:func:`_matte_box`); False: on the whole canvas (the tests compare the two).
+_BOX = True
+
+#: The box's margin around the matte and the grid its corners are on, in pixels. The
+#: phases' cross-fade (:func:`variance_blend`) filters them with pyramids two levels
+#: deep (its detail band one level, its local energies two, 5-tap kernels): a pixel
+#: depends on the pixels up to ~16 px away (measured: a box's blend is the canvas's
+#: bit for bit from 15 px inside its edges), and a pyramid of the box is the canvas's
+#: pyramid cut out only when the box starts on the coarsest level's grid (4 px).
+BOX_MARGIN = 32
+BOX_GRID = 8
+
+#: The flow rendering's histogram matching bins each frame over its values in the
+#: matte's bounding box grown by this many pixels (:meth:`_Matching.match`'s
+#: ``span``), not over the whole canvas: a frame made on the box (:data:`BOX_MARGIN`)
+#: is exact there, and the pixels far from the fluid, which the composite does not
+#: show, no longer set the bins.
+SPAN_MARGIN = 16
+
+
+def _matte_box(alpha, shape, margin=BOX_MARGIN, grid=BOX_GRID):
+    """The box (r0, r1, c0, c1) on the canvas around ``alpha > 0``, or None.
+
+    The matte's bounding box grown by ``margin`` and out to the next multiples of
+    ``grid``, within the canvas (``alpha``'s shape); None when there is nothing to
+    gain: no matte, or a box that holds the whole picture (``shape``, (H, W)).
+    """
+    rows = np.flatnonzero((alpha > 0).any(axis=1))
+    cols = np.flatnonzero((alpha > 0).any(axis=0))
+    if not len(rows):
+        return None
+    hc, wc = alpha.shape
+    r0, c0 = ((int(x[0]) - margin) // grid * grid for x in (rows, cols))
+    r1, c1 = (-((-int(x[-1]) - 1 - margin) // grid) * grid for x in (rows, cols))
+    box = (max(r0, 0), min(r1, hc), max(c0, 0), min(c1, wc))
+    if box[0] == 0 and box[2] == 0 and box[1] >= shape[0] and box[3] >= shape[1]:
+        return None
+    return box
+
+
 class _FlowFrames(_Frames):
     r"""The flow rendering's steps after the blend (beyond the paper; :func:`render`), by frames.
 
     The motion field's displacement maps, the layer that is advected (the photo
     extended outside the matte) and the colour axes are made once; each run of frames
     is then warped (:func:`eulerian_loop`), given its detail, matched and composited.
+    With a still matte and no stages, a frame is made on the matte's box only
+    (:meth:`_boxed`; the stream's matte covers 37 % of the picture) and is the photo
+    elsewhere, as the composite makes it where the matte is 0.
     """
 
     def __init__(self, assignment, params, blended, plan, background, clock, keep):
@@ -235,6 +280,27 @@ class _FlowFrames(_Frames):
         else:
             back = target.canvas
         self.back = back
+        # With a still matte, a frame is the photo wherever the matte is 0 (the
+        # composite's back + 0 (x - back)): only the matte's box is made (its pixels
+        # the same as on the whole canvas: the phases are sampled at the same points of
+        # the whole finer layer, the detail cut from the whole blend, the matching's
+        # cells and mass the whole canvas's), the rest is the photo.
+        self.box = None
+        self.span = _matte_box(self.alpha, (0, 0), SPAN_MARGIN, 1)
+        if _BOX and params.tau == 0 and not keep:
+            self.box = _matte_box(self.alpha, (h, w))
+        if self.box is not None:
+            r0, _, c0, _ = self.box
+            self.box_matching = self.matching.cropped(self.box)
+            self.box_span = None
+            if self.span is not None:
+                self.box_span = (
+                    self.span[0] - r0,
+                    self.span[1] - r0,
+                    self.span[2] - c0,
+                    self.span[3] - c0,
+                )
+            self.still = np.clip(back[:h, :w], 0, 1)
         _tick(clock, "composite", t)
         offsets = self.loop.offsets
         self.stages = {
@@ -273,6 +339,9 @@ class _FlowFrames(_Frames):
         # colour axes.
         maps = self.maps.wait(*self.loop.ages(t))  # a compact _Maps
         clock = _tick(times, "field", clock)
+        if self.box is not None:
+            self._boxed(t, d, maps, out, times, clock)
+            return
         at = self.loop.coordinates(maps, self.grid, t, scale=SUPERSAMPLE, both=self.keep)
         a, b, wa = _sample(self.fine, at)
         moved = self.moved[t] if self.keep else np.empty(self.layer.shape, np.float32)
@@ -305,3 +374,41 @@ class _FlowFrames(_Frames):
         clock = _tick(times, "composite", clock)
         self._finish(rotated, matte, out)
         _tick(times, "match", clock)
+
+    def _boxed(self, t, d, maps, out, times, clock):
+        """:meth:`_frame` on the matte's box (a still matte, no stages), the photo elsewhere.
+
+        The same operations on the box's pixels; the matching's bins span the frame's
+        values in the box (:meth:`_Matching.cropped`).
+        """
+        h, w = self.target.shape
+        r0, r1, c0, c1 = self.box
+        shape = (r1 - r0, c1 - c0, 3)
+        at = self.loop.coordinates(maps, self.grid, t, scale=SUPERSAMPLE, box=self.box)
+        a, b, wa = _sample(self.fine, at)
+        moved = _blend_phases(a, b, wa, np.empty(shape, np.float32))
+        rotated = np.empty(shape, np.float32)
+        detail = np.ascontiguousarray(d[r0:r1, c0:c1])
+        _advected_in_axes(
+            moved, np.float32(self.params.detail), detail, self.centre, self.axes, rotated
+        )
+        clock = _tick(times, "advect", clock)
+        matched = self.box_matching.match(rotated, np.empty_like(rotated), self.box_span)
+        # The photo outside the box (what the composite gives where the matte is 0),
+        # the box composited as on the whole canvas.
+        _outside(out, self.still, (r0, min(r1, h), c0, min(c1, w)))
+        hb, wb = max(0, min(r1, h) - r0), max(0, min(c1, w) - c0)
+        _composite_from_axes(
+            matched, self.centre, self.axes, self.back[r0:r1, c0:c1],
+            self.alpha[r0:r1, c0:c1], out[r0 : r0 + hb, c0 : c0 + wb],
+        )  # fmt: skip
+        _tick(times, "match", clock)
+
+
+def _outside(out, still, box):
+    """``out = still`` outside the box (r0, r1, c0, c1), in four strips."""
+    r0, r1, c0, c1 = box
+    out[:r0] = still[:r0]
+    out[r1:] = still[r1:]
+    out[r0:r1, :c0] = still[r0:r1, :c0]
+    out[r0:r1, c1:] = still[r0:r1, c1:]

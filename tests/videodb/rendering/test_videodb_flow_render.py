@@ -635,3 +635,56 @@ def test_the_output_moves_when_the_chosen_fragments_move(tmp_path, photo):
     assert "barely move (median" in a.stillness_note()
     f = render(a, FEW).clip.frames
     assert np.hypot(*measured_flow(f, inner)) < 0.25
+
+
+def test_frames_made_on_the_mattes_box_are_the_whole_canvas_frames(db, monkeypatch):
+    # With a still matte (tau = 0) and no stages, each frame is made on the matte's
+    # box only (grown by BOX_MARGIN: the phases' cross-fade filters with pyramids) and
+    # is the photo elsewhere (_FlowFrames._boxed): the same pixels as the frames made
+    # on the whole canvas, bit for bit. Mutations caught: no margin (the cross-fade's
+    # pyramids differ near the box's edges), the box's matching with the whole
+    # canvas's bilinear roles, the coordinates not shifted to the box (_staggered).
+    from fluidnb.videodb.rendering import _steps
+
+    img = np.stack([texture(9, (128, 192), blur=2.0)] * 3, axis=-1) * [0.5, 0.7, 0.9]
+    img = img.astype(np.float32)
+    matte = np.zeros((128, 192), np.float32)
+    matte[40:88, 56:136] = 1.0
+    matte = ndi.gaussian_filter(matte, 1.0)
+    a = assign(img, matte, db, FEW)
+    box = _steps._matte_box(a.target.canvas_matte, img.shape[:2])
+    assert box is not None  # there is something outside the box
+    assert box[2] > 0
+    assert box[3] < 192
+    r0, r1, c0, c1 = box
+    outside = np.ones(img.shape[:2], bool)
+    outside[r0:r1, c0:c1] = False
+    for params in (FEW, FEW.replace(cell=24, travel=4.0, detail=0.2)):
+        boxed = render(a, params, stages=False).clip.frames
+        monkeypatch.setattr(_steps, "_BOX", False)
+        whole = render(a, params, stages=False).clip.frames
+        monkeypatch.setattr(_steps, "_BOX", True)
+        assert np.array_equal(boxed.view(np.uint32), whole.view(np.uint32))
+        assert np.array_equal(
+            boxed[:, outside], np.broadcast_to(img[outside], boxed[:, outside].shape)
+        )
+        assert np.abs(np.diff(boxed[:, r0:r1, c0:c1], axis=0)).max() > 0.05  # it moves
+    # The frames kept with the stages (made on the whole canvas) are the same frames.
+    staged = render(a, FEW).clip.frames
+    assert np.array_equal(
+        staged.view(np.uint32), render(a, FEW, stages=False).clip.frames.view(np.uint32)
+    )
+
+
+def test_the_matte_box_holds_the_matte_with_a_margin_on_the_grid():
+    from fluidnb.videodb.rendering import _steps
+
+    alpha = np.zeros((100, 120), np.float32)
+    assert _steps._matte_box(alpha, (100, 120)) is None
+    alpha[45, 37] = 0.01
+    alpha[50:53, 60:70] = 1.0
+    assert _steps._matte_box(alpha, (100, 120), margin=10, grid=8) == (32, 64, 24, 80)
+    assert _steps._matte_box(alpha, (100, 120), margin=0, grid=1) == (45, 53, 37, 70)
+    # Within the canvas; the whole picture: None.
+    assert _steps._matte_box(alpha, (100, 120), margin=40, grid=8) == (0, 96, 0, 112)
+    assert _steps._matte_box(alpha, (90, 100), margin=50, grid=8) is None
