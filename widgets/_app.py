@@ -593,7 +593,8 @@ class App(W.VBox):
         deadline = time.monotonic() + timeout
         while True:
             self.wait_preview(max(0.1, deadline - time.monotonic()))
-            timer = self._settle_timer
+            with self._settle_lock:  # never a timer made but not yet started
+                timer = self._settle_timer
             if timer is not None:
                 timer.join(max(0.1, deadline - time.monotonic()))
             self.wait(max(0.1, deadline - time.monotonic()))
