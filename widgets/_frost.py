@@ -294,6 +294,8 @@ class FrostApp(App):
         grow_report, draw_report = Progress(progress).split(0.6)
         result = grow(lattice, cells, params, seed=self.seed, progress=grow_report)
         self.frost_result = result
+        if result.end_frame is not None:  # the run's own end frame: no estimate left to show
+            self._show_length(params, dry_run=result.end_frame)
         last = result.n_frames if result.end_frame is None else result.end_frame
         size, every = _run_size(last + 1, lattice.image_shape, min(480, max(self.image.shape[:2])))
         clip = render(self.image, lattice, result, every=every, size=size, progress=draw_report)

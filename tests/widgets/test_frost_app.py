@@ -182,6 +182,9 @@ def test_the_clip_plays_at_the_panels_fps_and_the_status_tells_its_length(app):
     assert f"{clip.n_frames} frames at 12 fps = {clip.n_frames / 12:.1f} s" in app.status
     # The estimate above the run speaks the same units: frames at the panel's fps.
     assert "at 12 fps" in app.length.value
+    # After the run the Length line says the frame it ended at, with no slider moved
+    # (it kept the estimate and "the exact frame follows when the sliders rest").
+    assert f"this run ends at frame <b>{end:,}</b>" in app.length.value
     # Once the values rest, the Length line says the run's own end frame (the
     # automaton without drawing, the same seed): the frame the run ended at.
     deadline = time.monotonic() + 30
