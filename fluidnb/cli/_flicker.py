@@ -53,9 +53,7 @@ def _flicker(args):
     from .._image import as_mask
     from .._progress import TextProgress
     from ..flicker import FlickerParams, flicker
-    from ..flicker._flicker import _COMPILED
 
-    _COMPILED.start()  # numba loads while the photo is read and the model built
     params = params_from_args(FlickerParams, args)
     photo = Photo(args.image, "IMAGE", args.max_side)
     image = photo.read()

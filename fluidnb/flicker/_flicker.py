@@ -48,6 +48,7 @@ from .._stream import FrameStream, timed
 from .._threads import blas_single_threaded
 from .._validation import check_int, check_range
 from ._flow import as_velocity
+from ._kernels import shade_relight, soft_heights
 from ._params import FlickerParams
 from ._shading import _lambert_frame, _Relight, _Work, feather_weights, light_vector
 from ._spectrum import (
@@ -68,55 +69,6 @@ _THREADS = max(1, min(4, os.cpu_count() or 1))  # threads for the per-pixel shad
 _BINS_PER_REPORT = 4  # inverse DFTs per progress report
 _KNEE = 0.7  # where the soft clip of the RMS-normalised noise starts bending (units of A)
 _RMS_SAMPLES = 1 << 16  # pixels the RMS normalisation averages over, at most
-
-
-class _Compiled:
-    """The compiled kernels (:mod:`._kernels`), loaded on a thread of their own.
-
-    Importing numba and loading the kernels from its cache is ~0.5 s of CPU, nearly
-    all of it Python (holding the GIL); building a model is mostly numpy and FFTs
-    (which release it). :meth:`start` (called as a model starts, and by the command
-    line before it reads the photo) loads them beside that work, and calling the
-    object waits for them where a frame first needs them (issue 39). Importing
-    :mod:`fluidnb.flicker` no longer imports numba.
-    """
-
-    def __init__(self):
-        self._lock = threading.Lock()
-        self._thread = None
-        self._kernels = None
-        self._error = None
-
-    def start(self):
-        """Start loading the kernels (once; later calls do nothing)."""
-        with self._lock:
-            if self._thread is None:
-                self._thread = threading.Thread(
-                    target=self._load, name="fluidnb-numba", daemon=True
-                )
-                self._thread.start()
-
-    def _load(self):
-        try:
-            from . import _kernels
-
-            _kernels.warm_up()
-            self._kernels = _kernels
-        except BaseException as exc:  # raised where the kernels are asked for
-            self._error = exc
-
-    def __call__(self):
-        """The :mod:`._kernels` module, once loaded."""
-        self.start()
-        self._thread.join()
-        if isinstance(self._error, KeyboardInterrupt):
-            raise KeyboardInterrupt  # Ctrl-C as they loaded: the caller's "cancelled"
-        if self._error is not None:
-            raise RuntimeError("flicker's compiled kernels could not be loaded") from self._error
-        return self._kernels
-
-
-_COMPILED = _Compiled()
 
 
 def _check_params(params):
@@ -327,7 +279,6 @@ class _Scene:
         """
         relight = self.relighter
         light = self.light.astype(np.float32)
-        shade_relight = _COMPILED().shade_relight
         for i in range(slopes.shape[0]):
             frame = out[i] if out.ndim == 4 else out[i][..., None]
             shade_relight(
@@ -489,7 +440,6 @@ class FlickerModel:
     def __init__(
         self, image, mask=None, params=None, *, flow=None, seed=None, pixel_size=1.0, progress=None
     ):
-        _COMPILED.start()  # numba loads while the model is built
         report = Progress(progress)
         params = _check_params(params)
         self.velocity = _check_flow(flow, params)
@@ -609,7 +559,7 @@ class FlickerModel:
         # ratio of RMS the normalisation is in units of A already.)
         # (row *= scale; soft_clip(row, _KNEE, out=row); row *= A, compiled: one pass.)
         scale, A = np.float32(1.0 / (p.A * self.normalisation)), np.float32(p.A)
-        _COMPILED().soft_heights(rows, scale, np.float32(_KNEE), A)
+        soft_heights(rows, scale, np.float32(_KNEE), A)
         return rows
 
     def _peak(self, inside):

@@ -99,24 +99,3 @@ def shade_relight(hs, light, kw, offset, cap, clamp_black, channels, out):
         for k in range(n_channels):
             for c in range(w):
                 out[r, c, k] = channels[k, r, c] * factor[c]
-
-
-def warm_up():
-    """Load every kernel the flicker model calls, for the array layouts it passes.
-
-    numba compiles (or loads from its cache) a kernel for each layout of its
-    arguments when first called with them; called here on tiny arrays, on a thread
-    of its own while the model is built (:data:`fluidnb.flicker._flicker._COMPILED`),
-    so no frame waits for it: importing numba and loading these took ~0.5 s of CPU
-    (issue 39).
-    """
-    one = np.float32(1)
-    soft_heights(np.zeros((2, 4), np.float32), one, np.float32(0.5), one)
-    hs = np.zeros((3, 4), np.float32)
-    light = np.array([0.0, 0.0, 1.0], np.float32)
-    plane = np.ones((3, 4), np.float32)
-    planes = np.ones((3, 3, 4), np.float32)
-    frames = np.zeros((5, 6, 3), np.float32)
-    # The frames are written whole (C order) or as the window of a larger frame (A).
-    for out in (frames[:3, :4], frames[1:4, 1:5]):
-        shade_relight(hs, light, plane, plane, plane, False, planes, out)
