@@ -204,6 +204,13 @@ def run_layer(layer, photo, *, quick=False, progress=None, stream=False):
     return run(layer, photo, params, quick, progress, stream)
 
 
+def _looping(clip, reach):
+    """A looping method's clip (or its stream) as the layer of a scene, with its ``reach``."""
+    if isinstance(clip, Clip):
+        return LayerClip(_rgb(clip), reach, clip.fps, True, clip)
+    return LayerStream(len(clip), clip.fps, True, lambda: ((f, reach) for f in _frames_of(clip)))
+
+
 def _frames_of(stream):
     """A method's stream as ``(colour, alpha)`` pictures need it: RGB frames, in order."""
     for frame in stream.frames():
@@ -226,12 +233,7 @@ def _videodb(layer, photo, params, quick, progress, stream=False):
     )
     clip = anim.clip
     margin = max(2, round(max(photo.shape[:2]) / 24))
-    reach = _reach(layer.region, margin)
-    if stream:
-        return LayerStream(
-            len(clip), clip.fps, True, lambda: ((f, reach) for f in _frames_of(clip))
-        )
-    return LayerClip(_rgb(clip), reach, clip.fps, True, clip)
+    return _looping(clip, _reach(layer.region, margin))
 
 
 def _flicker(layer, photo, params, quick, progress, stream=False):
@@ -240,12 +242,7 @@ def _flicker(layer, photo, params, quick, progress, stream=False):
     mask = layer.region > 0.5
     clip = flicker(photo, mask, params, seed=layer.seed, progress=progress, stream=stream)
     # Outside its mask every frame is the photo: the mask itself is the reach.
-    reach = mask.astype(np.float32)
-    if stream:
-        return LayerStream(
-            len(clip), clip.fps, True, lambda: ((f, reach) for f in _frames_of(clip))
-        )
-    return LayerClip(_rgb(clip), reach, clip.fps, True, clip)
+    return _looping(clip, mask.astype(np.float32))
 
 
 def _fire(layer, photo, params, quick, progress, stream=False):
