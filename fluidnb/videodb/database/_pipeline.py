@@ -333,6 +333,11 @@ def _import_in_background(*modules):
     for the codebook, when every clip has been cut and the other core waits: done
     meanwhile, on cores that are busy anyway, it leaves the end of the build. An
     import that fails here fails again, with its message, where it is used.
+
+    The thread is not a daemon: a build stopped with Ctrl-C while the import runs
+    lets it finish (~0.5 s) before the interpreter shuts down, instead of tearing
+    down a half-loaded compiled extension under it (a daemon thread in the middle of
+    an import at shutdown can crash the process, as numba's loader did).
     """
     import importlib
     import threading
@@ -342,7 +347,9 @@ def _import_in_background(*modules):
             with contextlib.suppress(Exception):
                 importlib.import_module(name)
 
-    threading.Thread(target=run, name="fluidnb-import", daemon=True).start()
+    thread = threading.Thread(target=run, name="fluidnb-import", daemon=False)
+    thread.start()
+    return thread
 
 
 def _train_codebook(root, counts, params, seed, report):

@@ -337,3 +337,14 @@ def _encode_webm(path, clip):
     cmd += ["-c:v", "libvpx-vp9", "-pix_fmt", "yuv420p", str(path)]
     subprocess.run(cmd, input=frames.tobytes(), check=True, capture_output=True)
     return path
+
+
+def test_background_import_thread_is_joined_at_shutdown():
+    # A daemon thread still inside an import of a compiled extension when the
+    # interpreter shuts down (a build stopped with Ctrl-C) can crash the process; the
+    # codebook's early import runs on a thread the interpreter waits for.
+    thread = build_module._import_in_background("json", "no_such_module_fluidnb")
+    assert thread.name == "fluidnb-import"
+    assert not thread.daemon
+    thread.join(timeout=30)
+    assert not thread.is_alive()  # a module that fails to import is skipped, not fatal
