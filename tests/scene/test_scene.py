@@ -487,3 +487,30 @@ def test_resizing_refuses_bad_input():
         scene.add(Layer("fire", square))
     with pytest.raises(ValueError, match=r"layer must be a fluidnb\.scene\.Layer"):
         scene.fit("fire")
+
+
+def test_the_default_frost_branches_and_fills_its_region():
+    # The scene's default frost was Reiter's deterministic model (rth = 0): the same
+    # six-armed star for every seed, its thin ice a faint hexagon around it -- not
+    # frost on a window at any size (docs/contact/scene_hd_frost_*). With rth > 0 the
+    # arms branch at random: two seeds give different ice, spread over the region
+    # rather than lying on six rays from the start.
+    from fluidnb.scene import run_layer
+
+    h, w = 135, 240
+    yy, xx = np.mgrid[0:h, 0:w]
+    corner = (yy / (0.45 * h)) ** 2 + (xx / (0.30 * w)) ** 2 < 1
+    photo = np.full((h, w, 3), 0.4, np.float32)
+    (r0, c0), ice = innermost_point(corner)[0], []
+    for seed in (1, 2):
+        layer = run_layer(Layer("frost", corner, seed=seed), photo, stream=True)
+        alpha = layer.picture(len(layer) - 1)[1]
+        ice.append(alpha)
+        thick = (alpha > 0.5) & corner
+        assert thick.sum() > 0.3 * corner.sum()
+        dy, dx = yy[thick] - r0, xx[thick] - c0
+        far = np.hypot(dy, dx) > 6
+        off_axis = np.degrees(np.arctan2(-dy[far], dx[far])) % 60
+        on_a_ray = np.minimum(off_axis, 60 - off_axis) < 6  # within 6 degrees of an arm
+        assert on_a_ray.mean() < 0.35  # the star had 0.40 (uniform: 0.2)
+    assert np.abs(ice[0] - ice[1])[corner].mean() > 0.05  # the star: 0 (seed ignored)
