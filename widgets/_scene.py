@@ -272,7 +272,8 @@ class SceneApp(App):
         return f"preview at {w} x {h} of {fw} x {fh}; Export renders full size"
 
     def _show_sizes(self):
-        self._sizes.value = f"<span style='opacity:0.8'>{self.sizes()}</span>"
+        # As a hint is drawn (one line height when it wraps in the 330-px column).
+        self._sizes.value = hint(self.sizes()).value
 
     # ------------------------------------------------------------------ widgets
     def _new_canvas(self, image):
