@@ -12,7 +12,7 @@ from fluidnb import as_mask
 from fluidnb.fields import resize
 from fluidnb.scene import KINDS, Layer, Scene, default_params, load_scene, render, save_scene
 
-from ._app import App
+from ._app import App, _in_kernel, _quick_mode
 from ._canvas import DrawingCanvas
 from ._common import hint, output_dir, row, shown_path
 from ._flicker import GROUPS as FLICKER_GROUPS
@@ -103,6 +103,15 @@ class SceneApp(App):
     it; the player plays it and exports GIF or MP4. **Save** and **Load** keep the
     scene in a folder (:func:`fluidnb.scene.save_scene`).
 
+    A large photo (a 1920-px upload) is worked on through a proxy: the canvas holds
+    the photo and every layer's region, strokes and points at full size (what is
+    painted is never shrunk), while the preview and **Run** render the scene with
+    its photo shrunk to ``size`` (the library's ``Scene(photo, size=...)``, each
+    layer scaled to it). **Export full size** renders the scene at the photo's full
+    size (:meth:`fluidnb.scene.Scene.resized`) streamed to a file
+    (``render(scene, stream=True)``, as ``fluidnb scene`` does): a few frames in
+    memory, not the clip. The status line says both sizes.
+
     Parameters
     ----------
     photo : str, array_like, path or PIL image
@@ -110,7 +119,11 @@ class SceneApp(App):
     layers : sequence of Layer, optional
         Layers to start with (regions are resized to the photo).
     size : int, optional
-        Longest side the scene is rendered at (default 480; 96 with ``quick``).
+        Longest side the preview and Run render the scene at -- the proxy (default
+        480; 96 with ``quick``). A bundled photo is read at this size.
+    full_size : int, optional
+        Longest side Export renders at: a larger photo is shrunk to it (default: the
+        photo's own size).
     quick : bool
         Small sizes and the small starter databases (a quick look, tests, CI).
     display_size : int
@@ -131,18 +144,31 @@ class SceneApp(App):
     >>> app.close()
     """
 
-    def __init__(self, photo="lake", *, layers=(), size=None, quick=False, display_size=420):
+    def __init__(
+        self, photo="lake", *, layers=(), size=None, full_size=None, quick=False,
+        display_size=420,
+    ):  # fmt: skip
         self.quick = bool(quick)
         self.size = int(size or (96 if quick else 480))
+        if self.size < 8:
+            raise ValueError(f"size must be >= 8 pixels, got {size}")
+        if full_size is not None and int(full_size) < self.size:
+            raise ValueError(
+                f"full_size must be >= size ({self.size}): the export is never smaller "
+                f"than the preview, got {full_size}"
+            )
+        self.full_size = None if full_size is None else int(full_size)
         self.entries = []  #: The layers as edited, bottom first (:class:`_Entry`).
+        self.exported = None  #: The path of the last full-size export, or None.
         self.selected = None  #: The selected layer's name, or None.
         self._syncing = False  # the app itself loads a layer into the canvas and panel
         self._panels = {}
         self._preview_scene = None
         self._photo_name = photo if isinstance(photo, str) else "upload"
-        image, _ = load_photo(photo, samples=SAMPLES, size=self.size, min_side=8)
-        #: The scene rendered (its cache keeps each layer's clip).
-        self.scene = Scene(image, size=None)
+        image = self._read_photo(photo)
+        #: The scene Run renders: the photo shrunk to ``size`` (the proxy; its cache
+        #: keeps each layer's clip); ``scene.source`` is the full-size photo.
+        self.scene = Scene(image, size=self.size)
         self.photo_input = PhotoInput(
             SAMPLES,
             self._photo_name,
@@ -150,7 +176,7 @@ class SceneApp(App):
             say=lambda t, k: self.say(t, k),
         )
         self._display_size = display_size
-        canvas = self._new_canvas(self.scene.photo)
+        canvas = self._new_canvas(image)
         self._kind = W.Dropdown(
             options=list(KIND_ORDER), value="water", description="method",
             style={"description_width": "52px"}, layout=W.Layout(width="170px"),
@@ -169,6 +195,16 @@ class SceneApp(App):
         )  # fmt: skip
         self._save = _button("Save scene", "save", "fluidnb-scene-save", "120px")
         self._load = _button("Load scene", "folder-open", "fluidnb-scene-load", "120px")
+        self._export_path = W.Text(
+            value=str(shown_path(output_dir(create=False) / "scene.mp4")),
+            description="file", style={"description_width": "44px"},
+            layout=W.Layout(width="320px"),
+        )  # fmt: skip
+        self._export = _button("Export full size", "film", "fluidnb-scene-export", "160px")
+        self._sizes = W.HTML()
+        self._export_path.add_class("fluidnb-scene-export-path")
+        self._sizes.add_class("fluidnb-scene-sizes")
+        self._export.on_click(lambda _: self._act(lambda: self.export(block=False)))
         self._list.add_class("fluidnb-scene-layers")
         self._kind.add_class("fluidnb-scene-kind")
         self._folder.add_class("fluidnb-scene-folder")
@@ -194,6 +230,9 @@ class SceneApp(App):
             row(self._up, self._down, self._hide, self._remove),
         )
         self.controls = (
+            self._sizes,
+            self._export_path,
+            self._export,
             self._folder,
             row(self._save, self._load),
             hint(
@@ -203,13 +242,38 @@ class SceneApp(App):
                 "the selected layer alone, small; Run renders only the layers that changed."
             ),
         )
+        full = Scene(image, size=None)
         for layer in layers:
-            self.scene.add(layer)  # resized to the photo, names checked
-            self.entries.append(_Entry.of(self.scene.layers[-1]))
-        self.scene.layers = []
+            full.add(layer)  # resized to the full photo, names checked
+            self.entries.append(_Entry.of(full.layers[-1]))
         self._refresh_list()
+        self._show_sizes()
+        self.say(self.sizes())
         if self.entries:
             self.select_layer(self.entries[-1].name)
+
+    def _read_photo(self, photo):
+        """The photo at full size: an image as given (or ``full_size``), a sample at ``size``."""
+        image, _ = load_photo(
+            photo, samples=SAMPLES, size=self.full_size, sample_size=self.size, min_side=8
+        )
+        return image
+
+    @property
+    def full_shape(self):
+        """(H, W) of the photo at full size: the regions' and the export's."""
+        return self.scene.full_shape
+
+    def sizes(self):
+        """What the status line says of the sizes: the preview's and the export's."""
+        (h, w), (fh, fw) = self.scene.shape, self.full_shape
+        if (h, w) == (fh, fw):
+            return f"preview and Run at the photo's full size, {w} x {h}"
+        return f"preview at {w} x {h} of {fw} x {fh}; Export renders full size"
+
+    def _show_sizes(self):
+        # As a hint is drawn (one line height when it wraps in the 330-px column).
+        self._sizes.value = hint(self.sizes()).value
 
     # ------------------------------------------------------------------ widgets
     def _new_canvas(self, image):
@@ -300,7 +364,7 @@ class SceneApp(App):
                 name, i = f"{kind} {i}", i + 1
         elif name in taken:
             raise ValueError(f"name {name!r} is taken; the scene has {sorted(taken)}")
-        shape = self.scene.shape
+        shape = self.full_shape
         if region is not None:
             region = as_mask(region, shape, name="region").astype(np.float32)
         elif self.selected is None:  # a drawing made before any layer is kept
@@ -336,7 +400,8 @@ class SceneApp(App):
         finally:
             self._syncing = False
         self._refresh_list()
-        self.say(f"layer {name!r} ({entry.kind}, {KINDS[entry.kind][0]}): paint its region")
+        proxy = "" if self.scene.shape == self.full_shape else f"; {self.sizes()}"
+        self.say(f"layer {name!r} ({entry.kind}, {KINDS[entry.kind][0]}): paint its region{proxy}")
         self.request_preview()
 
     def _shown_params(self, entry):
@@ -351,7 +416,8 @@ class SceneApp(App):
             return entry.params
         shown = default_params(entry.kind)
         try:
-            key = entry.layer().key(self.scene.photo_key, self.scene.shape)
+            # The run's layer: the region shrunk to the proxy as Run shrinks it.
+            key = self.scene.fit(entry.layer()).key(self.scene.photo_key, self.scene.shape)
         except ValueError:  # not painted yet
             return shown
         made = self.scene.cache.get(key)
@@ -406,10 +472,10 @@ class SceneApp(App):
         if region.dtype.kind not in "buif":
             raise ValueError(f"region must be a mask or a matte, got dtype {region.dtype}")
         region = region.astype(np.float32)
-        if region.shape != self.scene.shape or region.min() < 0 or region.max() > 1:
+        if region.shape != self.full_shape or region.min() < 0 or region.max() > 1:
             raise ValueError(
                 f"region must be a mask or a matte in [0, 1] of the photo's size "
-                f"{self.scene.shape}, got shape {region.shape}"
+                f"{self.full_shape}, got shape {region.shape}"
             )
         entry = self._entry(self.selected)
         entry.region = region
@@ -449,16 +515,18 @@ class SceneApp(App):
         """
         if self.running:
             raise ValueError("wait for the run (or Cancel it) before changing the photo")
-        image, _ = load_photo(photo, samples=SAMPLES, size=self.size, min_side=8)
-        old = self.scene.shape
-        scene = Scene(image, size=None, fps=self.scene.fps, duration=self.scene.duration)
-        f = scene.shape[0] / old[0]
+        image = self._read_photo(photo)
+        old = self.full_shape
+        scene = Scene(image, size=self.size, fps=self.scene.fps, duration=self.scene.duration)
+        new = scene.full_shape
+        f = np.array([new[0] / old[0], new[1] / old[1]], np.float32)
         for e in self.entries:
-            e.region = np.clip(resize(e.region, scene.shape), 0, 1).astype(np.float32)
+            e.region = np.clip(resize(e.region, new), 0, 1).astype(np.float32)
             e.strokes = tuple(s * f for s in e.strokes)
             e.starts = None if e.starts is None else e.starts * f
-            e.speed = None if e.speed is None else resize(e.speed, scene.shape, order=0) * f
+            e.speed = None if e.speed is None else resize(e.speed, new, order=0) * f.mean()
         self.scene = scene
+        self._show_sizes()
         self._preview_scene = None
         self.canvas = self._new_canvas(image)
         self._photo_name = photo if isinstance(photo, str) else "upload"
@@ -495,11 +563,88 @@ class SceneApp(App):
             + (" (cached)" if cached else f", {took:.1f} s"),
         )
 
-    def _run(self, params, progress):
+    def _proxy_scene(self):
+        """The scene Run renders: every layer shrunk to the proxy (the full ones kept)."""
         self.scene.layers = []
         for layer in self._layers():
-            self.scene.add(layer)
-        return render(self.scene, quick=self.quick, progress=progress)
+            self.scene.add(layer)  # its region at full size, shrunk; resized() has it back
+        return self.scene
+
+    def _run(self, params, progress):
+        return render(self._proxy_scene(), quick=self.quick, progress=progress)
+
+    def full_scene(self):
+        """The scene at the photo's full size, as Export renders it (plain data).
+
+        The proxy's scene made at full size by :meth:`fluidnb.scene.Scene.resized`:
+        each layer's region, strokes and points as painted (at full size).
+        """
+        return self._proxy_scene().resized(None)
+
+    def export(self, path=None, timeout=None, *, block=None):
+        """Render the scene at full size, streamed to ``path`` (Export full size).
+
+        The layers' methods run on the full-size photo and the frames are written as
+        they are composited (``render(scene, stream=True)``): memory holds a few
+        frames of each layer, not the clip. Like :meth:`run`, it waits (and returns
+        the file's path) outside a live notebook, else works in the background with
+        the progress bar and Cancel.
+
+        Parameters
+        ----------
+        path : str or Path, optional
+            ``.mp4``, ``.gif``, ``.npz`` or a folder of PNG frames (default: the
+            file box, ``scene.mp4`` in the output folder).
+        timeout : float, optional
+            Longest wait in seconds when waiting (TimeoutError after it).
+        block : bool, optional
+            Wait (True) or not (False); by default as :meth:`run`.
+        """
+        from pathlib import Path
+
+        from fluidnb._media import as_path
+
+        path = self._export_path.value if path is None else path
+        if not str(path).strip():
+            raise ValueError("path must name the file to export to (.mp4, .gif, .npz)")
+        out = as_path(path)
+        if out.suffix.lower() not in (".mp4", ".gif", ".npz", ""):
+            raise ValueError(
+                f"path must end in .mp4, .gif or .npz (or name a folder of PNG frames), "
+                f"got {Path(path).name!r}"
+            )
+        if self.running:
+            raise ValueError("wait for the run (or Cancel it) before exporting")
+        scene = self.full_scene()  # ValueError: a visible layer not painted
+        self.exported = None
+        self._export_path.value = str(path)
+        (h, w) = scene.shape
+        done_info = {}
+
+        def task(params, progress):
+            frames = render(scene, quick=self.quick, stream=True, progress=progress)
+            done_info["frames"] = len(frames)
+            done_info["fps"] = frames.fps
+            return frames.save(out)
+
+        def done(written, seconds):
+            self.exported = written
+            return (
+                f"exported {shown_path(written)}: {done_info['frames']} frames at "
+                f"{w} x {h} (full size), {done_info['fps']:g} fps, in {seconds:.1f} s"
+            )
+
+        started = self.start_task(
+            task, done, message=f"exporting at full size, {w} x {h}…", busy=(self._export,)
+        )
+        if not started:
+            return None
+        if block is None:
+            block = _quick_mode() or not _in_kernel()
+        if not block:
+            return None
+        self.wait(timeout)
+        return self.exported
 
     def _show_clip(self, clip, seconds):
         super()._show_clip(clip, seconds)
@@ -514,7 +659,7 @@ class SceneApp(App):
         redone = ", ".join(made) if made else "none"
         return (
             f"done in {seconds:.1f} s: {len(clip)} frames at {clip.fps:g} fps; rendered: "
-            f"{redone}; from the cache: {kept}"
+            f"{redone}; from the cache: {kept}; {self.sizes()}"
         )
 
     # ------------------------------------------------------------------ files
@@ -525,7 +670,7 @@ class SceneApp(App):
         """
         folder = self._folder.value if folder is None else folder
         painted = [e.layer() for e in self.entries if (e.region > 0.5).any()]
-        scene = Scene(self.scene.photo, painted, size=None, fps=self.scene.fps,
+        scene = Scene(self.scene.source, painted, size=None, fps=self.scene.fps,
                       duration=self.scene.duration)  # fmt: skip
         path = save_scene(scene, folder)
         self._folder.value = str(folder)
@@ -541,12 +686,14 @@ class SceneApp(App):
         folder = self._folder.value if folder is None else folder
         scene = load_scene(folder)  # a bad folder raises here: nothing changed
         entries = [_Entry.of(layer) for layer in scene.layers]
-        if scene.shape != self.scene.shape:
+        if scene.shape != self.full_shape:
             self.canvas = self._new_canvas(scene.photo)
         else:
             self.canvas.set_image(scene.photo)
-        self.scene, self._preview_scene = scene, None
-        self.scene.layers = []
+        # Saved at full size; Run works on its proxy.
+        proxy = Scene(scene.photo, size=self.size, fps=scene.fps, duration=scene.duration)
+        self.scene, self._preview_scene = proxy, None
+        self._show_sizes()
         self.entries, self.selected = entries, None
         self._photo_name = "upload"
         self.photo_input.shown("upload")
@@ -563,6 +710,7 @@ class SceneApp(App):
         return {
             "photo": self._photo_name,
             "shape": tuple(self.scene.shape),
+            "full_shape": tuple(self.full_shape),
             "selected": self.selected,
             "layers": [
                 {

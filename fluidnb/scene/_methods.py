@@ -123,13 +123,17 @@ class LayerStream:
 
 
 def default_params(kind):
-    """The parameters a layer of ``kind`` gets when it has none: chosen to look good.
+    r"""The parameters a layer of ``kind`` gets when it has none: chosen to look good.
 
     ``water``/``clouds``: :meth:`AnimateParams.for_kind` of the water/smoke database;
     ``flicker``: the paper's (:class:`FlickerParams`) at 24 fps over 96 frames (4 s,
     as long as the other loops); ``fire``: :class:`FireParams` (256 px, 24 fps);
-    ``frost``: :class:`FrostParams` with the target at 96 frames (4 s at 24 fps) and a
-    3-pixel lattice; :func:`run_layer` then scales the lattice with a scene larger
+    ``frost``: :class:`FrostParams` with the target at 96 frames (4 s at 24 fps), a
+    3-pixel lattice and the ragged growth of frost on a window (:math:`\beta = 0.6`,
+    :math:`r_{th} = 0.4`: a frontier cell gains vapour only when its random number
+    exceeds :math:`r_{th}`, so arms branch and fill the region; the paper's
+    :math:`r_{th} = 0` is Reiter's model, a deterministic six-armed snowflake that
+    ignores the seed); :func:`run_layer` then scales the lattice with a scene larger
     than 480 px (the same cells at any size) and fits its gamma to the region.
     """
     if kind in ("water", "clouds"):
@@ -147,7 +151,8 @@ def default_params(kind):
     if kind == "frost":
         from ..frost import FrostParams
 
-        return FrostParams(target=96, spacing=3.0)
+        # beta and rth as benchmarks/contact_scene.py's frost (docs/contact/scene_lake.png).
+        return FrostParams(beta=0.6, rth=0.4, target=96, spacing=3.0)
     raise ValueError(f"kind must be water, clouds, flicker, fire or frost, got {kind!r}")
 
 

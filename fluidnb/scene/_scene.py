@@ -33,7 +33,10 @@ class Scene:
     layers : list of Layer, optional
     size : int, optional
         Longest side the scene is rendered at; the photo is shrunk to it (default
-        480; None keeps the photo's size).
+        480; None keeps the photo's size). The photo as given is kept
+        (:attr:`source`): a scene worked on at a small size (a proxy: quick
+        previews) is rendered at full size by ``render(scene.resized(), stream=True)``,
+        its layers scaled exactly (:meth:`resized`).
     fps : float
         The scene's frames a second (every layer is brought to it).
     duration : float, optional
@@ -60,6 +63,9 @@ class Scene:
         if image.ndim == 2:
             image = np.repeat(image[..., None], 3, axis=-1)
         image = np.ascontiguousarray(image[..., :3], np.float32)
+        #: The photo as given, at its full size: :meth:`resized` makes the scene at
+        #: another size from it (a preview's proxy exported at full size).
+        self.source = image
         if size is not None:
             from ..fields import resize
 
@@ -76,6 +82,10 @@ class Scene:
         self.layers = []
         self.cache = OrderedDict()  #: layer key -> LayerClip (the last CACHE_SIZE made)
         self.renders = 0  #: Layers rendered by their method so far (the cache's misses).
+        # Each layer as it was given (name -> (the scene's layer, the given one)), so
+        # resized() scales from the coordinates a region was painted in, not from the
+        # scene's smaller copy of it: nothing painted at full size is lost.
+        self._given = {}
         for layer in layers:
             self.add(layer)
 
@@ -89,27 +99,94 @@ class Scene:
         """A digest of the photo (part of every layer's cache key)."""
         return hashlib.sha256(self.photo.tobytes()).hexdigest()[:20]
 
-    def add(self, layer, index=None):
-        """Add a layer (on top, or at ``index``); its region must match the photo."""
+    @property
+    def full_shape(self):
+        """(H, W) of the photo as given (:attr:`source`): what :meth:`resized` ``(None)`` has."""
+        return self.source.shape[:2]
+
+    def fit(self, layer):
+        """``layer`` at the scene's size: its region resized, strokes, starts, speed scaled.
+
+        A region of another size must be the photo's shape scaled (a proxy's or the
+        full photo's): rows and columns are scaled each by their own factor.
+        """
         if not isinstance(layer, Layer):
             raise ValueError(f"layer must be a fluidnb.scene.Layer, got {type(layer).__name__}")
-        if layer.region.shape != self.shape:
-            from ..fields import resize
+        if layer.region.shape == self.shape:
+            return layer
+        from ..fields import resize
 
-            region = np.clip(resize(layer.region, self.shape), 0, 1)
-            changes = {"region": region}
-            f = self.shape[0] / layer.region.shape[0]
-            if layer.strokes:
-                changes["strokes"] = tuple(s * f for s in layer.strokes)
-            if layer.starts is not None:
-                changes["starts"] = layer.starts * f
-            if layer.speed is not None:
-                changes["speed"] = resize(layer.speed, self.shape, order=0) * f
-            layer = layer.replace(**changes)
+        (h, w), (rh, rw) = self.shape, layer.region.shape
+        fy, fx = h / rh, w / rw
+        # Each side was rounded to whole pixels (half a pixel), perhaps twice (a
+        # preview made from a proxy made from the photo): one pixel a side.
+        if abs(fy / fx - 1) > 1 / h + 1 / w + 1 / rh + 1 / rw:
+            raise ValueError(
+                f"layer {layer.name!r}: region shape {layer.region.shape} is neither the "
+                f"scene's {self.shape} nor a scaled copy of it (the photo's aspect "
+                f"{w / h:.4g}, the region's {rw / rh:.4g})"
+            )
+        scale = np.array([fy, fx], np.float32)
+        changes = {"region": np.clip(resize(layer.region, self.shape), 0, 1)}
+        if layer.strokes:
+            changes["strokes"] = tuple(s * scale for s in layer.strokes)
+        if layer.starts is not None:
+            changes["starts"] = layer.starts * scale.astype(np.float64)
+        if layer.speed is not None:
+            # px/frame: a speed is a length, scaled with the picture.
+            changes["speed"] = resize(layer.speed, self.shape, order=0) * (0.5 * (fy + fx))
+        return layer.replace(**changes)
+
+    def add(self, layer, index=None):
+        """Add a layer (on top, or at ``index``); its region is the photo's (any size of it).
+
+        A region of another size than the scene's (the full photo's, or a proxy's) is
+        resized to it (:meth:`fit`), and the layer as given is kept for :meth:`resized`.
+        """
+        given = layer
+        layer = self.fit(layer)
         if any(other.name == layer.name for other in self.layers):
             raise ValueError(f"a layer named {layer.name!r} is already in the scene")
         self.layers.insert(len(self.layers) if index is None else index, layer)
+        self._given[layer.name] = (layer, given)
         return layer
+
+    def resized(self, size=None):
+        """The same scene with its photo at another size: a proxy's export at full size.
+
+        Parameters
+        ----------
+        size : int, optional
+            Longest side (>= 8), at most the photo's as given; None: the photo's full
+            size (:attr:`full_shape`).
+
+        Returns
+        -------
+        Scene
+            A new scene (its own empty cache) of :attr:`source` at ``size``, the same
+            fps, duration and layers in order. A layer is scaled from the coordinates
+            it was given in (a region painted at full size comes back unchanged at full
+            size); a layer changed on this scene since (:meth:`update`, or
+            :attr:`layers` set directly) is scaled from its copy at this scene's size.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> photo = np.zeros((200, 300, 3), np.float32)
+        >>> region = np.zeros((200, 300), bool)
+        >>> region[50:150, 100:250] = True
+        >>> proxy = Scene(photo, [Layer("flicker", region)], size=60)  # 40 x 60
+        >>> proxy.shape, proxy.layers[0].region.shape
+        ((40, 60), (40, 60))
+        >>> full = proxy.resized()
+        >>> full.shape, bool(np.array_equal(full.layers[0].region, region))
+        ((200, 300), True)
+        """
+        scene = Scene(self.source, size=size, fps=self.fps, duration=self.duration)
+        for layer in self.layers:
+            kept = self._given.get(layer.name)
+            scene.add(kept[1] if kept is not None and kept[0] is layer else layer)
+        return scene
 
     def layer(self, name):
         """The layer called ``name``."""
@@ -121,7 +198,13 @@ class Scene:
     def update(self, name, **changes):
         """Change a layer's fields (its params, region, ...); only it re-renders."""
         i = self.layers.index(self.layer(name))
-        self.layers[i] = self.layers[i].replace(**changes)
+        old = self.layers[i]
+        self.layers[i] = old.replace(**changes)
+        kept = self._given.get(name)
+        geometry = {"region", "strokes", "starts", "speed", "name"}
+        if kept is not None and kept[0] is old and not geometry & set(changes):
+            # Its params, visibility, ...: the layer as given follows (its geometry kept).
+            self._given[name] = (self.layers[i], kept[1].replace(**changes))
         return self.layers[i]
 
     def remove(self, name):

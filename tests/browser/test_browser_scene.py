@@ -130,3 +130,84 @@ def test_paint_a_layer_run_and_the_composite_plays_beside_the_canvas(notebook, p
     assert again["outside"] == 0.0
     poll("the status", lambda: "from the cache: 1" in status.inner_text(), timeout=30)
     shot(app, "after-slider")
+
+
+HD_APP = """\
+import resource, time
+import imageio_ffmpeg
+from fluidnb.data import sample
+from fluidnb.fields import resize
+from fluidnb.flicker import FlickerParams
+from fluidnb.widgets import SceneApp
+
+# A large photo: the stream enlarged to 1920 px (1504 x 1920), as a camera gives.
+photo = np.clip(resize(sample("stream"), (1504, 1920), order=3), 0, 1).astype(np.float32)
+app = SceneApp(photo)
+app.add_layer("flicker", params=FlickerParams(T=24, fps=12.0))
+app._export_path.value = "hd.mp4"
+cpu = [time.process_time()]
+
+def report_inputs(_=None):
+    e = app.entries[0]
+    dump("inputs.json", {"painted": int((e.region > 0.5).sum()), "shape": list(e.region.shape)})
+
+def report_status(change):
+    if not change["new"].startswith("exported"):
+        return
+    meta = next(imageio_ffmpeg.read_frames("hd.mp4"))
+    dump("export.json", {
+        "status": change["new"], "size": list(meta["size"]),
+        "frames": imageio_ffmpeg.count_frames_and_secs("hd.mp4")[0],
+        "cpu": time.process_time() - cpu[0],
+        "maxrss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+    })
+
+def report_clip(change):
+    clip = change["new"]
+    if clip is not None and not clip.metadata.get("preview"):
+        cpu[0] = time.process_time()
+        dump("clip.json", {"shape": list(clip.frames.shape), "status": app.status})
+
+app.canvas.observe(report_inputs, "version")
+app.observe(report_status, "status")
+app.player.observe(report_clip, "clip")
+report_inputs()
+app
+"""
+
+
+def test_a_large_photo_is_painted_and_run_on_a_proxy_and_exported_full_size(notebook, page, shot):
+    # Issue 39: a 1920-px photo. The canvas keeps the regions at full size, Run and the
+    # preview work at 480 px, and Export full size streams the 1920-px scene to a file.
+    page.set_viewport_size(VIEWPORT)
+    nb, app, _, box = open_app(notebook, page, [HD_APP])
+    status = page.locator(".fluidnb-app .fluidnb-status")
+    sizes = page.locator(".fluidnb-scene-sizes").inner_text()
+    assert "preview at 480 x 376 of 1920 x 1504; Export renders full size" in sizes
+    page.mouse.move(*at(box, 0.1, 0.8))
+    page.mouse.down()
+    page.mouse.move(*at(box, 0.9, 0.75), steps=12)
+    page.mouse.up()
+    painted = nb.state("inputs.json", lambda s: s["painted"] > 20000)
+    assert painted["shape"] == [1504, 1920]  # painted at full size
+    shot(page, "painted")
+    page.locator(".fluidnb-app .fluidnb-run").click()
+    run = nb.state("clip.json", timeout=180)
+    assert run["shape"][1:3] == [376, 480]  # Run renders the proxy
+    poll("the run's status", lambda: "done" in status.inner_text(), timeout=60)
+    assert "preview at 480 x 376 of 1920 x 1504; Export renders full size" in status.inner_text()
+    app.evaluate("el => el.scrollIntoView({block: 'start'})")
+    page.wait_for_timeout(300)
+    export = page.locator(".fluidnb-scene-export")
+    inside(export.bounding_box(), notebook_view(page), "Export full size")
+    shot(page, "run")
+    export.click()
+    poll("the export's status", lambda: "exporting at full size" in status.inner_text(), 10)
+    shot(page, "exporting")
+    done = nb.state("export.json", timeout=300)
+    assert done["size"] == [1920, 1504]  # (width, height) of the video: full size
+    assert done["frames"] == run["shape"][0]
+    assert "1920 x 1504 (full size)" in done["status"]
+    poll("the status", lambda: "exported" in status.inner_text(), timeout=30)
+    shot(page, "exported")
+    print(f"export: {done}")

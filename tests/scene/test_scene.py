@@ -396,3 +396,121 @@ def test_the_default_frost_is_the_same_lattice_at_any_size():
         photo = np.full((h, w, 3), 0.4, np.float32)
         lengths.append(len(run_layer(Layer("frost", corner, seed=1), photo, stream=True)))
     assert all(0.8 * 96 <= n <= 1.2 * 96 for n in lengths), lengths
+
+
+# ---------------------------------------------------------------- a proxy at full size (issue 39)
+def _layers_at(shape):
+    """Layers of every geometry (region, strokes, starts, speed) in ``shape``'s pixels."""
+    h, w = shape
+    speed = np.zeros(shape, np.float32)
+    speed[int(0.7 * h) :, : w // 2] = 2.5
+    flow = [[0.8 * h, 5], [0.85 * h, w - 5]]
+    return [
+        Layer("water", _box(shape, (0.7, 1.0), (0.0, 1.0)), strokes=[flow], speed=speed),
+        Layer("flicker", _box(shape, (0.45, 0.65), (0.0, 1.0)), FLICKER),
+        Layer("frost", _box(shape, (0.0, 0.4), (0.0, 0.3)), FROST, starts=[[0.1 * h, 0.1 * w]],
+              seed=2),
+    ]  # fmt: skip
+
+
+def test_a_proxy_resized_to_full_size_is_the_scene_built_at_full_size():
+    # A scene worked on at a small size (a proxy: the app's previews) is rendered at
+    # the photo's full size by scene.resized(): every layer as it was given, so what
+    # was painted at full size comes back exactly, not enlarged from the proxy.
+    photo = sample("lake", size=192)  # 108 x 192
+    full = Scene(photo, _layers_at(photo.shape[:2]), size=None)
+    proxy = Scene(photo, _layers_at(photo.shape[:2]), size=64)
+    assert proxy.shape == (36, 64)
+    assert proxy.full_shape == full.shape == (108, 192)
+    assert all(x.region.shape == (36, 64) for x in proxy.layers)
+    water = proxy.layer("water")
+    assert water.strokes[0][0].tolist() == pytest.approx([0.8 * 108 / 3, 5 / 3], rel=1e-6)
+    assert float(water.speed.max()) == pytest.approx(2.5 / 3)  # px/frame scale with the picture
+    back = proxy.resized()
+    assert back.shape == full.shape
+    assert np.array_equal(back.photo, full.photo)
+    assert back.photo_key == full.photo_key
+    for a, b in zip(back.layers, full.layers, strict=True):
+        assert (a.name, a.kind, a.params, a.seed) == (b.name, b.kind, b.params, b.seed)
+        assert np.array_equal(a.region, b.region)
+        assert all(np.array_equal(s, t) for s, t in zip(a.strokes, b.strokes, strict=True))
+        for name in ("starts", "speed"):
+            u, v = getattr(a, name), getattr(b, name)
+            assert (u is None and v is None) or np.array_equal(u, v)
+        assert a.key(back.photo_key, back.shape) == b.key(full.photo_key, full.shape)
+    # A parameter changed on the proxy follows; a region changed there is scaled from it.
+    proxy.update("flicker", seed=5)
+    assert proxy.resized().layer("flicker").seed == 5
+    assert np.array_equal(proxy.resized().layer("flicker").region, full.layer("flicker").region)
+    small = np.zeros((36, 64), bool)
+    small[0:12, 40:64] = True
+    proxy.update("frost", region=small, starts=[[6.0, 50.0]])
+    frost = proxy.resized().layer("frost")
+    assert frost.region.shape == (108, 192)
+    assert frost.starts.tolist() == [[18.0, 150.0]]
+    assert (frost.region > 0.5).sum() == pytest.approx(small.sum() * 9, rel=0.1)
+    # A smaller size of the same scene, and a size larger than the photo keeps the photo's.
+    assert proxy.resized(96).shape == (54, 96)
+    assert proxy.resized(4000).shape == (108, 192)
+
+
+def test_a_proxy_exports_the_full_size_frames(tmp_path):
+    # render(proxy.resized(), stream=True) -- the app's Export -- writes the frames of
+    # the scene built at full size (a small "full" size keeps the test quick).
+    from fluidnb import Clip
+
+    photo = sample("lake", size=160)  # 90 x 160
+    region = _box(photo.shape[:2], (0.45, 0.7), (0.0, 1.0))
+    layer = Layer("flicker", region, FLICKER, seed=3)
+    proxy = Scene(photo, [layer], size=64, fps=8.0)
+    preview = render(proxy)
+    assert preview.frames.shape[1:3] == (36, 64)
+    path = render(proxy.resized(), stream=True).save(tmp_path / "full.npz")
+    saved = Clip.load(path)
+    built = render(Scene(photo, [layer], size=None, fps=8.0))
+    assert saved.frames.shape == built.frames.shape == (len(preview), 90, 160, 3)
+    assert np.array_equal(saved.frames, built.frames)
+    assert np.array_equal(
+        saved.frames[:, ~region], np.broadcast_to(photo[~region], saved.frames[:, ~region].shape)
+    )
+    assert np.abs(saved.frames[:, region] - photo[region]).max() > 0.02  # it flickers
+
+
+def test_resizing_refuses_bad_input():
+    photo = sample("lake", size=96)  # 54 x 96
+    scene = Scene(photo, size=48)
+    with pytest.raises(ValueError, match="size"):
+        scene.resized(4)
+    square = np.zeros((50, 50), bool)
+    square[10:20, 10:20] = True
+    with pytest.raises(ValueError, match=r"region shape \(50, 50\) is neither the scene's"):
+        scene.add(Layer("fire", square))
+    with pytest.raises(ValueError, match=r"layer must be a fluidnb\.scene\.Layer"):
+        scene.fit("fire")
+
+
+def test_the_default_frost_branches_and_fills_its_region():
+    # The scene's default frost was Reiter's deterministic model (rth = 0): the same
+    # six-armed star for every seed, its thin ice a faint hexagon around it -- not
+    # frost on a window at any size (docs/contact/scene_hd_frost_*). With rth > 0 the
+    # arms branch at random: two seeds give different ice, spread over the region
+    # rather than lying on six rays from the start.
+    from fluidnb.scene import run_layer
+
+    h, w = 135, 240
+    yy, xx = np.mgrid[0:h, 0:w]
+    corner = (yy / (0.45 * h)) ** 2 + (xx / (0.30 * w)) ** 2 < 1
+    photo = np.full((h, w, 3), 0.4, np.float32)
+    (r0, c0), ice = innermost_point(corner)[0], []
+    for seed in (1, 2):
+        layer = run_layer(Layer("frost", corner, seed=seed), photo, stream=True)
+        alpha = layer.picture(len(layer) - 1)[1]
+        ice.append(alpha)
+        thick = (alpha > 0.5) & corner
+        assert thick.sum() > 0.3 * corner.sum()
+        dy, dx = yy[thick] - r0, xx[thick] - c0
+        far = np.hypot(dy, dx) > 6
+        off_axis = np.degrees(np.arctan2(-dy[far], dx[far])) % 60
+        on_a_ray = np.minimum(off_axis, 60 - off_axis) < 6  # within 6 degrees of an arm
+        assert on_a_ray.mean() < 0.35  # the star had 0.40 (uniform: 0.2)
+    assert np.abs(ice[0] - ice[1])[corner].mean() > 0.05  # the star: 0 (seed ignored)

@@ -276,3 +276,63 @@ def test_every_slider_of_a_layers_panel_keeps_run_enabled(app, kind):
     assert sweep(app, run=False) >= 5 * 4
     assert app._entry(kind).params == app.panel.params  # the sweep's last: the start
     app.wait_preview(120)  # (not into the interpreter's exit)
+
+
+# ---------------------------------------------------------------- a large photo (issue 39)
+def test_a_large_photo_is_painted_at_full_size_previewed_small_and_exported_full(tmp_path):
+    # The app works on a proxy (the photo shrunk to `size`) while the canvas keeps
+    # every region at the photo's full size; Export renders full size, streamed. A
+    # small "full" size keeps the test quick: 90 x 160, proxy 36 x 64.
+    from fluidnb import Clip
+    from fluidnb.data import sample
+    from fluidnb.scene import Layer, Scene, render
+
+    photo = sample("lake", size=160)
+    app = SceneApp(photo, size=64, quick=True)
+    app.min_interval = 0.0
+    try:
+        assert app.canvas.image.shape[:2] == app.full_shape == (90, 160)
+        assert app.scene.shape == (36, 64)
+        assert "preview at 64 x 36 of 160 x 90; Export renders full size" in app.status
+        assert "Export renders full size" in app._sizes.value
+        app.add_layer("flicker", params=FLICKER)
+        c = app.canvas
+        mouse_drag(c, [c.to_canvas(65, 4), c.to_canvas(65, 155)])  # full-size pixels
+        region = app._entry("flicker").region
+        assert region.shape == (90, 160)
+        assert (region > 0.5).sum() > 1000
+        clip = app.run(timeout=300)
+        assert clip.frames.shape[1:3] == (36, 64)  # Run renders the proxy
+        assert "preview at 64 x 36 of 160 x 90" in app.status
+        # The scene Export renders: each layer as painted, at full size.
+        full = app.full_scene()
+        assert full.shape == (90, 160)
+        assert np.array_equal(full.layer("flicker").region, region)
+        path = app.export(tmp_path / "scene.npz", timeout=300)
+        assert path == app.exported
+        assert path.name == "scene.npz"
+        assert "exported" in app.status
+        assert "160 x 90 (full size)" in app.status
+        saved = Clip.load(path)
+        built = render(Scene(photo, [Layer("flicker", region, FLICKER)], size=None))
+        assert saved.frames.shape == built.frames.shape == (len(clip), 90, 160, 3)
+        assert np.array_equal(saved.frames, built.frames)
+        # Bad input: said, nothing exported.
+        with pytest.raises(ValueError, match=r"path must end in \.mp4, \.gif or \.npz"):
+            app.export(tmp_path / "scene.txt")
+        app._export_path.value = str(tmp_path / "scene.txt")
+        app._export.click()
+        assert "path must end in .mp4" in app.status
+        app.add_layer("fire", params=FIRE)  # not painted
+        with pytest.raises(ValueError, match="layer 'fire': region is empty"):
+            app.export(tmp_path / "again.npz")
+        assert not (tmp_path / "again.npz").exists()
+    finally:
+        app.close()
+
+
+def test_sizes_refuse_bad_input():
+    with pytest.raises(ValueError, match=r"full_size must be >= size \(64\)"):
+        SceneApp(quick=True, size=64, full_size=32)
+    with pytest.raises(ValueError, match="size must be >= 8 pixels"):
+        SceneApp(quick=True, size=4)
