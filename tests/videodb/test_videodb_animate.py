@@ -535,3 +535,48 @@ def test_prefetch_leaves_render_nothing_to_rebuild(anim, monkeypatch):
     np.testing.assert_array_equal(render(a, params).clip.frames, anim.clip.frames)
     with pytest.raises(ValueError, match="assignment must be an Assignment"):
         prefetch(anim)
+
+
+def test_resolve_reuses_the_combined_table_for_a_lambda_change(db, photo):
+    """A lambda-only re-solve (a slider) reuses the last W combined for (sigma, rho):
+    the same labels and energy as a solve on a freshly combined W, bit for bit."""
+    from fluidnb.videodb.assignment import solve
+
+    a = assign(*photo, db, FEW)
+    b = a.resolve(sigma=3e2)
+    kept = a._combined[(3e2, a.params.rho)]
+    c = a.resolve(sigma=3e2, lam=a.params.lam * 4)
+    assert a._combined[(3e2, a.params.rho)] is kept  # not recombined
+    assert not kept.flags.writeable
+    want = solve(a.unary, a.pairwise(3e2, a.params.rho), a.edges, a.params.lam * 4)
+    assert np.array_equal(c.labels, want.labels)
+    assert c.solution.energy == want.energy
+    a.resolve(rho=5.0)  # another (sigma, rho): one table kept, the new one
+    assert list(a._combined) == [(a.params.sigma, 5.0)]
+    assert b.labels is not None
+    assert not b._combined
+
+
+def test_resolve_warm_starts_from_the_given_labels(db, photo):
+    """``warm``: one expansion sweep from the previous labels (a preview); never above
+    their energy for the new values; the default stays the full solve."""
+    from fluidnb.videodb.assignment import energy
+
+    a = assign(*photo, db, FEW)
+    full = a.resolve(sigma=a.params.sigma * 3)
+    warm = a.resolve(sigma=a.params.sigma * 3, warm=a)
+    w = a.pairwise(a.params.sigma * 3)
+    start = energy(a.labels, a.unary, w, a.edges, a.params.lam)
+    assert warm.solution.start == "given"
+    assert warm.solution.sweeps == 1
+    assert warm.solution.energy <= start
+    assert warm.solution.energy == pytest.approx(
+        energy(warm.labels, warm.unary, w, warm.edges, a.params.lam)
+    )
+    assert full.solution.start in ("argmin", "icm")
+    assert np.array_equal(
+        a.resolve(warm=a.labels, sweeps=20).labels, a.resolve(warm=a, sweeps=20).labels
+    )
+    other = assign(*photo, db, FEW.replace(candidates=FEW.candidates - 1))
+    with pytest.raises(ValueError, match="warm"):
+        a.resolve(warm=other)

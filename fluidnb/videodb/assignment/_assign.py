@@ -40,7 +40,7 @@ from ..database._words import HISTOGRAM_TOTAL
 from ._mrf import grid_edges
 from ._retrieval import MIN_MOTION, fragment_speeds, histogram_index
 from ._smoothness import pair_tables
-from ._solve import solve
+from ._solve import solve, solve_from
 from ._target import Target, cut_target, fragment_motion
 
 __all__ = ["BARELY", "Assignment", "assign"]
@@ -100,6 +100,9 @@ class Assignment:
     speed: object = None
     field: object = None
     timings: dict = dataclasses.field(default_factory=dict)
+    #: The last :math:`W` :meth:`resolve` combined, keyed by its (sigma, rho): a
+    #: lambda-only change (a slider) reuses it. Not passed on by ``replace``.
+    _combined: dict = dataclasses.field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __repr__(self):
         # The dataclass's own repr printed every array (thousands of lines in a lesson).
@@ -158,11 +161,31 @@ class Assignment:
         rho = self.params.rho if rho is None else rho
         return self.tables.smoothness(sigma, rho)
 
-    def resolve(self, *, sigma=None, lam=None, rho=None, progress=None):
+    def resolve(self, *, sigma=None, lam=None, rho=None, progress=None, warm=None, sweeps=1):
         r"""Re-solve the MRF for new :math:`\sigma`, :math:`\lambda`, :math:`\rho`.
 
         The candidates and the three tables are kept: only Eq. (6) is recombined and
-        Eq. (4) minimised again (a fraction of a second).
+        Eq. (4) minimised again (a fraction of a second). The last recombined
+        :math:`W` is kept on this assignment, keyed by its :math:`\sigma` and
+        :math:`\rho`: re-solving it again for another :math:`\lambda` alone skips the
+        recombination (a slider dragged: call ``resolve`` on the same assignment).
+
+        Parameters
+        ----------
+        sigma, lam, rho : float, optional
+            The new values (default: this assignment's).
+        progress : callable, optional
+            ``progress(fraction, message)``; raising :class:`fluidnb.Cancelled` stops.
+        warm : Assignment or array_like of int, optional
+            For a live preview: start from these labels (an assignment of the same
+            target, e.g. the previous preview, or its ``labels``) and run ``sweeps``
+            alpha-expansion sweeps from them alone
+            (:func:`~fluidnb.videodb.assignment.solve_from`) instead of the full solve
+            (ICM and expansions from two starts, :func:`~fluidnb.videodb.assignment.solve`),
+            which stays the default and should give the result at rest. Its energy is
+            never above the start's, but may stay above the full solve's.
+        sweeps : int
+            Sweeps of the warm start (default 1); ignored without ``warm``.
 
         Returns
         -------
@@ -171,15 +194,39 @@ class Assignment:
         changes = {k: v for k, v in (("sigma", sigma), ("lam", lam), ("rho", rho)) if v is not None}
         params = self.params.replace(**changes)
         started = time.perf_counter()
-        solution = solve(
-            self.unary,
-            self.pairwise(params.sigma, params.rho),
-            self.edges,
-            params.lam,
-            progress=progress,
-        )
+        pairwise = self._combined_pairwise(params.sigma, params.rho)
+        if warm is None:
+            solution = solve(self.unary, pairwise, self.edges, params.lam, progress=progress)
+        else:
+            labels = warm.labels if isinstance(warm, Assignment) else warm
+            if isinstance(warm, Assignment) and warm.candidates.shape != self.candidates.shape:
+                raise ValueError(
+                    "warm must be an assignment of the same target and candidates "
+                    f"({self.candidates.shape}), got one of {warm.candidates.shape}"
+                )
+            solution = solve_from(
+                self.unary,
+                pairwise,
+                self.edges,
+                params.lam,
+                labels,
+                max_sweeps=sweeps,
+                progress=progress,
+            )
         timings = {**self.timings, "resolve": time.perf_counter() - started}
         return dataclasses.replace(self, params=params, solution=solution, timings=timings)
+
+    def _combined_pairwise(self, sigma, rho):
+        """:meth:`pairwise` for (sigma, rho), the last one kept (read-only) for reuse."""
+        key = (float(sigma), float(rho))
+        kept = self._combined.get(key)
+        if kept is None:
+            kept = self.pairwise(sigma, rho)
+            kept.setflags(write=False)
+            # One entry: a slider moves one value at a time (a GIL-atomic swap).
+            self._combined.clear()
+            self._combined[key] = kept
+        return kept
 
     def motion_field(self):
         """The assigned fragments' mean motion blended over the image, (H, W, 2)."""

@@ -7,7 +7,7 @@ from fluidnb import Cancelled, CancelToken
 from fluidnb.videodb.assignment._expansion import alpha_expansion
 from fluidnb.videodb.assignment._icm import icm
 from fluidnb.videodb.assignment._mrf import brute_force, energy, grid_edges
-from fluidnb.videodb.assignment._solve import solve
+from fluidnb.videodb.assignment._solve import solve, solve_from
 
 # ------------------------------------------------------------------------ helpers
 
@@ -618,3 +618,33 @@ def test_maxflow_cut_is_minimal_and_a_known_answer():
         across = cap[~side[p] & side[q]].sum() + rev[side[p] & ~side[q]].sum()
         value = source[side].sum() + sink[~side].sum() + across
         assert flow == pytest.approx(value, rel=1e-12, abs=1e-12)
+
+
+def test_solve_from_is_the_plain_expansion_from_the_given_labels():
+    """The warm start (a live preview's re-solve) is alpha-expansion from ``init`` alone:
+    the plain one's labels and energies bit for bit, for one sweep and to convergence,
+    and never above the start's energy (Eq. 4 of ``init``).
+
+    Mutation caught: solve_from starting from the argmin instead of ``init``."""
+    from fluidnb.videodb.assignment import reference_alpha_expansion
+
+    unary, pairwise, edges, lam = realistic_problem(3)
+    previous = solve(*realistic_problem(4)).labels  # a labelling far from this problem's
+    for sweeps in (1, 20):
+        got = solve_from(unary, pairwise, edges, lam, previous, max_sweeps=sweeps)
+        want = reference_alpha_expansion(unary, pairwise, edges, lam, init=previous)
+        if sweeps == 1:
+            assert got.sweeps == 1
+            assert want.sweeps > 1
+            assert got.energy <= energy(previous, unary, pairwise, edges, lam)
+            assert got.energies[0] == want.energies[0]
+            assert got.energies[1] == want.energies[1]
+        else:
+            assert np.array_equal(got.labels, want.labels)
+            assert np.array_equal(got.energies, want.energies)
+        assert (got.start, got.timings.keys()) == ("given", {"expansion_given"})
+        assert np.isnan(got.icm_energy)
+    with pytest.raises(ValueError, match="init"):
+        solve_from(unary, pairwise, edges, lam, previous[:-1])
+    with pytest.raises(ValueError, match="max_sweeps"):
+        solve_from(unary, pairwise, edges, lam, previous, max_sweeps=0)
