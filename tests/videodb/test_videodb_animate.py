@@ -580,3 +580,16 @@ def test_resolve_warm_starts_from_the_given_labels(db, photo):
     other = assign(*photo, db, FEW.replace(candidates=FEW.candidates - 1))
     with pytest.raises(ValueError, match="warm"):
         a.resolve(warm=other)
+
+
+def test_assign_without_tables_gives_the_same_assignment(db, photo):
+    """``keep_tables=False`` (a streamed animate): W made alone, the same labels and
+    energies to the bit, no tables kept (a re-solve asks to assign again)."""
+    a = assign(*photo, db, FEW)
+    b = assign(*photo, db, FEW, keep_tables=False)
+    assert b.tables is None
+    assert np.array_equal(a.labels, b.labels)
+    assert np.array_equal(a.energies, b.energies)
+    assert a.solution.icm_energy == b.solution.icm_energy
+    with pytest.raises(ValueError, match="assign again"):
+        b.resolve(sigma=10)

@@ -6,7 +6,8 @@ r"""The assignment (Okabe et al., sec. 5): which database fragment animates each
   :func:`moving_fragments`, :func:`fragment_speeds` -- the candidates:
   top-K by spatial-pyramid histogram intersection (Eq. 1), after the motion filter.
 - :func:`pair_tables`, :class:`PairTables`, :data:`TEXTURE_SCALE` -- the smoothness
-  terms of every edge and label pair (Eq. 2, 3, 6), in bulk.
+  terms of every edge and label pair (Eq. 2, 3, 6), in bulk; :func:`pair_smoothness`
+  their sum :math:`W` alone.
 - :func:`grid_edges`, :func:`energy` (Eq. 4, 5), :func:`alpha_expansion`, :func:`icm`,
   :func:`solve`, :func:`solve_from` (a warm start), :class:`MRFSolution`,
   :func:`brute_force` -- the MRF and its solvers.
@@ -33,7 +34,7 @@ from ._retrieval import (
     histogram_index,
     moving_fragments,
 )
-from ._smoothness import TEXTURE_SCALE, PairTables, pair_tables
+from ._smoothness import TEXTURE_SCALE, PairTables, pair_smoothness, pair_tables
 from ._solve import MRFSolution, solve, solve_from
 from ._target import Target, cut_target, fragment_motion
 
@@ -57,6 +58,7 @@ __all__ = [
     "histogram_index",
     "icm",
     "moving_fragments",
+    "pair_smoothness",
     "pair_tables",
     "reference_alpha_expansion",
     "reference_icm",

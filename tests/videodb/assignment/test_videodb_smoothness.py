@@ -4,7 +4,13 @@ import numpy as np
 import pytest
 
 from fluidnb import Cancelled, CancelToken
-from fluidnb.videodb.assignment import TEXTURE_SCALE, grid_edges, pair_tables, reference_pair_tables
+from fluidnb.videodb.assignment import (
+    TEXTURE_SCALE,
+    grid_edges,
+    pair_smoothness,
+    pair_tables,
+    reference_pair_tables,
+)
 from fluidnb.videodb.assignment import _smoothness as smoothness
 
 # ------------------------------------------------------------------------ helpers
@@ -84,6 +90,32 @@ def test_bulk_tables_do_not_depend_on_batches_or_threads(monkeypatch):
     for name in ("dc", "rest", "tex"):
         assert np.array_equal(getattr(whole, name), getattr(split, name))
     assert split.recomputed == whole.recomputed
+
+
+@pytest.mark.parametrize(("sigma", "rho"), [(100.0, 1e4), (0.0, 0.0), (3.5, 0.0)])
+def test_pair_smoothness_is_the_tables_combined_bit_for_bit(monkeypatch, sigma, rho):
+    """W alone (no three tables kept: a streamed animate) is exactly
+    ``pair_tables(...).smoothness(sigma, rho)``, in one batch and in one-edge batches
+    on two threads; every entry within 1e-9 of the pair-by-pair definition.
+
+    Mutation caught: a batch's W written to the rows of the batch's position (0..n)
+    instead of its edges."""
+    candidates, edges, horizontal, spectra, texture = tables_setup()
+    want = pair_tables(candidates, edges, horizontal, spectra, texture).smoothness(sigma, rho)
+    got = pair_smoothness(candidates, edges, horizontal, spectra, texture, sigma, rho)
+    assert np.array_equal(got, want)
+    slow = reference_pair_tables(candidates, edges, horizontal, spectra, texture)
+    np.testing.assert_allclose(got, slow.smoothness(sigma, rho), rtol=1e-9, atol=0)
+    monkeypatch.setattr(smoothness, "_BATCH_BYTES", 1)
+    monkeypatch.setattr(smoothness, "_workers", lambda: 2)
+    split = pair_smoothness(candidates, edges, horizontal, spectra, texture, sigma, rho)
+    assert np.array_equal(split, want)
+    with pytest.raises(ValueError, match="sigma"):
+        pair_smoothness(candidates, edges, horizontal, spectra, texture, -1.0, rho)
+    bad = texture.copy()
+    bad[candidates[0, 0]] = np.nan
+    with pytest.raises(ValueError, match="texture"):
+        pair_smoothness(candidates, edges, horizontal, spectra, bad, sigma, rho)
 
 
 def test_the_gather_kernel_equals_numpys_take_cast_and_centring_bit_for_bit():
