@@ -593,3 +593,26 @@ def test_assign_without_tables_gives_the_same_assignment(db, photo):
     assert a.solution.icm_energy == b.solution.icm_energy
     with pytest.raises(ValueError, match="assign again"):
         b.resolve(sigma=10)
+
+
+def test_a_warm_resolve_reads_the_tables_as_the_combined_w(db, photo):
+    """The warm start reads W's entries from the three tables (never combined whole):
+    the labels and energies of ``solve_from`` on the combined W, bit for bit, whether
+    the combined W was kept or not, one sweep or to convergence."""
+    from fluidnb.videodb.assignment import solve_from
+
+    a = assign(*photo, db, FEW)
+    sigma, rho = a.params.sigma * 7, a.params.rho / 3
+    start = assign(*photo, db, FEW.replace(lam=a.params.lam * 5)).labels
+    for sweeps in (1, 20):
+        a._combined.clear()
+        lazy = a.resolve(sigma=sigma, rho=rho, warm=start, sweeps=sweeps)
+        assert not a._combined  # nothing combined
+        want = solve_from(
+            a.unary, a.pairwise(sigma, rho), a.edges, a.params.lam, start, max_sweeps=sweeps
+        )
+        assert np.array_equal(lazy.labels, want.labels)
+        assert np.array_equal(lazy.energies, want.energies)
+        a.resolve(sigma=sigma, rho=rho)  # keeps the combined W
+        kept = a.resolve(sigma=sigma, rho=rho, warm=start, sweeps=sweeps)
+        assert np.array_equal(kept.energies, want.energies)

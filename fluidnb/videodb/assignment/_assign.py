@@ -30,17 +30,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..._progress import Progress
-from ..._validation import check_int
+from ..._validation import check_int, check_range
 from .._common._geometry import FRAGMENT, STRIDE, VERSIONS
 from .._common._params import AnimateParams
 from .._common._weights import blend_values, fragment_weights
 from ..database._kinds import as_database
 from ..database._store import VideoDatabase
 from ..database._words import HISTOGRAM_TOTAL
-from ._mrf import grid_edges
+from ._mrf import _problem, _tables_problem, grid_edges
 from ._retrieval import MIN_MOTION, fragment_speeds, histogram_index
-from ._smoothness import pair_smoothness, pair_tables
-from ._solve import solve, solve_from
+from ._smoothness import TEXTURE_SCALE, pair_smoothness, pair_tables
+from ._solve import _solve_from, solve
 from ._target import Target, cut_target, fragment_motion
 
 __all__ = ["BARELY", "Assignment", "assign"]
@@ -153,14 +153,18 @@ class Assignment:
 
     def pairwise(self, sigma=None, rho=None):
         """:math:`W_{pq}` (Eq. 6) for every edge and label pair, (E, K, K)."""
-        if self.tables is None:
-            raise ValueError(
-                "this assignment did not keep its smoothness tables (animate(..., "
-                "stream=True) lets them go: 1 GB at 1920 px); assign again to re-solve"
-            )
+        self._need_tables()
         sigma = self.params.sigma if sigma is None else sigma
         rho = self.params.rho if rho is None else rho
         return self.tables.smoothness(sigma, rho)
+
+    def _need_tables(self):
+        if self.tables is None:
+            raise ValueError(
+                "this assignment did not keep its smoothness tables (assign(..., "
+                "keep_tables=False), animate(..., stream=True): 0.9 GB at 1920 px); "
+                "assign again to re-solve"
+            )
 
     def resolve(self, *, sigma=None, lam=None, rho=None, progress=None, warm=None, sweeps=1):
         r"""Re-solve the MRF for new :math:`\sigma`, :math:`\lambda`, :math:`\rho`.
@@ -195,8 +199,8 @@ class Assignment:
         changes = {k: v for k, v in (("sigma", sigma), ("lam", lam), ("rho", rho)) if v is not None}
         params = self.params.replace(**changes)
         started = time.perf_counter()
-        pairwise = self._combined_pairwise(params.sigma, params.rho)
         if warm is None:
+            pairwise = self._combined_pairwise(params.sigma, params.rho)
             solution = solve(self.unary, pairwise, self.edges, params.lam, progress=progress)
         else:
             labels = warm.labels if isinstance(warm, Assignment) else warm
@@ -205,15 +209,17 @@ class Assignment:
                     "warm must be an assignment of the same target and candidates "
                     f"({self.candidates.shape}), got one of {warm.candidates.shape}"
                 )
-            solution = solve_from(
-                self.unary,
-                pairwise,
-                self.edges,
-                params.lam,
-                labels,
-                max_sweeps=sweeps,
-                progress=progress,
-            )
+            kept = self._combined.get((float(params.sigma), float(params.rho)))
+            if kept is not None:
+                prob = _problem(self.unary, kept, self.edges, params.lam)
+            else:
+                # The sweep reads O(E K) entries of W: from the three tables, never
+                # combined whole (that cost more than the sweep); the same values.
+                self._need_tables()
+                sigma = check_range("sigma", params.sigma, 0)
+                rho = check_range("rho", params.rho, 0) * TEXTURE_SCALE
+                prob = _tables_problem(self.unary, self.tables, sigma, rho, self.edges, params.lam)
+            solution = _solve_from(prob, labels, sweeps, progress)
         timings = {**self.timings, "resolve": time.perf_counter() - started}
         return dataclasses.replace(self, params=params, solution=solution, timings=timings)
 

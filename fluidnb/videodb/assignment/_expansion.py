@@ -18,7 +18,8 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 from ..._progress import Progress
 from ..._validation import check_int
@@ -71,14 +72,62 @@ def _move_terms(unary, labels, p, q, lam, alpha, tables, cap, cost1, sp, sq):
     return truncated, free_terms
 
 
+def _w_at(w, e, i, j):
+    """:math:`W_e(i, j)`: ``w[e, i, j]``, or from the three tables (:func:`_w_tables`)."""
+    if isinstance(w, tuple):
+        dc, rest, tex, sigma, rho_scaled = w
+        value = rest[e, i, j] * sigma
+        value += dc[e, i, j]
+        return value + rho_scaled * tex[e, i, j]
+    return w[e, i, j]
+
+
+@overload(_w_at, jit_options={"nogil": True})
+def _w_at_compiled(w, e, i, j):
+    if isinstance(w, types.BaseTuple):
+        # PairTables.smoothness's _combine, entry by entry: the same operations in the
+        # same order, so the same bits as reading the combined table.
+        def at(w, e, i, j):
+            dc, rest, tex, sigma, rho_scaled = w
+            value = rest[e, i, j] * sigma
+            value += dc[e, i, j]
+            return value + rho_scaled * tex[e, i, j]
+
+        return at
+    return lambda w, e, i, j: w[e, i, j]
+
+
+def _w_tables(tables, sigma, rho_scaled):
+    """W of (sigma, rho) read from the three tables where needed, never combined whole.
+
+    A warm-started sweep (:func:`~fluidnb.videodb.assignment.solve_from`) reads only
+    O(E K) entries of W (the rows and columns of the current labels); combining all
+    E K^2 first cost more than the sweep (a live preview's re-solve).
+    """
+    return (tables.dc, tables.rest, tables.tex, float(sigma), float(rho_scaled))
+
+
+def _w_shape(w):
+    """(E, K) of W, an array or :func:`_w_tables`."""
+    first = w[0] if isinstance(w, tuple) else w
+    return first.shape[0], first.shape[1]
+
+
+@overload(_w_shape, jit_options={"nogil": True})
+def _w_shape_compiled(w):
+    if isinstance(w, types.BaseTuple):
+        return lambda w: (w[0].shape[0], w[0].shape[1])
+    return lambda w: (w.shape[0], w.shape[1])
+
+
 @njit(cache=True, nogil=True)
 def _diagonal(w):
     """``diag[a, e]`` = :math:`W_e(a, a)`, label-major (see :func:`_label_tables`)."""
-    n_edges, k = w.shape[0], w.shape[1]
+    n_edges, k = _w_shape(w)
     diag = np.empty((k, n_edges))
     for e in range(n_edges):
         for a in range(k):
-            diag[a, e] = w[e, a, a]
+            diag[a, e] = _w_at(w, e, a, a)
     return diag
 
 
@@ -91,15 +140,15 @@ def _label_tables(w, labels, p, q, diag):
     not depend on the labels): label-major, so a move (one ``a``) reads each in edge
     order. :func:`_relabel` keeps them up to date as labels change.
     """
-    n_edges, k = w.shape[0], w.shape[1]
+    n_edges, k = p.shape[0], diag.shape[0]
     now = np.empty(n_edges)
     row, col = np.empty((k, n_edges)), np.empty((k, n_edges))
     for e in range(n_edges):
         lp, lq = labels[p[e]], labels[q[e]]
-        now[e] = w[e, lp, lq]
+        now[e] = _w_at(w, e, lp, lq)
         for a in range(k):
-            row[a, e] = w[e, lp, a]
-            col[a, e] = w[e, a, lq]
+            row[a, e] = _w_at(w, e, lp, a)
+            col[a, e] = _w_at(w, e, a, lq)
     return now, row, col, diag
 
 
@@ -116,16 +165,16 @@ def _relabel(w, labels, proposal, p, q, tables, pair):
     ``pair[e]`` holds :math:`W_e` of the proposal (:func:`_energy` left it there).
     """
     now, row, col, _ = tables
-    k = w.shape[1]
+    k = row.shape[0]
     for e in range(p.shape[0]):
         now[e] = pair[e]
         lp, lq = proposal[p[e]], proposal[q[e]]
         if lp != labels[p[e]]:
             for a in range(k):
-                row[a, e] = w[e, lp, a]
+                row[a, e] = _w_at(w, e, lp, a)
         if lq != labels[q[e]]:
             for a in range(k):
-                col[a, e] = w[e, a, lq]
+                col[a, e] = _w_at(w, e, a, lq)
     labels[:] = proposal
 
 

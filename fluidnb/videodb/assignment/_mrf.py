@@ -205,6 +205,45 @@ def _problem(unary, pairwise, edges, lam):
     )
 
 
+@dataclass(frozen=True, eq=False)
+class _TablesProblem(_Problem):
+    """A :class:`_Problem` whose W is read from the three tables where needed.
+
+    ``pairwise`` is ``(dc, rest, tex, sigma, rho_scaled)``
+    (:func:`~fluidnb.videodb.assignment._expansion._w_tables`); an entry is
+    ``rest * sigma + dc + rho_scaled * tex`` in :meth:`PairTables.smoothness`'s order,
+    so the same bits as the combined table.
+    """
+
+    def pair(self, lp, lq):
+        dc, rest, tex, sigma, rho_scaled = self.pairwise
+        e = np.arange(len(self.p))
+        value = rest[e, lp, lq] * sigma
+        value += dc[e, lp, lq]
+        return value + rho_scaled * tex[e, lp, lq]
+
+
+def _tables_problem(unary, tables, sigma, rho_scaled, edges, lam):
+    """:class:`_TablesProblem` of the kept tables (finite: checked when they were made)."""
+    v = check_array("unary", unary, ndim=2, dtype_kinds="biuf")
+    e = _check_edges(edges, v.shape[0])
+    if tables.dc.shape != (len(e), v.shape[1], v.shape[1]):
+        raise ValueError(
+            f"tables must have shape (E, K, K) = ({len(e)}, {v.shape[1]}, {v.shape[1]}), "
+            f"got {tables.dc.shape}"
+        )
+    w = tuple(np.ascontiguousarray(t, np.float64) for t in (tables.dc, tables.rest, tables.tex))
+    return _TablesProblem(
+        unary=np.asarray(v, dtype=np.float64),
+        pairwise=(*w, float(sigma), float(rho_scaled)),
+        p=e[:, 0].copy(),
+        q=e[:, 1].copy(),
+        lam=check_range("lam", lam, 0),
+        flat=None,
+        base=None,
+    )
+
+
 def energy(labels, unary, pairwise, edges, lam):
     r"""The MRF energy of a labelling, Eq. (4).
 

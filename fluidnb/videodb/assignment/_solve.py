@@ -161,7 +161,11 @@ def solve_from(unary, pairwise, edges, lam, init, *, max_sweeps=1, progress=None
     MRFSolution
         ``start`` is ``"given"``, ``icm_energy`` NaN.
     """
-    prob = _problem(unary, pairwise, edges, lam)
+    return _solve_from(_problem(unary, pairwise, edges, lam), init, max_sweeps, progress)
+
+
+def _solve_from(prob, init, max_sweeps, progress):
+    """:func:`solve_from` of a checked problem (a :class:`_Problem` or the tables' own)."""
     max_sweeps = check_int("max_sweeps", max_sweeps, 1)
     labels = _start(prob, init)
     run = _expand(prob, labels, max_sweeps, Progress(progress))
