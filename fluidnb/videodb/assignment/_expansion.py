@@ -18,14 +18,13 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from numba import njit, types
-from numba.extending import overload
+from numba import njit
 
 from ..._progress import Progress
 from ..._validation import check_int
 from .._common._sums import _pairwise_sum
 from . import _maxflow
-from ._mrf import _finished, _problem, _start
+from ._mrf import _finished, _problem, _start, _w_at, _w_shape
 
 __all__ = ["alpha_expansion"]
 
@@ -70,54 +69,6 @@ def _move_terms(unary, labels, p, q, lam, alpha, tables, cap, cost1, sp, sq):
     for n in range(n_nodes):
         cost1[n] = (unary[n, alpha] - unary[n, labels[n]]) + sp[n] + sq[n]
     return truncated, free_terms
-
-
-def _w_at(w, e, i, j):
-    """:math:`W_e(i, j)`: ``w[e, i, j]``, or from the three tables (:func:`_w_tables`)."""
-    if isinstance(w, tuple):
-        dc, rest, tex, sigma, rho_scaled = w
-        value = rest[e, i, j] * sigma
-        value += dc[e, i, j]
-        return value + rho_scaled * tex[e, i, j]
-    return w[e, i, j]
-
-
-@overload(_w_at, jit_options={"nogil": True})
-def _w_at_compiled(w, e, i, j):
-    if isinstance(w, types.BaseTuple):
-        # PairTables.smoothness's _combine, entry by entry: the same operations in the
-        # same order, so the same bits as reading the combined table.
-        def at(w, e, i, j):
-            dc, rest, tex, sigma, rho_scaled = w
-            value = rest[e, i, j] * sigma
-            value += dc[e, i, j]
-            return value + rho_scaled * tex[e, i, j]
-
-        return at
-    return lambda w, e, i, j: w[e, i, j]
-
-
-def _w_tables(tables, sigma, rho_scaled):
-    """W of (sigma, rho) read from the three tables where needed, never combined whole.
-
-    A warm-started sweep (:func:`~fluidnb.videodb.assignment.solve_from`) reads only
-    O(E K) entries of W (the rows and columns of the current labels); combining all
-    E K^2 first cost more than the sweep (a live preview's re-solve).
-    """
-    return (tables.dc, tables.rest, tables.tex, float(sigma), float(rho_scaled))
-
-
-def _w_shape(w):
-    """(E, K) of W, an array or :func:`_w_tables`."""
-    first = w[0] if isinstance(w, tuple) else w
-    return first.shape[0], first.shape[1]
-
-
-@overload(_w_shape, jit_options={"nogil": True})
-def _w_shape_compiled(w):
-    if isinstance(w, types.BaseTuple):
-        return lambda w: (w[0].shape[0], w[0].shape[1])
-    return lambda w: (w.shape[0], w.shape[1])
 
 
 @njit(cache=True, nogil=True)

@@ -49,7 +49,8 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 from ..._validation import check_array, check_finite, check_int, check_range
 
@@ -205,12 +206,55 @@ def _problem(unary, pairwise, edges, lam):
     )
 
 
+def _w_at(w, e, i, j):
+    """:math:`W_e(i, j)`: ``w[e, i, j]``, or from the three tables (:class:`_TablesProblem`).
+
+    The solvers read O(E K) entries of W per sweep (the rows and columns of the
+    current labels); combining all E K^2 of them first cost more than a re-solve's
+    sweeps (:meth:`~fluidnb.videodb.Assignment.resolve`).
+    """
+    if isinstance(w, tuple):
+        dc, rest, tex, sigma, rho_scaled = w
+        value = rest[e, i, j] * sigma
+        value += dc[e, i, j]
+        return value + rho_scaled * tex[e, i, j]
+    return w[e, i, j]
+
+
+@overload(_w_at, jit_options={"nogil": True})
+def _w_at_compiled(w, e, i, j):
+    if isinstance(w, types.BaseTuple):
+        # PairTables.smoothness's _combine, entry by entry: the same operations in the
+        # same order, so the same bits as reading the combined table.
+        def at(w, e, i, j):
+            dc, rest, tex, sigma, rho_scaled = w
+            value = rest[e, i, j] * sigma
+            value += dc[e, i, j]
+            return value + rho_scaled * tex[e, i, j]
+
+        return at
+    return lambda w, e, i, j: w[e, i, j]
+
+
+def _w_shape(w):
+    """(E, K) of W, an array or a :class:`_TablesProblem`'s tables."""
+    first = w[0] if isinstance(w, tuple) else w
+    return first.shape[0], first.shape[1]
+
+
+@overload(_w_shape, jit_options={"nogil": True})
+def _w_shape_compiled(w):
+    if isinstance(w, types.BaseTuple):
+        return lambda w: (w[0].shape[0], w[0].shape[1])
+    return lambda w: (w.shape[0], w.shape[1])
+
+
 @dataclass(frozen=True, eq=False)
 class _TablesProblem(_Problem):
     """A :class:`_Problem` whose W is read from the three tables where needed.
 
     ``pairwise`` is ``(dc, rest, tex, sigma, rho_scaled)``
-    (:func:`~fluidnb.videodb.assignment._expansion._w_tables`); an entry is
+    ; an entry is
     ``rest * sigma + dc + rho_scaled * tex`` in :meth:`PairTables.smoothness`'s order,
     so the same bits as the combined table.
     """

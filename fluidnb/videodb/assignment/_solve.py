@@ -92,7 +92,11 @@ def solve(unary, pairwise, edges, lam, *, max_sweeps=20, progress=None):
     >>> result.labels.tolist(), result.energy, result.icm_energy
     ([1, 1, 1], 0.5, 0.5)
     """
-    prob = _problem(unary, pairwise, edges, lam)
+    return _solve(_problem(unary, pairwise, edges, lam), max_sweeps, progress)
+
+
+def _solve(prob, max_sweeps, progress):
+    """:func:`solve` of a checked problem (a :class:`_Problem` or the tables' own)."""
     max_sweeps = check_int("max_sweeps", max_sweeps, 1)
     report = Progress(progress)
     stage_icm, stage_b, stage_a = report.split(0.1, 0.55)

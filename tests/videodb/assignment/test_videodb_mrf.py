@@ -648,3 +648,36 @@ def test_solve_from_is_the_plain_expansion_from_the_given_labels():
         solve_from(unary, pairwise, edges, lam, previous[:-1])
     with pytest.raises(ValueError, match="max_sweeps"):
         solve_from(unary, pairwise, edges, lam, previous, max_sweeps=0)
+
+
+def test_the_solvers_read_the_three_tables_as_their_combination_bit_for_bit():
+    """W read entry by entry from the three tables (a warm re-solve's path) gives the
+    full solve, ICM and the warm start the results they give on the combined table.
+
+    Mutation caught: an entry read as ``(dc + rho * tex) + sigma * rest`` (another
+    rounding order)."""
+    from fluidnb.videodb.assignment import PairTables
+    from fluidnb.videodb.assignment._mrf import _tables_problem
+    from fluidnb.videodb.assignment._solve import _solve, _solve_from
+
+    unary, pairwise, edges, lam = realistic_problem(5)
+    gen = np.random.default_rng(5)
+    rest = pairwise * gen.uniform(0.1, 0.9, pairwise.shape)
+    tex = gen.uniform(0, 1e6, pairwise.shape)  # weighs up to 3e3 beside W ~ 1e4
+    dc = pairwise - rest
+    tables = PairTables(
+        dc=dc, rest=rest, tex=tex, edges=edges, horizontal=np.ones(len(edges), bool)
+    )
+    sigma, rho = 1.7, 300.0
+    combined = tables.smoothness(sigma, rho)
+    from fluidnb.videodb.assignment import TEXTURE_SCALE
+
+    prob = _tables_problem(unary, tables, sigma, rho * TEXTURE_SCALE, edges, lam)
+    want, got = solve(unary, combined, edges, lam), _solve(prob, 20, None)
+    assert np.array_equal(got.labels, want.labels)
+    assert got.energy == want.energy
+    assert got.icm_energy == want.icm_energy
+    assert want.sweeps >= 2
+    start = icm(unary, combined, edges, lam).labels
+    warm = _solve_from(prob, start, 1, None)
+    assert np.array_equal(warm.energies, solve_from(unary, combined, edges, lam, start).energies)
