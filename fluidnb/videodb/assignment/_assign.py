@@ -30,17 +30,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..._progress import Progress
-from ..._validation import check_int, check_range
+from ..._validation import check_finite, check_int, check_range
 from .._common._geometry import FRAGMENT, STRIDE, VERSIONS
 from .._common._params import AnimateParams
 from .._common._weights import blend_values, fragment_weights
 from ..database._kinds import as_database
 from ..database._store import VideoDatabase
 from ..database._words import HISTOGRAM_TOTAL
-from ._mrf import _problem, _tables_problem, grid_edges
+from ._mrf import _all_finite, _problem, _tables_problem, grid_edges
 from ._retrieval import MIN_MOTION, fragment_speeds, histogram_index
 from ._smoothness import TEXTURE_SCALE, pair_smoothness, pair_tables
-from ._solve import _solve_from, solve
+from ._solve import MAX_SWEEPS, _solve, _solve_from, solve
 from ._target import Target, cut_target, fragment_motion
 
 __all__ = ["BARELY", "Assignment", "assign"]
@@ -205,7 +205,8 @@ class Assignment:
             # entry by entry (measured: 17 ms instead of 16 per re-solve, the strided
             # column reads tripled).
             pairwise = self._combined_pairwise(params.sigma, params.rho)
-            solution = solve(self.unary, pairwise, self.edges, params.lam, progress=progress)
+            prob = _problem(self.unary, pairwise, self.edges, params.lam, finite=True)
+            solution = _solve(prob, MAX_SWEEPS, progress)
         else:
             labels = warm.labels if isinstance(warm, Assignment) else warm
             if isinstance(warm, Assignment) and warm.candidates.shape != self.candidates.shape:
@@ -215,7 +216,7 @@ class Assignment:
                 )
             kept = self._combined.get((float(params.sigma), float(params.rho)))
             if kept is not None:
-                prob = _problem(self.unary, kept, self.edges, params.lam)
+                prob = _problem(self.unary, kept, self.edges, params.lam, finite=True)
             else:
                 # One sweep reads O(E K) entries of W: from the three tables, never
                 # combined whole (the E K^2 combination cost twice the sweep); the
@@ -234,6 +235,8 @@ class Assignment:
         kept = self._combined.get(key)
         if kept is None:
             kept = self.pairwise(sigma, rho)
+            if not _all_finite(kept.reshape(-1).view(np.uint64)):  # once per W, not per solve
+                check_finite("pairwise", kept)  # raises, counting the values
             kept.setflags(write=False)
             # One entry: a slider moves one value at a time (a GIL-atomic swap).
             self._combined.clear()

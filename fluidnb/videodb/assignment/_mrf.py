@@ -181,7 +181,8 @@ def _all_finite(bits):
     return top != _EXPONENT
 
 
-def _problem(unary, pairwise, edges, lam):
+def _problem(unary, pairwise, edges, lam, *, finite=False):
+    """The checked problem; ``finite``: W (float64, contiguous) is known finite."""
     v = check_array("unary", unary, ndim=2, dtype_kinds="biuf")
     w = check_array("pairwise", pairwise, ndim=3, dtype_kinds="biuf", min_size=0, finite=False)
     n_nodes, k = v.shape
@@ -193,7 +194,7 @@ def _problem(unary, pairwise, edges, lam):
         )
     lam = check_range("lam", lam, 0)
     w = np.ascontiguousarray(w, dtype=np.float64)
-    if not _all_finite(w.reshape(-1).view(np.uint64)):
+    if not finite and not _all_finite(w.reshape(-1).view(np.uint64)):
         check_finite("pairwise", w)  # raises, counting the values
     return _Problem(
         unary=np.asarray(v, dtype=np.float64),

@@ -61,7 +61,11 @@ class MRFSolution:
     timings: dict
 
 
-def solve(unary, pairwise, edges, lam, *, max_sweeps=20, progress=None):
+#: Largest number of sweeps of each run by default.
+MAX_SWEEPS = 20
+
+
+def solve(unary, pairwise, edges, lam, *, max_sweeps=MAX_SWEEPS, progress=None):
     r"""Minimise Eq. (4) the spec's way: alpha-expansion from two starts, keep the lower.
 
     Runs ICM from the unary argmin, then :func:`alpha_expansion` once from the unary
