@@ -37,7 +37,7 @@ from .._common._weights import blend_values, fragment_weights
 from ..database._kinds import as_database
 from ..database._store import VideoDatabase
 from ..database._words import HISTOGRAM_TOTAL
-from ._mrf import _all_finite, _problem, _tables_problem, grid_edges
+from ._mrf import _finite, _problem, _tables_problem, grid_edges
 from ._retrieval import MIN_MOTION, fragment_speeds, histogram_index
 from ._smoothness import TEXTURE_SCALE, pair_smoothness, pair_tables
 from ._solve import MAX_SWEEPS, _solve, _solve_from, solve
@@ -166,7 +166,17 @@ class Assignment:
                 "assign again to re-solve"
             )
 
-    def resolve(self, *, sigma=None, lam=None, rho=None, progress=None, warm=None, sweeps=1):
+    def resolve(
+        self,
+        *,
+        sigma=None,
+        lam=None,
+        rho=None,
+        progress=None,
+        warm=None,
+        sweeps=1,
+        dtype=np.float64,
+    ):
         r"""Re-solve the MRF for new :math:`\sigma`, :math:`\lambda`, :math:`\rho`.
 
         The candidates and the three tables are kept: only Eq. (6) is recombined and
@@ -191,6 +201,13 @@ class Assignment:
             never above the start's, but may stay above the full solve's.
         sweeps : int
             Sweeps of the warm start (default 1); ignored without ``warm``.
+        dtype : {numpy.float64, numpy.float32}
+            float32: the full solve on W combined in float32
+            (:meth:`PairTables.smoothness`: half the memory traffic, entries within
+            2e-7 relative; a preview's cheaper full solve). Its energy is still
+            Eq. (4) of the float32 W summed in float64; the labels can differ from
+            the float64 solve's where two labellings nearly tie. A warm start reads
+            the float64 tables entry by entry and ignores it.
 
         Returns
         -------
@@ -204,7 +221,7 @@ class Assignment:
             # combined table (kept for a lambda-only change), not the three tables
             # entry by entry (measured: 17 ms instead of 16 per re-solve, the strided
             # column reads tripled).
-            pairwise = self._combined_pairwise(params.sigma, params.rho)
+            pairwise = self._combined_pairwise(params.sigma, params.rho, dtype)
             prob = _problem(self.unary, pairwise, self.edges, params.lam, finite=True)
             solution = _solve(prob, MAX_SWEEPS, progress)
         else:
@@ -214,7 +231,7 @@ class Assignment:
                     "warm must be an assignment of the same target and candidates "
                     f"({self.candidates.shape}), got one of {warm.candidates.shape}"
                 )
-            kept = self._combined.get((float(params.sigma), float(params.rho)))
+            kept = self._combined.get((float(params.sigma), float(params.rho), np.float64))
             if kept is not None:
                 prob = _problem(self.unary, kept, self.edges, params.lam, finite=True)
             else:
@@ -229,13 +246,14 @@ class Assignment:
         timings = {**self.timings, "resolve": time.perf_counter() - started}
         return dataclasses.replace(self, params=params, solution=solution, timings=timings)
 
-    def _combined_pairwise(self, sigma, rho):
+    def _combined_pairwise(self, sigma, rho, dtype=np.float64):
         """:meth:`pairwise` for (sigma, rho), the last one kept (read-only) for reuse."""
-        key = (float(sigma), float(rho))
+        key = (float(sigma), float(rho), np.dtype(dtype).type)
         kept = self._combined.get(key)
         if kept is None:
-            kept = self.pairwise(sigma, rho)
-            if not _all_finite(kept.reshape(-1).view(np.uint64)):  # once per W, not per solve
+            self._need_tables()
+            kept = self.tables.smoothness(sigma, rho, dtype)
+            if not _finite(kept):  # once per W, not per solve
                 check_finite("pairwise", kept)  # raises, counting the values
             kept.setflags(write=False)
             # One entry: a slider moves one value at a time (a GIL-atomic swap).

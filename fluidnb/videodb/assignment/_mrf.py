@@ -158,7 +158,9 @@ class _Problem:
     def energy(self, labels):
         """Eq. (4): sum_p V_p(l_p) + lam * sum_(p, q) W_pq(l_p, l_q)."""
         data = self.unary[np.arange(self.n_nodes), labels].sum()
-        return float(data + self.lam * self.pair(labels[self.p], labels[self.q]).sum())
+        # A float32 W's values summed in float64, as the compiled sweeps sum them.
+        pair = self.pair(labels[self.p], labels[self.q]).astype(np.float64, copy=False)
+        return float(data + self.lam * pair.sum())
 
     def argmin(self):
         return np.argmin(self.unary, axis=1).astype(np.int64)
@@ -181,8 +183,32 @@ def _all_finite(bits):
     return top != _EXPONENT
 
 
+#: The exponent bits of a float32.
+_EXPONENT32 = np.uint32(0x7F800000)
+
+
+@njit(cache=True, nogil=True)
+def _all_finite32(bits):
+    """:func:`_all_finite` of float32 values (``bits`` viewed as uint32)."""
+    top = np.uint32(0)
+    for b in bits:
+        top = max(top, b & _EXPONENT32)
+    return top != _EXPONENT32
+
+
+def _finite(w):
+    """Whether a contiguous float64 or float32 array holds no NaN or infinity."""
+    if w.dtype == np.float32:
+        return _all_finite32(w.reshape(-1).view(np.uint32))
+    return _all_finite(w.reshape(-1).view(np.uint64))
+
+
 def _problem(unary, pairwise, edges, lam, *, finite=False):
-    """The checked problem; ``finite``: W (float64, contiguous) is known finite."""
+    """The checked problem; ``finite``: W (contiguous) is known finite.
+
+    W is kept in float32 if given so (:meth:`PairTables.smoothness` with
+    ``dtype=np.float32``: the solvers read it as exact float64 values), else float64.
+    """
     v = check_array("unary", unary, ndim=2, dtype_kinds="biuf")
     w = check_array("pairwise", pairwise, ndim=3, dtype_kinds="biuf", min_size=0, finite=False)
     n_nodes, k = v.shape
@@ -193,8 +219,8 @@ def _problem(unary, pairwise, edges, lam, *, finite=False):
             f"and unary of shape {v.shape}, got {w.shape}"
         )
     lam = check_range("lam", lam, 0)
-    w = np.ascontiguousarray(w, dtype=np.float64)
-    if not finite and not _all_finite(w.reshape(-1).view(np.uint64)):
+    w = np.ascontiguousarray(w, dtype=np.float32 if w.dtype == np.float32 else np.float64)
+    if not finite and not _finite(w):
         check_finite("pairwise", w)  # raises, counting the values
     return _Problem(
         unary=np.asarray(v, dtype=np.float64),

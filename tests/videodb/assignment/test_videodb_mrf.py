@@ -681,3 +681,21 @@ def test_the_solvers_read_the_three_tables_as_their_combination_bit_for_bit():
     start = icm(unary, combined, edges, lam).labels
     warm = _solve_from(prob, start, 1, None)
     assert np.array_equal(warm.energies, solve_from(unary, combined, edges, lam, start).energies)
+
+
+def test_the_solvers_take_a_float32_w_as_its_exact_float64_values():
+    """A float32 W (a preview's) is solved as the float64 array of the same values:
+    the same labels and energies bit for bit; its non-finite values are refused."""
+    unary, pairwise, edges, lam = realistic_problem(6)
+    single = pairwise.astype(np.float32)
+    got, want = (
+        solve(unary, single, edges, lam),
+        solve(unary, single.astype(np.float64), edges, lam),
+    )
+    assert np.array_equal(got.labels, want.labels)
+    assert np.array_equal(got.energies, want.energies)
+    assert got.icm_energy == want.icm_energy
+    assert energy(got.labels, unary, single, edges, lam) == got.energy
+    single[3, 4, 5] = np.inf
+    with pytest.raises(ValueError, match="pairwise"):
+        solve(unary, single, edges, lam)

@@ -118,6 +118,25 @@ def test_pair_smoothness_is_the_tables_combined_bit_for_bit(monkeypatch, sigma, 
         pair_smoothness(candidates, edges, horizontal, spectra, bad, sigma, rho)
 
 
+def test_the_float32_combination_stays_within_two_roundings_of_the_float64_one():
+    """``smoothness(..., dtype=np.float32)`` (a preview's re-solve): every entry within
+    2 x 2^-24 relative of the float64 W (the tables rounded to float32, the sum rounded
+    once more; every term is >= 0, so nothing cancels); the float64 path is unchanged.
+
+    Mutation caught: the float32 copies made of the wrong tables (rest for dc)."""
+    candidates, edges, horizontal, spectra, texture = tables_setup()
+    tables = pair_tables(candidates, edges, horizontal, spectra, texture)
+    for sigma, rho in ((100.0, 1e4), (0.0, 3.0), (2.5, 0.0)):
+        double = tables.smoothness(sigma, rho)
+        single = tables.smoothness(sigma, rho, np.float32)
+        assert single.dtype == np.float32
+        np.testing.assert_allclose(single, double, rtol=2 * 2.0**-24, atol=0)
+        assert np.array_equal(double, tables.smoothness(sigma, rho, dtype=np.float64))
+        assert np.count_nonzero(single != double) > 0  # rounded, not a float64 copy
+    with pytest.raises(ValueError, match="dtype"):
+        tables.smoothness(1.0, 1.0, np.float16)
+
+
 def test_the_gather_kernel_equals_numpys_take_cast_and_centring_bit_for_bit():
     # The compiled gather (float16 read as bit patterns through a table) must give the
     # very float64 features numpy's take, cast and centring give: the tables of a
