@@ -153,9 +153,9 @@ class PairTables:
         if dtype not in (np.float64, np.float32):
             raise ValueError(f"dtype must be float64 or float32, got {dtype}")
         if dtype == np.float32:
-            if not self._single:  # the float32 copies, once
-                for name in ("dc", "rest", "tex"):
-                    self._single[name] = getattr(self, name).astype(np.float32)
+            if not self._single:  # the float32 copies, once; all three at once (threads)
+                names = ("dc", "rest", "tex")
+                self._single.update({n: getattr(self, n).astype(np.float32) for n in names})
             tables = [self._single[name] for name in ("dc", "rest", "tex")]
         else:
             tables = [np.ascontiguousarray(t, np.float64) for t in (self.dc, self.rest, self.tex)]
