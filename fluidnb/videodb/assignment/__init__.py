@@ -6,9 +6,11 @@ r"""The assignment (Okabe et al., sec. 5): which database fragment animates each
   :func:`moving_fragments`, :func:`fragment_speeds` -- the candidates:
   top-K by spatial-pyramid histogram intersection (Eq. 1), after the motion filter.
 - :func:`pair_tables`, :class:`PairTables`, :data:`TEXTURE_SCALE` -- the smoothness
-  terms of every edge and label pair (Eq. 2, 3, 6), in bulk.
+  terms of every edge and label pair (Eq. 2, 3, 6), in bulk; :func:`pair_smoothness`
+  their sum :math:`W` alone.
 - :func:`grid_edges`, :func:`energy` (Eq. 4, 5), :func:`alpha_expansion`, :func:`icm`,
-  :func:`solve`, :class:`MRFSolution`, :func:`brute_force` -- the MRF and its solvers.
+  :func:`solve`, :func:`solve_from` (a warm start), :class:`MRFSolution`,
+  :func:`brute_force` -- the MRF and its solvers.
 - :func:`assign`, :class:`Assignment` -- all of it, re-solved for new :math:`\sigma`,
   :math:`\lambda`, :math:`\rho` without recomputation.
 - ``reference_*`` -- the plain numpy versions the fast paths are tested against.
@@ -32,8 +34,8 @@ from ._retrieval import (
     histogram_index,
     moving_fragments,
 )
-from ._smoothness import TEXTURE_SCALE, PairTables, pair_tables
-from ._solve import MRFSolution, solve
+from ._smoothness import TEXTURE_SCALE, PairTables, pair_smoothness, pair_tables
+from ._solve import MRFSolution, solve, solve_from
 from ._target import Target, cut_target, fragment_motion
 
 __all__ = [
@@ -56,10 +58,12 @@ __all__ = [
     "histogram_index",
     "icm",
     "moving_fragments",
+    "pair_smoothness",
     "pair_tables",
     "reference_alpha_expansion",
     "reference_icm",
     "reference_pair_tables",
     "reference_top_k",
     "solve",
+    "solve_from",
 ]

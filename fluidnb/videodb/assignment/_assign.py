@@ -30,17 +30,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..._progress import Progress
-from ..._validation import check_int
+from ..._validation import check_finite, check_int, check_range
 from .._common._geometry import FRAGMENT, STRIDE, VERSIONS
 from .._common._params import AnimateParams
 from .._common._weights import blend_values, fragment_weights
 from ..database._kinds import as_database
 from ..database._store import VideoDatabase
 from ..database._words import HISTOGRAM_TOTAL
-from ._mrf import grid_edges
+from ._mrf import _finite, _problem, _tables_problem, grid_edges
 from ._retrieval import MIN_MOTION, fragment_speeds, histogram_index
-from ._smoothness import pair_tables
-from ._solve import solve
+from ._smoothness import TEXTURE_SCALE, pair_smoothness, pair_tables
+from ._solve import MAX_SWEEPS, _solve, _solve_from, solve
 from ._target import Target, cut_target, fragment_motion
 
 __all__ = ["BARELY", "Assignment", "assign"]
@@ -76,8 +76,9 @@ class Assignment:
     edges : ndarray, shape (E, 2)
         Neighbouring target fragments (4-neighbourhood).
     tables : PairTables or None
-        The three per-edge tables of Eq. (2), (3), (6); None where they were let go
-        (:func:`animate` with ``stream=True``: a file needs no re-solve).
+        The three per-edge tables of Eq. (2), (3), (6); None where they were not kept
+        (:func:`assign` with ``keep_tables=False``, :func:`animate` with
+        ``stream=True``: a file needs no re-solve).
     solution : MRFSolution
         Labels, energy per sweep, ICM's energy (Eq. 4).
     direction, speed : ndarray or None
@@ -100,6 +101,9 @@ class Assignment:
     speed: object = None
     field: object = None
     timings: dict = dataclasses.field(default_factory=dict)
+    #: The last :math:`W` :meth:`resolve` combined, keyed by its (sigma, rho): a
+    #: lambda-only change (a slider) reuses it. Not passed on by ``replace``.
+    _combined: dict = dataclasses.field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __repr__(self):
         # The dataclass's own repr printed every array (thousands of lines in a lesson).
@@ -149,20 +153,61 @@ class Assignment:
 
     def pairwise(self, sigma=None, rho=None):
         """:math:`W_{pq}` (Eq. 6) for every edge and label pair, (E, K, K)."""
-        if self.tables is None:
-            raise ValueError(
-                "this assignment did not keep its smoothness tables (animate(..., "
-                "stream=True) lets them go: 1 GB at 1920 px); assign again to re-solve"
-            )
+        self._need_tables()
         sigma = self.params.sigma if sigma is None else sigma
         rho = self.params.rho if rho is None else rho
         return self.tables.smoothness(sigma, rho)
 
-    def resolve(self, *, sigma=None, lam=None, rho=None, progress=None):
+    def _need_tables(self):
+        if self.tables is None:
+            raise ValueError(
+                "this assignment did not keep its smoothness tables (assign(..., "
+                "keep_tables=False), animate(..., stream=True): 0.9 GB at 1920 px); "
+                "assign again to re-solve"
+            )
+
+    def resolve(
+        self,
+        *,
+        sigma=None,
+        lam=None,
+        rho=None,
+        progress=None,
+        warm=None,
+        sweeps=1,
+        dtype=np.float64,
+    ):
         r"""Re-solve the MRF for new :math:`\sigma`, :math:`\lambda`, :math:`\rho`.
 
         The candidates and the three tables are kept: only Eq. (6) is recombined and
-        Eq. (4) minimised again (a fraction of a second).
+        Eq. (4) minimised again (a fraction of a second). The last recombined
+        :math:`W` is kept on this assignment, keyed by its :math:`\sigma` and
+        :math:`\rho`: re-solving it again for another :math:`\lambda` alone skips the
+        recombination (a slider dragged: call ``resolve`` on the same assignment).
+
+        Parameters
+        ----------
+        sigma, lam, rho : float, optional
+            The new values (default: this assignment's).
+        progress : callable, optional
+            ``progress(fraction, message)``; raising :class:`fluidnb.Cancelled` stops.
+        warm : Assignment or array_like of int, optional
+            For a live preview: start from these labels (an assignment of the same
+            target, e.g. the previous preview, or its ``labels``) and run ``sweeps``
+            alpha-expansion sweeps from them alone
+            (:func:`~fluidnb.videodb.assignment.solve_from`) instead of the full solve
+            (ICM and expansions from two starts, :func:`~fluidnb.videodb.assignment.solve`),
+            which stays the default and should give the result at rest. Its energy is
+            never above the start's, but may stay above the full solve's.
+        sweeps : int
+            Sweeps of the warm start (default 1); ignored without ``warm``.
+        dtype : {numpy.float64, numpy.float32}
+            float32: the full solve on W combined in float32
+            (:meth:`PairTables.smoothness`: half the memory traffic, entries within
+            2e-7 relative; a preview's cheaper full solve). Its energy is still
+            Eq. (4) of the float32 W summed in float64; the labels can differ from
+            the float64 solve's where two labellings nearly tie. A warm start reads
+            the float64 tables entry by entry and ignores it.
 
         Returns
         -------
@@ -171,15 +216,50 @@ class Assignment:
         changes = {k: v for k, v in (("sigma", sigma), ("lam", lam), ("rho", rho)) if v is not None}
         params = self.params.replace(**changes)
         started = time.perf_counter()
-        solution = solve(
-            self.unary,
-            self.pairwise(params.sigma, params.rho),
-            self.edges,
-            params.lam,
-            progress=progress,
-        )
+        if warm is None:
+            # The full solve reads W many times over (ICM, two expansions): the
+            # combined table (kept for a lambda-only change), not the three tables
+            # entry by entry (measured: 17 ms instead of 16 per re-solve, the strided
+            # column reads tripled).
+            pairwise = self._combined_pairwise(params.sigma, params.rho, dtype)
+            prob = _problem(self.unary, pairwise, self.edges, params.lam, finite=True)
+            solution = _solve(prob, MAX_SWEEPS, progress)
+        else:
+            labels = warm.labels if isinstance(warm, Assignment) else warm
+            if isinstance(warm, Assignment) and warm.candidates.shape != self.candidates.shape:
+                raise ValueError(
+                    "warm must be an assignment of the same target and candidates "
+                    f"({self.candidates.shape}), got one of {warm.candidates.shape}"
+                )
+            kept = self._combined.get((float(params.sigma), float(params.rho), np.float64))
+            if kept is not None:
+                prob = _problem(self.unary, kept, self.edges, params.lam, finite=True)
+            else:
+                # One sweep reads O(E K) entries of W: from the three tables, never
+                # combined whole (the E K^2 combination cost twice the sweep); the
+                # same values, so the same result as on pairwise(sigma, rho).
+                self._need_tables()
+                sigma = check_range("sigma", params.sigma, 0)
+                rho = check_range("rho", params.rho, 0) * TEXTURE_SCALE
+                prob = _tables_problem(self.unary, self.tables, sigma, rho, self.edges, params.lam)
+            solution = _solve_from(prob, labels, sweeps, progress)
         timings = {**self.timings, "resolve": time.perf_counter() - started}
         return dataclasses.replace(self, params=params, solution=solution, timings=timings)
+
+    def _combined_pairwise(self, sigma, rho, dtype=np.float64):
+        """:meth:`pairwise` for (sigma, rho), the last one kept (read-only) for reuse."""
+        key = (float(sigma), float(rho), np.dtype(dtype).type)
+        kept = self._combined.get(key)
+        if kept is None:
+            self._need_tables()
+            kept = self.tables.smoothness(sigma, rho, dtype)
+            if not _finite(kept):  # once per W, not per solve
+                check_finite("pairwise", kept)  # raises, counting the values
+            kept.setflags(write=False)
+            # One entry: a slider moves one value at a time (a GIL-atomic swap).
+            self._combined.clear()
+            self._combined[key] = kept
+        return kept
 
     def motion_field(self):
         """The assigned fragments' mean motion blended over the image, (H, W, 2)."""
@@ -305,7 +385,15 @@ class Assignment:
 
 
 def assign(
-    image, matte=None, db="water", params=None, *, direction=None, speed=None, progress=None
+    image,
+    matte=None,
+    db="water",
+    params=None,
+    *,
+    direction=None,
+    speed=None,
+    progress=None,
+    keep_tables=True,
 ):
     r"""Choose a database fragment for every fragment of the target (Okabe et al., sec. 5).
 
@@ -326,6 +414,12 @@ def assign(
         The speed map in px/frame, 0 where not painted (Okabe et al., Fig. 8-c).
     progress : callable, optional
         ``progress(fraction, message)``; raise :class:`fluidnb.Cancelled` to stop.
+    keep_tables : bool
+        Keep the three smoothness tables for :meth:`Assignment.resolve` (default).
+        False: only :math:`W` of the given :math:`\sigma`, :math:`\rho` is made
+        (:func:`~fluidnb.videodb.assignment.pair_smoothness`, the same values), and
+        ``tables`` is None: for a result that needs no re-solve (a file), a quarter
+        of the memory (0.3 GB instead of 1.2 GB at 1920 px).
 
     Returns
     -------
@@ -369,11 +463,17 @@ def assign(
 
     t = time.perf_counter()
     _, edges, horizontal = grid_edges(target.active)
-    tabs = pair_tables(top.ids, edges, horizontal, db.spectra, db.texture, progress=tables)
+    inputs = (top.ids, edges, horizontal, db.spectra, db.texture)
+    if keep_tables:
+        tabs = pair_tables(*inputs, progress=tables)
+    else:
+        tabs = None
+        pairwise = pair_smoothness(*inputs, params.sigma, params.rho, progress=tables)
     clock["tables"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    pairwise = tabs.smoothness(params.sigma, params.rho)
+    if tabs is not None:
+        pairwise = tabs.smoothness(params.sigma, params.rho)
     solution = solve(unary, pairwise, edges, params.lam, progress=solving)
     clock["solve"] = time.perf_counter() - t
     clock["total"] = time.perf_counter() - t0

@@ -24,7 +24,7 @@ from ..._progress import Progress
 from ..._validation import check_int
 from .._common._sums import _pairwise_sum
 from . import _maxflow
-from ._mrf import _finished, _problem, _start
+from ._mrf import _finished, _problem, _start, _w_at, _w_shape
 
 __all__ = ["alpha_expansion"]
 
@@ -74,11 +74,11 @@ def _move_terms(unary, labels, p, q, lam, alpha, tables, cap, cost1, sp, sq):
 @njit(cache=True, nogil=True)
 def _diagonal(w):
     """``diag[a, e]`` = :math:`W_e(a, a)`, label-major (see :func:`_label_tables`)."""
-    n_edges, k = w.shape[0], w.shape[1]
+    n_edges, k = _w_shape(w)
     diag = np.empty((k, n_edges))
     for e in range(n_edges):
         for a in range(k):
-            diag[a, e] = w[e, a, a]
+            diag[a, e] = _w_at(w, e, a, a)
     return diag
 
 
@@ -91,15 +91,15 @@ def _label_tables(w, labels, p, q, diag):
     not depend on the labels): label-major, so a move (one ``a``) reads each in edge
     order. :func:`_relabel` keeps them up to date as labels change.
     """
-    n_edges, k = w.shape[0], w.shape[1]
+    n_edges, k = p.shape[0], diag.shape[0]
     now = np.empty(n_edges)
     row, col = np.empty((k, n_edges)), np.empty((k, n_edges))
     for e in range(n_edges):
         lp, lq = labels[p[e]], labels[q[e]]
-        now[e] = w[e, lp, lq]
+        now[e] = _w_at(w, e, lp, lq)
         for a in range(k):
-            row[a, e] = w[e, lp, a]
-            col[a, e] = w[e, a, lq]
+            row[a, e] = _w_at(w, e, lp, a)
+            col[a, e] = _w_at(w, e, a, lq)
     return now, row, col, diag
 
 
@@ -116,16 +116,16 @@ def _relabel(w, labels, proposal, p, q, tables, pair):
     ``pair[e]`` holds :math:`W_e` of the proposal (:func:`_energy` left it there).
     """
     now, row, col, _ = tables
-    k = w.shape[1]
+    k = row.shape[0]
     for e in range(p.shape[0]):
         now[e] = pair[e]
         lp, lq = proposal[p[e]], proposal[q[e]]
         if lp != labels[p[e]]:
             for a in range(k):
-                row[a, e] = w[e, lp, a]
+                row[a, e] = _w_at(w, e, lp, a)
         if lq != labels[q[e]]:
             for a in range(k):
-                col[a, e] = w[e, a, lq]
+                col[a, e] = _w_at(w, e, a, lq)
     labels[:] = proposal
 
 

@@ -14,7 +14,7 @@ from numba import njit
 
 from ..._progress import Progress
 from ..._validation import check_int
-from ._mrf import _finished, _problem, _start
+from ._mrf import _finished, _problem, _start, _w_at, _w_shape
 
 __all__ = ["icm"]
 
@@ -41,7 +41,7 @@ def _icm_sweep(unary, w, lam, labels, p, ptr_p, edge_p, ptr_q, edge_q, col, cost
             e = edge_q[i]
             lp = labels[p[e]]
             for lab in range(k):
-                cost[lab] += lam * w[e, lp, lab]
+                cost[lab] += lam * _w_at(w, e, lp, lab)
         best = 0
         for lab in range(1, k):
             if cost[lab] < cost[best]:  # the first minimum, as np.argmin
@@ -52,19 +52,19 @@ def _icm_sweep(unary, w, lam, labels, p, ptr_p, edge_p, ptr_q, edge_q, col, cost
             for i in range(ptr_q[n], ptr_q[n + 1]):
                 e = edge_q[i]
                 for a in range(k):
-                    col[e, a] = w[e, a, best]
+                    col[e, a] = _w_at(w, e, a, best)
     return changed
 
 
 @njit(cache=True, nogil=True)
 def _columns(w, labels, q):
     """``col[e, a]`` = :math:`W_e(a, l_q)`, each edge's column for its ``q``'s label."""
-    n_edges, k = w.shape[0], w.shape[1]
+    n_edges, k = _w_shape(w)
     col = np.empty((n_edges, k))
     for e in range(n_edges):
         lq = labels[q[e]]
         for a in range(k):
-            col[e, a] = w[e, a, lq]
+            col[e, a] = _w_at(w, e, a, lq)
     return col
 
 

@@ -49,7 +49,8 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 from ..._validation import check_array, check_finite, check_int, check_range
 
@@ -157,7 +158,9 @@ class _Problem:
     def energy(self, labels):
         """Eq. (4): sum_p V_p(l_p) + lam * sum_(p, q) W_pq(l_p, l_q)."""
         data = self.unary[np.arange(self.n_nodes), labels].sum()
-        return float(data + self.lam * self.pair(labels[self.p], labels[self.q]).sum())
+        # A float32 W's values summed in float64, as the compiled sweeps sum them.
+        pair = self.pair(labels[self.p], labels[self.q]).astype(np.float64, copy=False)
+        return float(data + self.lam * pair.sum())
 
     def argmin(self):
         return np.argmin(self.unary, axis=1).astype(np.int64)
@@ -180,7 +183,32 @@ def _all_finite(bits):
     return top != _EXPONENT
 
 
-def _problem(unary, pairwise, edges, lam):
+#: The exponent bits of a float32.
+_EXPONENT32 = np.uint32(0x7F800000)
+
+
+@njit(cache=True, nogil=True)
+def _all_finite32(bits):
+    """:func:`_all_finite` of float32 values (``bits`` viewed as uint32)."""
+    top = np.uint32(0)
+    for b in bits:
+        top = max(top, b & _EXPONENT32)
+    return top != _EXPONENT32
+
+
+def _finite(w):
+    """Whether a contiguous float64 or float32 array holds no NaN or infinity."""
+    if w.dtype == np.float32:
+        return _all_finite32(w.reshape(-1).view(np.uint32))
+    return _all_finite(w.reshape(-1).view(np.uint64))
+
+
+def _problem(unary, pairwise, edges, lam, *, finite=False):
+    """The checked problem; ``finite``: W (contiguous) is known finite.
+
+    W is kept in float32 if given so (:meth:`PairTables.smoothness` with
+    ``dtype=np.float32``: the solvers read it as exact float64 values), else float64.
+    """
     v = check_array("unary", unary, ndim=2, dtype_kinds="biuf")
     w = check_array("pairwise", pairwise, ndim=3, dtype_kinds="biuf", min_size=0, finite=False)
     n_nodes, k = v.shape
@@ -191,8 +219,8 @@ def _problem(unary, pairwise, edges, lam):
             f"and unary of shape {v.shape}, got {w.shape}"
         )
     lam = check_range("lam", lam, 0)
-    w = np.ascontiguousarray(w, dtype=np.float64)
-    if not _all_finite(w.reshape(-1).view(np.uint64)):
+    w = np.ascontiguousarray(w, dtype=np.float32 if w.dtype == np.float32 else np.float64)
+    if not finite and not _finite(w):
         check_finite("pairwise", w)  # raises, counting the values
     return _Problem(
         unary=np.asarray(v, dtype=np.float64),
@@ -202,6 +230,88 @@ def _problem(unary, pairwise, edges, lam):
         lam=lam,
         flat=w.reshape(-1),
         base=np.arange(len(e), dtype=np.int64) * (k * k),
+    )
+
+
+def _w_at(w, e, i, j):
+    """:math:`W_e(i, j)`: ``w[e, i, j]``, or from the three tables (:class:`_TablesProblem`).
+
+    The solvers read O(E K) entries of W per sweep (the rows and columns of the
+    current labels); combining all E K^2 of them first cost more than a re-solve's
+    sweeps (:meth:`~fluidnb.videodb.Assignment.resolve`).
+    """
+    if isinstance(w, tuple):
+        dc, rest, tex, sigma, rho_scaled = w
+        value = rest[e, i, j] * sigma
+        value += dc[e, i, j]
+        return value + rho_scaled * tex[e, i, j]
+    return w[e, i, j]
+
+
+@overload(_w_at, jit_options={"nogil": True})
+def _w_at_compiled(w, e, i, j):
+    if isinstance(w, types.BaseTuple):
+        # PairTables.smoothness's _combine, entry by entry: the same operations in the
+        # same order, so the same bits as reading the combined table.
+        def at(w, e, i, j):
+            dc, rest, tex, sigma, rho_scaled = w
+            value = rest[e, i, j] * sigma
+            value += dc[e, i, j]
+            return value + rho_scaled * tex[e, i, j]
+
+        return at
+    return lambda w, e, i, j: w[e, i, j]
+
+
+def _w_shape(w):
+    """(E, K) of W, an array or a :class:`_TablesProblem`'s tables."""
+    first = w[0] if isinstance(w, tuple) else w
+    return first.shape[0], first.shape[1]
+
+
+@overload(_w_shape, jit_options={"nogil": True})
+def _w_shape_compiled(w):
+    if isinstance(w, types.BaseTuple):
+        return lambda w: (w[0].shape[0], w[0].shape[1])
+    return lambda w: (w.shape[0], w.shape[1])
+
+
+@dataclass(frozen=True, eq=False)
+class _TablesProblem(_Problem):
+    """A :class:`_Problem` whose W is read from the three tables where needed.
+
+    ``pairwise`` is ``(dc, rest, tex, sigma, rho_scaled)``
+    ; an entry is
+    ``rest * sigma + dc + rho_scaled * tex`` in :meth:`PairTables.smoothness`'s order,
+    so the same bits as the combined table.
+    """
+
+    def pair(self, lp, lq):
+        dc, rest, tex, sigma, rho_scaled = self.pairwise
+        e = np.arange(len(self.p))
+        value = rest[e, lp, lq] * sigma
+        value += dc[e, lp, lq]
+        return value + rho_scaled * tex[e, lp, lq]
+
+
+def _tables_problem(unary, tables, sigma, rho_scaled, edges, lam):
+    """:class:`_TablesProblem` of the kept tables (finite: checked when they were made)."""
+    v = check_array("unary", unary, ndim=2, dtype_kinds="biuf")
+    e = _check_edges(edges, v.shape[0])
+    if tables.dc.shape != (len(e), v.shape[1], v.shape[1]):
+        raise ValueError(
+            f"tables must have shape (E, K, K) = ({len(e)}, {v.shape[1]}, {v.shape[1]}), "
+            f"got {tables.dc.shape}"
+        )
+    w = tuple(np.ascontiguousarray(t, np.float64) for t in (tables.dc, tables.rest, tables.tex))
+    return _TablesProblem(
+        unary=np.asarray(v, dtype=np.float64),
+        pairwise=(*w, float(sigma), float(rho_scaled)),
+        p=e[:, 0].copy(),
+        q=e[:, 1].copy(),
+        lam=check_range("lam", lam, 0),
+        flat=None,
+        base=None,
     )
 
 

@@ -47,7 +47,7 @@ from __future__ import annotations
 import functools
 import threading
 from concurrent.futures import as_completed
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from llvmlite import ir
@@ -58,9 +58,9 @@ from ..._progress import Progress
 from ..._threads import blas_single_threaded, spread_pool, usable_cores
 from ..._validation import check_array, check_range
 from .._common._geometry import SPECTRA_BLOCK, SPECTRA_SIDE, TEXTURE_BLOCK, TEXTURE_SIDE
-from ._mrf import _check_edges
+from ._mrf import _all_finite, _check_edges
 
-__all__ = ["TEXTURE_SCALE", "PairTables", "pair_tables"]
+__all__ = ["TEXTURE_SCALE", "PairTables", "pair_smoothness", "pair_tables"]
 
 #: :math:`s_T`, the unit of the textureness term of Eq. (6):
 #: :math:`\mathrm{texture}(T^{l_i}, T^{l_j}) = s_T\, d(T^{l_i}, T^{l_j})`, applied in
@@ -117,12 +117,14 @@ class PairTables:
     edges: np.ndarray
     horizontal: np.ndarray
     recomputed: int = 0
+    #: float32 copies of dc, rest, tex, made by the first float32 smoothness().
+    _single: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self):
         for name in ("dc", "rest", "tex", "edges", "horizontal"):
             getattr(self, name).setflags(write=False)
 
-    def smoothness(self, sigma, rho):
+    def smoothness(self, sigma, rho, dtype=np.float64):
         r"""The pairwise term :math:`W_{pq}` of Eq. (6) for every edge and label pair.
 
         Parameters
@@ -133,27 +135,46 @@ class PairTables:
             :math:`\rho` of Eq. (6), >= 0: weight of the textureness (the paper's, e.g.
             :math:`100\,\sigma`; the textureness's unit :data:`TEXTURE_SCALE` is
             applied here).
+        dtype : {numpy.float64, numpy.float32}
+            float32: combined from float32 copies of the three tables (made once,
+            half the memory they take again) into a float32 W, half the memory
+            traffic of float64 (a live preview's re-solve); every entry within 2e-7
+            relative of the float64 one (two roundings to float32), the labels a
+            solve gives from it the same or nearly (measured in the tests).
 
         Returns
         -------
-        ndarray of float64, shape (E, K, K)
+        ndarray of dtype, shape (E, K, K)
             ``dc + sigma * rest + rho * TEXTURE_SCALE * tex``.
         """
         sigma = check_range("sigma", sigma, 0)
         rho = check_range("rho", rho, 0)
-        tables = [np.ascontiguousarray(t, np.float64) for t in (self.dc, self.rest, self.tex)]
+        dtype = np.dtype(dtype)
+        if dtype not in (np.float64, np.float32):
+            raise ValueError(f"dtype must be float64 or float32, got {dtype}")
+        if dtype == np.float32:
+            if not self._single:  # the float32 copies, once; all three at once (threads)
+                names = ("dc", "rest", "tex")
+                self._single.update({n: getattr(self, n).astype(np.float32) for n in names})
+            tables = [self._single[name] for name in ("dc", "rest", "tex")]
+        else:
+            tables = [np.ascontiguousarray(t, np.float64) for t in (self.dc, self.rest, self.tex)]
         if not tables[0].shape == tables[1].shape == tables[2].shape:
             raise ValueError(
                 "dc, rest and tex must have the same shape (E, K, K), got "
                 + ", ".join(str(t.shape) for t in tables)
             )
         # texture(T, T) = TEXTURE_SCALE * d(T, T)
-        return _combine(*tables, sigma, rho * TEXTURE_SCALE, np.empty(tables[0].shape))
+        out = np.empty(tables[0].shape, dtype)
+        return _combine(*tables, sigma, rho * TEXTURE_SCALE, out)
 
 
 @njit(cache=True, nogil=True)
 def _combine(dc, rest, tex, sigma, rho_scaled, out):
     """``out = rest * sigma; out += dc; out += rho_scaled * tex`` in one pass.
+
+    float32 tables are read as float64 (exact) and the float64 result rounded into a
+    float32 ``out`` once.
 
     The same operations in the same order, element by element, as those three numpy
     statements (so the same bits: no fused multiply-add), reading each table once
@@ -166,6 +187,13 @@ def _combine(dc, rest, tex, sigma, rho_scaled, out):
         value += d[i]
         o[i] = value + rho_scaled * t[i]
     return out
+
+
+@njit(cache=True, nogil=True)
+def _combine_rows(dc, rest, tex, sigma, rho_scaled, out, rows):
+    """``out[rows[e]]`` = :func:`_combine` of ``dc[e]``, ``rest[e]``, ``tex[e]`` (the same bits)."""
+    for e in range(rows.shape[0]):
+        _combine(dc[e], rest[e], tex[e], sigma, rho_scaled, out[rows[e]])
 
 
 def _check_tables_input(candidates, edges, horizontal, spectra, texture):
@@ -403,8 +431,11 @@ class _TableBatches:
     of the tables.
     """
 
-    def __init__(self, cand, edges, spectra, texture, tables):
+    def __init__(self, cand, edges, spectra, texture, tables, weights=None):
         self.cand, self.edges, self.tables = cand, edges, tables
+        # (sigma, rho * TEXTURE_SCALE): fill tables["w"] = W (Eq. 6) only, each batch's
+        # three tables made in a small buffer of its own and combined there.
+        self.weights = weights
         n_bins, k = spectra.shape[1], cand.shape[1]
         spec, spec_table = _as_maps(spectra)  # (F, NB * 2, 12, 12): bin-major
         tex, tex_table = _as_maps(texture)  # (F, L, 24, 24)
@@ -433,16 +464,22 @@ class _TableBatches:
                 tuple(np.empty(self.rows * self.width) for _ in range(2)),
                 tuple(np.empty(self.rows) for _ in range(2)),
                 np.empty(self.rows * k),
+                None if self.weights is None else np.empty((3, self.batch, k, k)),
             )
         return buf
 
     def __call__(self, es, orientation):
-        work, norms, prod = self._buffers()
+        work, norms, prod, parts = self._buffers()
         k = self.cand.shape[1]
         n = len(es)
         ids_p = self.cand[self.edges[es, 0]]
         ids_q = self.cand[self.edges[es, 1]]
         fixed = 0
+        if parts is None:
+            tables, rows = self.tables, es
+        else:  # this batch's three tables, then W from them (pair_smoothness)
+            tables = {name: parts[i, :n] for i, name in enumerate(("dc", "rest", "tex"))}
+            rows = np.arange(n)
         for table, maps, conversion, (a0, a1), area in self.terms:
             side = maps.shape[-1]
             box_p, box_q = _boxes(orientation, side)
@@ -451,14 +488,16 @@ class _TableBatches:
             na, nb = (w[: n * k].reshape(n, k) for w in norms)
             _gather_centred(maps, conversion, ids_p, ids_q, a0, a1, box_p, box_q, a, b, na, nb)
             if dim == 0:  # no such terms (a database of one frequency bin): d = 0
-                self.tables[table][es] = 0.0
+                tables[table][rows] = 0.0
                 continue
             products = prod[: n * k * k].reshape(n, k, k)
             np.matmul(a, b.transpose(0, 2, 1), out=products)
             # Below this fraction of |a|^2 + |b|^2 a distance may have lost more than
             # _TABLE_RTOL to cancellation: _finish sums it directly.
             threshold = (2 * dim + 3) * np.finfo(np.float64).eps / _TABLE_RTOL
-            fixed += _finish(products, na, nb, a, b, area, threshold, self.tables[table], es)
+            fixed += _finish(products, na, nb, a, b, area, threshold, tables[table], rows)
+        if parts is not None:
+            _combine_rows(*parts[:, :n], *self.weights, self.tables["w"], es)
         with self.lock:
             self.recomputed += fixed
         return len(es)
@@ -527,10 +566,49 @@ def pair_tables(candidates, edges, horizontal, spectra, texture, *, progress=Non
     cand, edges, hor, spectra, texture = _check_tables_input(
         candidates, edges, horizontal, spectra, texture
     )
-    report = Progress(progress)
     n_edges, k = len(edges), cand.shape[1]
     tables = {name: np.empty((n_edges, k, k)) for name in ("dc", "rest", "tex")}
-    builder = _TableBatches(cand, edges, spectra, texture, tables)
+    recomputed = _fill(cand, edges, hor, spectra, texture, tables, None, progress)
+    return PairTables(edges=edges.copy(), horizontal=hor.copy(), recomputed=recomputed, **tables)
+
+
+def pair_smoothness(candidates, edges, horizontal, spectra, texture, sigma, rho, *, progress=None):
+    r"""The pairwise term :math:`W_{pq}` of Eq. (6) alone, without keeping its three tables.
+
+    ``pair_tables(...).smoothness(sigma, rho)``, bit for bit, made batch by batch: each
+    batch's three tables are filled in a small buffer (as :func:`pair_tables` fills its
+    rows) and combined there (:meth:`PairTables.smoothness`'s operations), so the three
+    (E, K, K) tables are never held and never read back. For a result that needs no
+    re-solve (:func:`fluidnb.videodb.animate` with ``stream=True``): at 1920 px (3779
+    edges, K = 100) it holds 0.3 GB instead of 1.2 GB (three tables and W) and skips a
+    pass over them.
+
+    Parameters
+    ----------
+    candidates, edges, horizontal, spectra, texture, progress
+        As :func:`pair_tables`.
+    sigma, rho : float
+        As :meth:`PairTables.smoothness`.
+
+    Returns
+    -------
+    ndarray of float64, shape (E, K, K)
+    """
+    sigma = check_range("sigma", sigma, 0)
+    rho = check_range("rho", rho, 0)
+    cand, edges, hor, spectra, texture = _check_tables_input(
+        candidates, edges, horizontal, spectra, texture
+    )
+    out = {"w": np.empty((len(edges), cand.shape[1], cand.shape[1]))}
+    _fill(cand, edges, hor, spectra, texture, out, (sigma, rho * TEXTURE_SCALE), progress)
+    return out["w"]
+
+
+def _fill(cand, edges, hor, spectra, texture, tables, weights, progress):
+    """Fill ``tables`` (three, or ``"w"`` with ``weights``) batch by batch; the recomputed count."""
+    report = Progress(progress)
+    n_edges = len(edges)
+    builder = _TableBatches(cand, edges, spectra, texture, tables, weights)
     # Batches of edges of one orientation (their overlap slices differ).
     batches = []
     for orientation in (True, False):
@@ -552,12 +630,10 @@ def pair_tables(candidates, edges, horizontal, spectra, texture, *, progress=Non
             for future in futures:
                 future.cancel()
     for name, table in tables.items():
-        if not np.all(np.isfinite(table)):
+        if not _all_finite(table.reshape(-1).view(np.uint64)):
+            what = {"tex": "texture", "w": "spectra or texture"}.get(name, "spectra")
             raise ValueError(
-                f"the candidates' {'texture' if name == 'tex' else 'spectra'} contain NaN "
-                "or infinite values; all must be finite"
+                f"the candidates' {what} contain NaN or infinite values; all must be finite"
             )
     report(1.0, "smoothness tables done")
-    return PairTables(
-        edges=edges.copy(), horizontal=hor.copy(), recomputed=builder.recomputed, **tables
-    )
+    return builder.recomputed

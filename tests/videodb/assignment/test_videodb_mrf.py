@@ -7,7 +7,7 @@ from fluidnb import Cancelled, CancelToken
 from fluidnb.videodb.assignment._expansion import alpha_expansion
 from fluidnb.videodb.assignment._icm import icm
 from fluidnb.videodb.assignment._mrf import brute_force, energy, grid_edges
-from fluidnb.videodb.assignment._solve import solve
+from fluidnb.videodb.assignment._solve import solve, solve_from
 
 # ------------------------------------------------------------------------ helpers
 
@@ -618,3 +618,84 @@ def test_maxflow_cut_is_minimal_and_a_known_answer():
         across = cap[~side[p] & side[q]].sum() + rev[side[p] & ~side[q]].sum()
         value = source[side].sum() + sink[~side].sum() + across
         assert flow == pytest.approx(value, rel=1e-12, abs=1e-12)
+
+
+def test_solve_from_is_the_plain_expansion_from_the_given_labels():
+    """The warm start (a live preview's re-solve) is alpha-expansion from ``init`` alone:
+    the plain one's labels and energies bit for bit, for one sweep and to convergence,
+    and never above the start's energy (Eq. 4 of ``init``).
+
+    Mutation caught: solve_from starting from the argmin instead of ``init``."""
+    from fluidnb.videodb.assignment import reference_alpha_expansion
+
+    unary, pairwise, edges, lam = realistic_problem(3)
+    previous = solve(*realistic_problem(4)).labels  # a labelling far from this problem's
+    for sweeps in (1, 20):
+        got = solve_from(unary, pairwise, edges, lam, previous, max_sweeps=sweeps)
+        want = reference_alpha_expansion(unary, pairwise, edges, lam, init=previous)
+        if sweeps == 1:
+            assert got.sweeps == 1
+            assert want.sweeps > 1
+            assert got.energy <= energy(previous, unary, pairwise, edges, lam)
+            assert got.energies[0] == want.energies[0]
+            assert got.energies[1] == want.energies[1]
+        else:
+            assert np.array_equal(got.labels, want.labels)
+            assert np.array_equal(got.energies, want.energies)
+        assert (got.start, got.timings.keys()) == ("given", {"expansion_given"})
+        assert np.isnan(got.icm_energy)
+    with pytest.raises(ValueError, match="init"):
+        solve_from(unary, pairwise, edges, lam, previous[:-1])
+    with pytest.raises(ValueError, match="max_sweeps"):
+        solve_from(unary, pairwise, edges, lam, previous, max_sweeps=0)
+
+
+def test_the_solvers_read_the_three_tables_as_their_combination_bit_for_bit():
+    """W read entry by entry from the three tables (a warm re-solve's path) gives the
+    full solve, ICM and the warm start the results they give on the combined table.
+
+    Mutation caught: an entry read as ``(dc + rho * tex) + sigma * rest`` (another
+    rounding order)."""
+    from fluidnb.videodb.assignment import PairTables
+    from fluidnb.videodb.assignment._mrf import _tables_problem
+    from fluidnb.videodb.assignment._solve import _solve, _solve_from
+
+    unary, pairwise, edges, lam = realistic_problem(5)
+    gen = np.random.default_rng(5)
+    rest = pairwise * gen.uniform(0.1, 0.9, pairwise.shape)
+    tex = gen.uniform(0, 1e6, pairwise.shape)  # weighs up to 3e3 beside W ~ 1e4
+    dc = pairwise - rest
+    tables = PairTables(
+        dc=dc, rest=rest, tex=tex, edges=edges, horizontal=np.ones(len(edges), bool)
+    )
+    sigma, rho = 1.7, 300.0
+    combined = tables.smoothness(sigma, rho)
+    from fluidnb.videodb.assignment import TEXTURE_SCALE
+
+    prob = _tables_problem(unary, tables, sigma, rho * TEXTURE_SCALE, edges, lam)
+    want, got = solve(unary, combined, edges, lam), _solve(prob, 20, None)
+    assert np.array_equal(got.labels, want.labels)
+    assert got.energy == want.energy
+    assert got.icm_energy == want.icm_energy
+    assert want.sweeps >= 2
+    start = icm(unary, combined, edges, lam).labels
+    warm = _solve_from(prob, start, 1, None)
+    assert np.array_equal(warm.energies, solve_from(unary, combined, edges, lam, start).energies)
+
+
+def test_the_solvers_take_a_float32_w_as_its_exact_float64_values():
+    """A float32 W (a preview's) is solved as the float64 array of the same values:
+    the same labels and energies bit for bit; its non-finite values are refused."""
+    unary, pairwise, edges, lam = realistic_problem(6)
+    single = pairwise.astype(np.float32)
+    got, want = (
+        solve(unary, single, edges, lam),
+        solve(unary, single.astype(np.float64), edges, lam),
+    )
+    assert np.array_equal(got.labels, want.labels)
+    assert np.array_equal(got.energies, want.energies)
+    assert got.icm_energy == want.icm_energy
+    assert energy(got.labels, unary, single, edges, lam) == got.energy
+    single[3, 4, 5] = np.inf
+    with pytest.raises(ValueError, match="pairwise"):
+        solve(unary, single, edges, lam)

@@ -4,7 +4,13 @@ import numpy as np
 import pytest
 
 from fluidnb import Cancelled, CancelToken
-from fluidnb.videodb.assignment import TEXTURE_SCALE, grid_edges, pair_tables, reference_pair_tables
+from fluidnb.videodb.assignment import (
+    TEXTURE_SCALE,
+    grid_edges,
+    pair_smoothness,
+    pair_tables,
+    reference_pair_tables,
+)
 from fluidnb.videodb.assignment import _smoothness as smoothness
 
 # ------------------------------------------------------------------------ helpers
@@ -84,6 +90,51 @@ def test_bulk_tables_do_not_depend_on_batches_or_threads(monkeypatch):
     for name in ("dc", "rest", "tex"):
         assert np.array_equal(getattr(whole, name), getattr(split, name))
     assert split.recomputed == whole.recomputed
+
+
+@pytest.mark.parametrize(("sigma", "rho"), [(100.0, 1e4), (0.0, 0.0), (3.5, 0.0)])
+def test_pair_smoothness_is_the_tables_combined_bit_for_bit(monkeypatch, sigma, rho):
+    """W alone (no three tables kept: a streamed animate) is exactly
+    ``pair_tables(...).smoothness(sigma, rho)``, in one batch and in one-edge batches
+    on two threads; every entry within 1e-9 of the pair-by-pair definition.
+
+    Mutation caught: a batch's W written to the rows of the batch's position (0..n)
+    instead of its edges."""
+    candidates, edges, horizontal, spectra, texture = tables_setup()
+    want = pair_tables(candidates, edges, horizontal, spectra, texture).smoothness(sigma, rho)
+    got = pair_smoothness(candidates, edges, horizontal, spectra, texture, sigma, rho)
+    assert np.array_equal(got, want)
+    slow = reference_pair_tables(candidates, edges, horizontal, spectra, texture)
+    np.testing.assert_allclose(got, slow.smoothness(sigma, rho), rtol=1e-9, atol=0)
+    monkeypatch.setattr(smoothness, "_BATCH_BYTES", 1)
+    monkeypatch.setattr(smoothness, "_workers", lambda: 2)
+    split = pair_smoothness(candidates, edges, horizontal, spectra, texture, sigma, rho)
+    assert np.array_equal(split, want)
+    with pytest.raises(ValueError, match="sigma"):
+        pair_smoothness(candidates, edges, horizontal, spectra, texture, -1.0, rho)
+    bad = texture.copy()
+    bad[candidates[0, 0]] = np.nan
+    with pytest.raises(ValueError, match="texture"):
+        pair_smoothness(candidates, edges, horizontal, spectra, bad, sigma, rho)
+
+
+def test_the_float32_combination_stays_within_two_roundings_of_the_float64_one():
+    """``smoothness(..., dtype=np.float32)`` (a preview's re-solve): every entry within
+    2 x 2^-24 relative of the float64 W (the tables rounded to float32, the sum rounded
+    once more; every term is >= 0, so nothing cancels); the float64 path is unchanged.
+
+    Mutation caught: the float32 copies made of the wrong tables (rest for dc)."""
+    candidates, edges, horizontal, spectra, texture = tables_setup()
+    tables = pair_tables(candidates, edges, horizontal, spectra, texture)
+    for sigma, rho in ((100.0, 1e4), (0.0, 3.0), (2.5, 0.0)):
+        double = tables.smoothness(sigma, rho)
+        single = tables.smoothness(sigma, rho, np.float32)
+        assert single.dtype == np.float32
+        np.testing.assert_allclose(single, double, rtol=2 * 2.0**-24, atol=0)
+        assert np.array_equal(double, tables.smoothness(sigma, rho, dtype=np.float64))
+        assert np.count_nonzero(single != double) > 0  # rounded, not a float64 copy
+    with pytest.raises(ValueError, match="dtype"):
+        tables.smoothness(1.0, 1.0, np.float16)
 
 
 def test_the_gather_kernel_equals_numpys_take_cast_and_centring_bit_for_bit():
