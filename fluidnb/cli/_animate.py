@@ -111,6 +111,35 @@ def _is_folder_name(db):
     return db not in _STARTERS
 
 
+def _reuse_freed_memory():
+    """Have glibc's malloc keep freed blocks of up to 32 MB for reuse (this process).
+
+    A 1920-px render frees and allocates arrays of 5-30 MB for every frame (the
+    pyramids of the blend and the phases' cross-fade); by default glibc hands such
+    blocks back to the kernel and gets fresh pages the next time, each page faulted
+    in and zeroed: 8.5 million faults, 30 s of system time at 96 frames. With blocks
+    up to 32 MB (glibc's largest threshold) taken from the heap and the heap not
+    trimmed, the same frames fault a third as often. Nothing else changes; elsewhere
+    than glibc this does nothing.
+    """
+    import ctypes
+    import platform
+
+    # Only when the command is the process (main() without arguments): a notebook or
+    # a test calling main(argv) keeps its own allocator's settings.
+    from . import _main
+
+    if not _main.AS_PROCESS or platform.libc_ver()[0] != "glibc":
+        return
+    try:
+        mallopt = ctypes.CDLL(None).mallopt
+    except (OSError, AttributeError):
+        return
+    m_trim_threshold, m_mmap_threshold = -1, -3  # malloc.h
+    mallopt(m_mmap_threshold, 32 * 2**20)
+    mallopt(m_trim_threshold, 2**31 - 1)
+
+
 def _animate(args):
     import numpy as np
 
@@ -136,6 +165,7 @@ def _animate(args):
     if args.background is not None:
         background = picture.companion(args.background, "background", mode="rgb")
     picture.note(args.prog)
+    _reuse_freed_memory()
     report = TextProgress()
     if args.db in _STARTERS:
         db = starter_database(args.db, quick=args.quick or None, progress=report)
