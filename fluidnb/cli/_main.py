@@ -119,10 +119,12 @@ def main(argv=None):
     interleaved pairs at load 10: 7.3-8.9 s of CPU (1.6-2.0 s system) against
     8.1-9.5 s (2.7-3.9 s system), the frames the same.
     """
+    global AS_PROCESS
     as_process = argv is None
     try:
         if as_process:
             _small_pages()  # imports numpy: inside the try, so Ctrl-C there is one line too
+            AS_PROCESS = True  # a command may tune its own process (animate's allocator)
         return _run(argv)
     except KeyboardInterrupt:  # before the command started: numpy, the parser
         print("fluidnb: cancelled", file=sys.stderr)
@@ -130,6 +132,10 @@ def main(argv=None):
     finally:
         if as_process:
             gc.freeze()
+
+
+#: True once :func:`main` runs as the process (``argv`` not given).
+AS_PROCESS = False
 
 
 def _small_pages():

@@ -24,6 +24,7 @@ from ..._clip import Clip
 from ..._image import as_image
 from ..._progress import Progress
 from ..._stream import FrameStream
+from ..._threads import opencv_single_threaded
 from ..._validation import check_fps, check_int, check_shape_match
 from .._common._geometry import FRAGMENT
 from ..assignment._assign import Assignment, _check_params
@@ -290,7 +291,11 @@ def _made(frames, making, into):
     """
     total = frames.n_frames
     pending = None
-    with ThreadPoolExecutor(1) as maker:
+    # The frames (two at a time) and the blend's layers (two at a time) already keep
+    # both cores busy: OpenCV's own threads inside each (remap, the pyramids) would
+    # only contend, and its pool spins while it waits. OpenCV's results do not depend
+    # on its threads.
+    with opencv_single_threaded(), ThreadPoolExecutor(1) as maker:
         try:
             for t0, t1 in _runs(total, frames.blended.canvas):
                 making(t0 / total, f"rendering frames {t0 + 1}-{t1} of {total}")

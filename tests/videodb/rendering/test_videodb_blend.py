@@ -345,3 +345,38 @@ def test_play_loops_is_stagger_on_loops_already_made():
         assert np.array_equal(part, whole[..., frames])
     with pytest.raises(ValueError, match="frames must be a 1-D array"):
         play_loops(pixel_major, offsets, frames=np.array([-1, 2]))
+
+
+@pytest.mark.parametrize(
+    ("shape", "rows", "cols", "levels"),
+    [
+        ((456, 600), (168, 312), (192, 384), 4),  # inside: a box on every side
+        ((456, 600), (0, 120), (432, 600), 4),  # at the canvas's top right corner
+        ((460, 600), (168, 312), (192, 384), 4),  # 460 rows, off the grid: every row
+        ((456, 600), (168, 312), (192, 384), 2),
+    ],
+)
+def test_blend_on_the_fragments_box_is_the_whole_canvas_blend_bit_for_bit(
+    monkeypatch, shape, rows, cols, levels
+):
+    # The blend runs on the box around the fragments' windows grown by the pyramids'
+    # reach, its edges on the coarsest level's grid; outside it the canvas's blend is 0.
+    # Mutations caught: the box's reach 3 (not 0 at the coarse levels), an edge off
+    # the grid (the bilinear resampling then samples other points).
+    from fluidnb.videodb.rendering import _blend
+
+    gen = np.random.default_rng(11)
+    pos = np.array(
+        [(r, c) for r in range(*rows, 24) for c in range(*cols, 24) if gen.random() < 0.8]
+    )
+    pos = pos[(pos[:, 0] + 48 <= shape[0]) & (pos[:, 1] + 48 <= shape[1])]
+    diffs = gen.standard_normal((len(pos), 3, 72, 72)).astype(np.float32)
+    box = _blend._fragments_box(pos, shape, 12, levels)
+    assert (box[1] - box[0]) * (box[3] - box[2]) < 0.75 * shape[0] * shape[1]  # a gain
+    if shape[0] % 8:
+        assert box[:2] == (0, shape[0])
+    boxed = blend_differences(diffs, pos, shape, margin=12, levels=levels)
+    monkeypatch.setattr(_blend, "_BOX", False)
+    whole = blend_differences(diffs, pos, shape, margin=12, levels=levels)
+    assert np.array_equal(boxed.view(np.uint32), whole.view(np.uint32))
+    assert np.abs(whole).max() > 0.5
