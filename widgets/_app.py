@@ -712,6 +712,15 @@ class App(W.VBox):
         """The live preview for ``params`` (a Clip, or None): the ``preview`` callable's."""
         return self._preview_fn(params)
 
+    def preview_pending(self):
+        """Whether a newer value waits for its preview (work after a preview can give way)."""
+        return self._previews.pending()
+
+    @property
+    def in_kernel(self):
+        """Whether the app runs in a notebook kernel with a page (not a script or a test)."""
+        return self._loop is not None
+
     def wait_preview(self, timeout=30):
         """Block until every preview requested so far has been shown (for scripts/tests)."""
         self._previews.wait(timeout)

@@ -80,12 +80,13 @@ class _Sender:
         self._thread = None
         self.timeline = None  # the kernel's times of the clip's making (previews), if any
 
-    def set(self, clip, clip_id, ready, encoded=None, timeline=None):
+    def set(self, clip, clip_id, ready, encoded=None, timeline=None, sent=0):
+        """The clip to send; its first ``sent`` frames (in ``encoded``) the caller sends."""
         with self._cond:
             self.clip, self.clip_id, self.ready = clip, clip_id, ready
             self.timeline = timeline
             self.encoded = {} if encoded is None else encoded
-            self._sent = 0
+            self._sent = sent
             self._wants = []
             self._start()
 
@@ -100,12 +101,16 @@ class _Sender:
                 self._wants.append(max(0, int(have)))
                 self._start()
 
-    def encode(self, i, clip=None):
-        """Frame ``i``'s JPEG of the current clip (or of ``clip``), encoded once."""
+    def encode(self, i, clip=None, preview=None):
+        """Frame ``i``'s JPEG of the current clip (or of ``clip``), encoded once.
+
+        ``preview``: at the previews' quality (default: if the clip is a preview).
+        """
         with self._cond:
             clip = self.clip if clip is None else clip
             encoded = self.encoded
-            preview = clip is self.clip and self.timeline is not None
+            if preview is None:
+                preview = clip is self.clip and self.timeline is not None
             if clip is self.clip and i in encoded:
                 return encoded[i]
         data = jpeg(clip.frames[i], quality=_PREVIEW_QUALITY if preview else 95)
@@ -138,7 +143,7 @@ class _Sender:
             if clip is None:
                 continue
             for have in wants:  # a page that missed frames: resend those encoded
-                self._send(cid, have, [self.encoded[i] for i in range(have, start)])
+                self.send(cid, have, [self.encoded[i] for i in range(have, start)])
             if preview and start == 1 and ready > 1:
                 # The preview's first frame is on its way: let it reach the page first.
                 with self._cond:
@@ -161,9 +166,10 @@ class _Sender:
                     continue  # a new clip came meanwhile
                 self._sent = i
             if batch:
-                self._send(cid, start, batch)
+                self.send(cid, start, batch)
 
-    def _send(self, cid, start, frames):
+    def send(self, cid, start, frames):
+        """Send ``frames`` (JPEG bytes) of clip ``cid`` from frame ``start`` on."""
         for k in range(0, len(frames), 16):
             part = frames[k : k + 16]
             if part:
@@ -312,7 +318,16 @@ class FramePlayer(W.VBox):
             self.view.ready = self._ready
             self.view.clip_id = self._clips if clip is not None else 0
         timeline, self._timeline = self._timeline, None
-        self._sender.set(clip, self.view.clip_id, self._ready, timeline=timeline)
+        if timeline is not None and clip is not None and self._ready:
+            # A preview's first frame goes out from here, right behind the clip's state
+            # (no hand-over to the sender's thread, which waited for the GIL while the
+            # kernel's thread drew the app's other views), and before the player's info
+            # line and whatever the app shows after it: the page draws it first.
+            first = self._sender.encode(0, clip, preview=True)
+            self._sender.set(clip, self.view.clip_id, self._ready, {0: first}, timeline, sent=1)
+            self._sender.send(self.view.clip_id, 0, [first])
+        else:
+            self._sender.set(clip, self.view.clip_id, self._ready, timeline=timeline)
         self._show_state(clip)
 
     def _show_state(self, clip):

@@ -190,6 +190,11 @@ class VideoDBApp(FlowSketch, App):
         self.previews = 0  #: Preview frames shown.
         self._preview_cache = (None, {})  # (database, fragment id -> D_t)
         self._previewed = None  # (assignment, rendering values) of the last preview
+        self._mapped, self._mapped_at = None, 0.0  # the assignment the map shows, since
+        #: Seconds after a preview frame before the map follows (see _follow_map).
+        self.map_pause = 0.06
+        #: Longest seconds the map lags a drag that never pauses.
+        self.map_every = 0.6
 
         name = photo if isinstance(photo, str) and photo in PHOTOS else None
         self.photo, self.photo_alpha = self._load_photo(photo, matte)
@@ -291,7 +296,8 @@ class VideoDBApp(FlowSketch, App):
         self._render_button.on_click(lambda _: self.start_render())
         self._use_speed_button.on_click(lambda _: self.use_result_speed())
         self.panel.observe(self._panel_changed, "params")
-        self.observe(lambda _: self._show_stats(), ["retrievals", "resolves", "renders"])
+        # (re-solves are counted with the map: _show_assignment)
+        self.observe(lambda _: self._show_stats(), ["retrievals", "renders"])
         self._wire_canvas(canvas)
         self.map.set_photo(self.photo)
         self._show_n()
@@ -467,9 +473,9 @@ class VideoDBApp(FlowSketch, App):
 
     def _ran(self, clip, seconds):
         self._show_clip(clip, seconds)
-        self.on_main(self._show_assignment)
         self._render_button.disabled = False
         self._use_speed_button.disabled = False
+        self._show_map_soon()
         a = self.assignment
         # A slider moved during the run gets its re-solve; otherwise the preview worker
         # fills the preview's cache, so the first drag shows its preview at once.
@@ -577,9 +583,11 @@ class VideoDBApp(FlowSketch, App):
             # while their own request still waited): nothing changed, keep its note.
             shown = self._previewed
             if shown is not None and shown[0] is current and shown[1] == _rendering(params):
+                self._follow_map()  # (its own preview's gave way to this request)
                 return None
             if self.live_preview and not self._clip_is_current():
                 return self._preview_clip(current, params, "a rendering setting changed")
+            self._follow_map()
             return None
         started = time.perf_counter()
         new = base.resolve(**wanted)
@@ -594,14 +602,45 @@ class VideoDBApp(FlowSketch, App):
             f"{plural(len(new.labels), 'fragment')} changed"
         )
         if not self.live_preview:
-            self.on_main(self._show_assignment)  # the map (the kernel's thread draws it)
+            self._show_map_soon()
             self.say(note)
             return None
-        clip = self._preview_clip(new, params, note)
-        # The map once the frame is made: drawn beside it, on the kernel's thread, it
-        # took the GIL from it (8 ms of Python), and the frame waited.
-        self.on_main(self._show_assignment)
-        return clip
+        # The map follows once the frame is on its way (after_preview).
+        return self._preview_clip(new, params, note)
+
+    def after_preview(self, params):
+        """The assignment map, the energy plot and the counters, after the preview frame."""
+        self._follow_map()
+
+    def _follow_map(self):
+        """Show the current assignment in the map, the energy plot and the counters.
+
+        In a kernel, first :attr:`map_pause` seconds for the preview frame to reach the
+        page and be drawn: sent right behind the frame, the map's picture and marks
+        (36 KB, ~6 ms of the kernel's thread), the energy plot and the counters were
+        handled by the page before the frame's decoded picture, and the frame waited
+        (decode+draw 18-21 ms quiet, 40 at load 6). A newer value arriving meanwhile
+        skips the map: that value's preview comes first, and its map after it -- but
+        during a long drag the map is at most :attr:`map_every` seconds behind.
+        """
+        a = self.assignment
+        if a is None or self._mapped is a or self._closed:
+            return
+        deadline = time.monotonic() + (self.map_pause if self.in_kernel else 0.0)
+        while True:
+            if self.preview_pending():
+                if time.monotonic() - self._mapped_at < self.map_every:
+                    return
+                break
+            if time.monotonic() >= deadline:
+                break
+            time.sleep(0.005)
+        self._show_map_soon()
+
+    def _show_map_soon(self):
+        """The map, energy and counters of the current assignment, on the kernel's thread."""
+        self._mapped, self._mapped_at = self.assignment, time.monotonic()
+        self.on_main(self._show_assignment)  # (ipycanvas drawing is not thread-safe)
 
     def _preview_clip(self, a, params, note):
         """One frame of ``a``'s clip at half size (:func:`fluidnb.videodb.preview_frame`)."""
@@ -745,6 +784,7 @@ class VideoDBApp(FlowSketch, App):
         # The energy and its sigma, lambda, rho first: the map never shows under the
         # values of the one before (each widget sends its own message).
         self._show_energy()
+        self._show_stats()
         self.map.set_assignment(a)
 
     def _show_energy(self):

@@ -9,6 +9,7 @@ import datetime as dt
 import io
 import json
 import threading
+import time
 
 import ipywidgets as W
 import numpy as np
@@ -863,3 +864,55 @@ def test_a_drag_prefetches_only_once_the_values_rest(app, monkeypatch):
     assert app.resolves >= 2
     assert fetched == [app.assignment]  # only the last value's, once it rested
     assert app.assignment.params.sigma == sigma * 16
+
+
+def test_the_map_follows_the_preview_frame_and_gives_way_to_a_newer_value(app, monkeypatch):
+    # Issue 36: sent beside a preview's frame, the map's picture and marks, the energy
+    # plot and the counters reached the page first and the frame waited for them. The
+    # frame goes first; the rest follows it -- in a kernel only after map_pause, and not
+    # while a newer value waits (its preview comes first), unless a long drag has left
+    # the map map_every seconds behind.
+    draw_scene(app)
+    app.run(timeout=120)
+    app.settle = 1e9
+    app.wait_resolve()
+    events = []
+    send = app.player.view.send
+    app.player.view.send = lambda content, buffers=None: (
+        events.append(("frame", content["clip"])) or send(content, buffers)
+    )
+    set_assignment = app.map.set_assignment
+    monkeypatch.setattr(
+        app.map, "set_assignment", lambda a: events.append(("map", a)) or set_assignment(a)
+    )
+    app.energy.observe(lambda _: events.append(("energy",)), "value")
+    resolves = app.resolves
+    sigma = app.assignment.params.sigma
+    app.panel.set("sigma", sigma * 10)
+    app.wait_resolve()
+    assert app.resolves == resolves + 1
+    a = app.assignment
+    assert [e[0] for e in events] == ["frame", "energy", "map"]
+    assert events[-1] == ("map", a)
+    assert f"re-solves <b class='fluidnb-vdb-resolves'>{resolves + 1}</b>" in app.stats.value
+    # In a kernel, with a newer value waiting: the map gives way to its preview.
+    monkeypatch.setattr(type(app), "in_kernel", property(lambda self: True))
+    waiting = [True]
+    monkeypatch.setattr(app, "preview_pending", lambda: waiting[0])
+    app.map_pause, app.map_every = 0.05, 1e9
+    del events[:]
+    app.assignment = b = a.resolve(sigma=sigma * 100)
+    app._follow_map()
+    assert events == []
+    app.map_every = 0.0  # a drag that never pauses: the map follows at least this often
+    app._follow_map()
+    assert events[-1] == ("map", b)
+    app._follow_map()  # (shown already: not again)
+    assert [e for e in events if e[0] == "map"] == [("map", b)]
+    # No newer value: it follows once the frame has had map_pause seconds to be drawn.
+    waiting[0] = False
+    app.assignment = c = a.resolve(sigma=sigma * 1000)
+    started = time.monotonic()
+    app._follow_map()
+    assert events[-1] == ("map", c)
+    assert time.monotonic() - started >= app.map_pause
