@@ -530,12 +530,20 @@ class App(W.VBox):
     def _held_changed(self, change):
         if change["new"]:
             return
+        self.released()
         with self._settle_lock:
             warm, self._warm_on_release = self._warm_on_release, False
         if warm:
             self._request_warm()  # the warm-up skipped while the slider was held
         if self._rest_wanted:
             self._schedule_rest()  # let go: the full result once the values rest
+
+    def released(self):
+        """What the app does when the user lets go of its slider (before the rest's wait).
+
+        Nothing by default; the video-database app solves in full what it previewed
+        with a warm start while the slider was held.
+        """
 
     def _schedule_rest(self):
         """Start :meth:`rest_task` once the values rest for :attr:`settle` seconds.

@@ -11,6 +11,7 @@ came back.
 from __future__ import annotations
 
 import contextlib
+import inspect
 import time
 
 import ipywidgets as W
@@ -22,6 +23,7 @@ from fluidnb.videodb import (
     FRAGMENT,
     STARTER_KINDS,
     AnimateParams,
+    Assignment,
     assign,
     prefetch,
     prefetch_preview,
@@ -71,6 +73,9 @@ def _rendering(params):
 _PREVIEW_FACTOR = 2
 _PREVIEW_LEVELS = 1  # a plain weighted blend: a quarter faster, no seam shows at half size
 _PREVIEW_CACHE = 4096
+#: Whether the library's re-solve can start from given labels (``resolve(warm=...)``:
+#: one alpha-expansion sweep from them, a third of the full solve's time).
+_WARM_RESOLVE = "warm" in inspect.signature(Assignment.resolve).parameters
 
 
 class VideoDBApp(FlowSketch, App):
@@ -191,6 +196,7 @@ class VideoDBApp(FlowSketch, App):
         self._preview_cache = (None, {})  # (database, fragment id -> D_t)
         self._previewed = None  # (assignment, rendering values) of the last preview
         self._mapped, self._mapped_at = None, 0.0  # the assignment the map shows, since
+        self._rough = None  # the assignment a warm start made while a slider was held
         #: Seconds after a preview frame before the map follows (see _follow_map).
         self.map_pause = 0.06
         #: Longest seconds the map lags a drag that never pauses.
@@ -502,6 +508,11 @@ class VideoDBApp(FlowSketch, App):
     def _render_task(self, params, progress):
         self.wait_preview()  # the re-solve of the latest values
         a = self.assignment
+        if a is not None and a is self._rough:  # (a warm start, never let go of)
+            a = self._base.resolve(**{k: getattr(a.params, k) for k in _SOLVE_FIELDS})
+            self.assignment, self._rough = a, None
+            self.resolves += 1
+            self._show_map_soon()
         # The assignment's own sigma, lambda, rho (they made it); the panel's rendering
         # settings.
         params = params.replace(**{k: getattr(a.params, k) for k in _SOLVE_FIELDS})
@@ -578,7 +589,8 @@ class VideoDBApp(FlowSketch, App):
         if base is None or current is None:
             return None
         wanted = {k: getattr(params, k) for k in _SOLVE_FIELDS}
-        if all(getattr(current.params, k) == v for k, v in wanted.items()):
+        rough = current is self._rough and not self.held  # let go: the full solve now
+        if not rough and all(getattr(current.params, k) == v for k, v in wanted.items()):
             # A second request for the values a preview already showed (it read them
             # while their own request still waited): nothing changed, keep its note.
             shown = self._previewed
@@ -590,15 +602,20 @@ class VideoDBApp(FlowSketch, App):
             self._follow_map()
             return None
         started = time.perf_counter()
-        new = base.resolve(**wanted)
+        # While a slider is held: one expansion sweep from the assignment shown (the
+        # library's warm start, where it has one); the full solve once it is let go.
+        warm = _WARM_RESOLVE and self.held and self.live_preview
+        new = base.resolve(**wanted, **({"warm": current} if warm else {}))
         if self._base is not base:  # a run replaced the tables meanwhile
             return None
         solved = time.perf_counter() - started
         changed = int((new.labels != current.labels).sum())
         self.assignment = new
+        self._rough = new if warm else None
         self.resolves += 1
+        how = "one sweep from the last" if warm else "from the kept tables"
         note = (
-            f"re-solved from the kept tables in {solved:.2f} s: {changed} of "
+            f"re-solved {how} in {solved:.2f} s: {changed} of "
             f"{plural(len(new.labels), 'fragment')} changed"
         )
         if not self.live_preview:
@@ -607,6 +624,11 @@ class VideoDBApp(FlowSketch, App):
             return None
         # The map follows once the frame is on its way (after_preview).
         return self._preview_clip(new, params, note)
+
+    def released(self):
+        """The slider let go: a warm-started assignment is solved in full (a preview)."""
+        if self._rough is not None and self._rough is self.assignment:
+            self.request_preview()
 
     def after_preview(self, params):
         """The assignment map, the energy plot and the counters, after the preview frame."""

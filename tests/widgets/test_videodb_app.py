@@ -916,3 +916,55 @@ def test_the_map_follows_the_preview_frame_and_gives_way_to_a_newer_value(app, m
     app._follow_map()
     assert events[-1] == ("map", c)
     assert time.monotonic() - started >= app.map_pause
+
+
+def test_a_held_slider_previews_a_warm_start_and_its_release_solves_in_full(app, monkeypatch):
+    # Issue 36: the full re-solve was two thirds of a preview's CPU. Where the library
+    # offers resolve(warm=...) (one expansion sweep from given labels), a held
+    # slider's values start from the assignment shown; the release (and Render) solve
+    # in full, so the map at rest and the clip are the full solve's.
+    from fluidnb.videodb import Assignment
+
+    draw_scene(app)
+    app.run(timeout=120)
+    app.settle = 1e9
+    app.wait_resolve()
+    calls = []
+    real = Assignment.resolve
+
+    def resolve(self, *, warm=None, **values):
+        calls.append(warm)
+        return real(self, **values)
+
+    monkeypatch.setattr(module, "_WARM_RESOLVE", True)
+    monkeypatch.setattr(Assignment, "resolve", resolve)
+    sigma = app.assignment.params.sigma
+    shown = app.assignment
+    app._live.held = True  # the page says: a slider is held
+    app.panel.set("sigma", sigma * 10)
+    app.wait_resolve()
+    assert calls == [shown]  # from the assignment shown
+    assert "one sweep from the last" in app.status
+    rough = app.assignment
+    assert app.map.assignment is rough  # the map follows the preview
+    app._live.held = False  # let go: the same values, solved in full
+    app.wait_resolve()
+    assert calls[-1] is None
+    assert app.assignment is not rough
+    assert app.assignment.params.sigma == sigma * 10
+    assert app.map.assignment is app.assignment
+    assert "from the kept tables" in app.status
+    # Without a held slider (the keyboard, code): the full solve at once.
+    app.panel.set("sigma", sigma * 100)
+    app.wait_resolve()
+    assert calls[-1] is None
+    # Render with a warm start never let go of (a lost release): solved in full first.
+    app._live.held = True
+    app.panel.set("sigma", sigma * 1000)
+    app.wait_resolve()
+    assert calls[-1] is not None
+    clip = app.render_clip(timeout=120)
+    assert calls[-1] is None
+    assert app.assignment is not app._rough
+    assert clip.metadata["params"]["sigma"] == pytest.approx(sigma * 1000)
+    assert clip.metadata["energy"] == pytest.approx(app.assignment.solution.energy)
