@@ -243,6 +243,8 @@ class FramePlayer(W.VBox):
         self._streaming = None  # the clip being streamed (stream), until it is set
         self._clips = 0
         self._timeline = None  # see show_timed
+        self._drawn = 0  # the last clip the page said it drew (previews; see wait_drawn)
+        self._drawn_lock = threading.Condition()
         #: The part the page runs: the picture, play/pause, frame slider, loop, fps.
         self.view = _PlayerView(
             display_width=self.display_width, slider_width=slider_width or "", group=group
@@ -391,6 +393,22 @@ class FramePlayer(W.VBox):
     def _message(self, _view, content, _buffers):
         if isinstance(content, dict) and content.get("type") == "want":
             self._sender.want(int(content.get("clip", -1)), int(content.get("have", 0)))
+        elif isinstance(content, dict) and content.get("type") == "drawn":
+            with self._drawn_lock:
+                self._drawn = max(self._drawn, int(content.get("clip", 0)))
+                self._drawn_lock.notify_all()
+
+    def wait_drawn(self, timeout):
+        """Wait until the page says it drew the clip shown with :meth:`show_timed`.
+
+        The page tells the kernel once it has drawn a preview's first frame; an app
+        sends what can wait (the video-database app's map) after it, so that it never
+        delays the picture. Returns whether the page said so within ``timeout``
+        seconds (False with no page, or for a clip shown otherwise).
+        """
+        clip_id = self.view.clip_id
+        with self._drawn_lock:
+            return self._drawn_lock.wait_for(lambda: self._drawn >= clip_id, timeout)
 
     def _encode(self, i):
         """Frame ``i`` of the clip as the JPEG bytes the page gets (encoded once)."""

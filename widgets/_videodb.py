@@ -197,8 +197,8 @@ class VideoDBApp(FlowSketch, App):
         self._previewed = None  # (assignment, rendering values) of the last preview
         self._mapped, self._mapped_at = None, 0.0  # the assignment the map shows, since
         self._rough = None  # the assignment a warm start made while a slider was held
-        #: Seconds after a preview frame before the map follows (see _follow_map).
-        self.map_pause = 0.06
+        #: Longest wait (s) for the page to draw a preview frame before the map follows.
+        self.map_pause = 0.3
         #: Longest seconds the map lags a drag that never pauses.
         self.map_every = 0.6
 
@@ -637,26 +637,26 @@ class VideoDBApp(FlowSketch, App):
     def _follow_map(self):
         """Show the current assignment in the map, the energy plot and the counters.
 
-        In a kernel, first :attr:`map_pause` seconds for the preview frame to reach the
-        page and be drawn: sent right behind the frame, the map's picture and marks
-        (36 KB, ~6 ms of the kernel's thread), the energy plot and the counters were
-        handled by the page before the frame's decoded picture, and the frame waited
-        (decode+draw 18-21 ms quiet, 40 at load 6). A newer value arriving meanwhile
-        skips the map: that value's preview comes first, and its map after it -- but
-        during a long drag the map is at most :attr:`map_every` seconds behind.
+        In a kernel, first the page draws the preview frame (it says so:
+        :meth:`FramePlayer.wait_drawn`; at most :attr:`map_pause` seconds): sent right
+        behind the frame, the map's picture and marks (36 KB, ~6 ms of the kernel's
+        thread), the energy plot and the counters were handled by the page before the
+        frame's decoded picture, and the frame waited (decode+draw 18-21 ms quiet, 40
+        at load 6). A newer value arriving meanwhile skips the map: that value's
+        preview comes first, and its map after it -- but during a long drag the map is
+        at most :attr:`map_every` seconds behind.
         """
         a = self.assignment
         if a is None or self._mapped is a or self._closed:
             return
         deadline = time.monotonic() + (self.map_pause if self.in_kernel else 0.0)
-        while True:
+        while time.monotonic() < deadline:
             if self.preview_pending():
                 if time.monotonic() - self._mapped_at < self.map_every:
                     return
                 break
-            if time.monotonic() >= deadline:
+            if self.preview_player.wait_drawn(0.005):
                 break
-            time.sleep(0.005)
         self._show_map_soon()
 
     def _show_map_soon(self):

@@ -281,3 +281,21 @@ def test_a_previews_first_frame_leaves_before_show_timed_returns_and_before_the_
     p.clip = clip(2)
     wait_for(lambda: sum(e[3] for e in events if e[0] == "frames" and e[1] == 2) == 2)
     p.close()
+
+
+def test_the_page_says_when_it_drew_a_preview():
+    # The page tells the kernel once it has drawn a preview's first frame (one word per
+    # preview); an app sends what can wait after it (the video-database app's map).
+    p = FramePlayer()
+    p.view.send = lambda content, buffers=None: None
+    p.show_timed(clip(2), {"changed": 1.0, "started": 2.0, "made": 3.0})
+    assert not p.wait_drawn(0.01)  # no page has said so
+    p._message(None, {"type": "drawn", "clip": p.view.clip_id}, [])
+    assert p.wait_drawn(0.0)
+    p.show_timed(clip(2), {"changed": 1.0, "started": 2.0, "made": 3.0})
+    assert not p.wait_drawn(0.01)  # the next preview needs its own word
+    p._message(None, {"type": "drawn", "clip": p.view.clip_id - 1}, [])  # a late word
+    assert not p.wait_drawn(0.01)
+    p._message(None, {"type": "drawn", "clip": p.view.clip_id}, [])
+    assert p.wait_drawn(0.0)
+    p.close()

@@ -909,12 +909,24 @@ def test_the_map_follows_the_preview_frame_and_gives_way_to_a_newer_value(app, m
     assert events[-1] == ("map", b)
     app._follow_map()  # (shown already: not again)
     assert [e for e in events if e[0] == "map"] == [("map", b)]
-    # No newer value: it follows once the frame has had map_pause seconds to be drawn.
+    # No newer value: it follows once the page has drawn the frame (the page says so)...
     waiting[0] = False
+    app.map_pause = 60.0
     app.assignment = c = a.resolve(sigma=sigma * 1000)
+    player = app.preview_player
+    player._message(None, {"type": "drawn", "clip": player.view.clip_id}, [])
     started = time.monotonic()
     app._follow_map()
     assert events[-1] == ("map", c)
+    assert time.monotonic() - started < app.map_pause  # (it did not wait for the page)
+    # ... or after map_pause seconds without its word (no page open, say).
+    app.map_pause = 0.05
+    app.assignment = d = a.resolve(sigma=sigma * 3000)
+    shown = app._preview_clip(d, app.panel.params, "")
+    player.show_timed(shown, {"changed": 1.0, "started": 2.0, "made": 3.0})
+    started = time.monotonic()
+    app._follow_map()
+    assert events[-1] == ("map", d)
     assert time.monotonic() - started >= app.map_pause
 
 
