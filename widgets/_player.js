@@ -232,7 +232,7 @@ function render(s, model, root) {
         },
       }),
     );
-    if (s.timeline && s.timeline.made !== undefined && s.acked !== clip) {
+    if (model.get("tell_drawn") && s.timeline?.made !== undefined && s.acked !== clip) {
       // A preview's picture is on screen: the kernel sends what it held back for it
       // (the video-database app's map; FramePlayer.wait_drawn). One word per preview.
       s.acked = clip;

@@ -57,6 +57,8 @@ class _PlayerView(anywidget.AnyWidget):
     group = Unicode("").tag(sync=True)
     #: Draw an enlarged clip smoothly (photos) rather than pixelated (simulation grids).
     smooth = Bool(False).tag(sync=True)
+    #: Tell the kernel when a preview's picture is drawn (FramePlayer.wait_drawn).
+    tell_drawn = Bool(False).tag(sync=True)
 
 
 class _Sender:
@@ -401,8 +403,9 @@ class FramePlayer(W.VBox):
     def wait_drawn(self, timeout):
         """Wait until the page says it drew the clip shown with :meth:`show_timed`.
 
-        The page tells the kernel once it has drawn a preview's first frame; an app
-        sends what can wait (the video-database app's map) after it, so that it never
+        With ``view.tell_drawn`` on, the page tells the kernel once it has drawn a
+        preview's first frame (a message per preview: off by default); an app sends
+        what can wait (the video-database app's map) after it, so that it never
         delays the picture. Returns whether the page said so within ``timeout``
         seconds (False with no page, or for a clip shown otherwise).
         """

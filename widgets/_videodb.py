@@ -293,6 +293,7 @@ class VideoDBApp(FlowSketch, App):
             self.titled("assignment (click a fragment)", self.map, margin="0"),
         )
         self.views_width = f"{MAP_WIDTH + 8}px"
+        self.player.view.tell_drawn = True  # the map waits for the preview's picture
         self.add_class("fluidnb-vdb-app")
         self.settle = 0.2  # the map and preview frame show the values; the clip at rest
 

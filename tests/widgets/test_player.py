@@ -287,6 +287,8 @@ def test_the_page_says_when_it_drew_a_preview():
     # The page tells the kernel once it has drawn a preview's first frame (one word per
     # preview); an app sends what can wait after it (the video-database app's map).
     p = FramePlayer()
+    assert not p.view.tell_drawn  # (a message per preview: only for an app that waits)
+    p.view.tell_drawn = True
     p.view.send = lambda content, buffers=None: None
     p.show_timed(clip(2), {"changed": 1.0, "started": 2.0, "made": 3.0})
     assert not p.wait_drawn(0.01)  # no page has said so

@@ -893,6 +893,7 @@ def test_the_map_follows_the_preview_frame_and_gives_way_to_a_newer_value(app, m
     assert app.resolves == resolves + 1
     a = app.assignment
     assert [e[0] for e in events] == ["frame", "energy", "map"]
+    assert app.player.view.tell_drawn  # (the page says when the frame is drawn)
     assert events[-1] == ("map", a)
     assert f"re-solves <b class='fluidnb-vdb-resolves'>{resolves + 1}</b>" in app.stats.value
     # In a kernel, with a newer value waiting: the map gives way to its preview.
