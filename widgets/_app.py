@@ -530,12 +530,20 @@ class App(W.VBox):
     def _held_changed(self, change):
         if change["new"]:
             return
+        self.released()
         with self._settle_lock:
             warm, self._warm_on_release = self._warm_on_release, False
         if warm:
             self._request_warm()  # the warm-up skipped while the slider was held
         if self._rest_wanted:
             self._schedule_rest()  # let go: the full result once the values rest
+
+    def released(self):
+        """What the app does when the user lets go of its slider (before the rest's wait).
+
+        Nothing by default; the video-database app solves in full what it previewed
+        with a warm start while the slider was held.
+        """
 
     def _schedule_rest(self):
         """Start :meth:`rest_task` once the values rest for :attr:`settle` seconds.
@@ -711,6 +719,15 @@ class App(W.VBox):
     def preview(self, params):
         """The live preview for ``params`` (a Clip, or None): the ``preview`` callable's."""
         return self._preview_fn(params)
+
+    def preview_pending(self):
+        """Whether a newer value waits for its preview (work after a preview can give way)."""
+        return self._previews.pending()
+
+    @property
+    def in_kernel(self):
+        """Whether the app runs in a notebook kernel with a page (not a script or a test)."""
+        return self._loop is not None
 
     def wait_preview(self, timeout=30):
         """Block until every preview requested so far has been shown (for scripts/tests)."""

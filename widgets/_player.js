@@ -232,6 +232,12 @@ function render(s, model, root) {
         },
       }),
     );
+    if (model.get("tell_drawn") && s.timeline?.made !== undefined && s.acked !== clip) {
+      // A preview's picture is on screen: the kernel sends what it held back for it
+      // (the video-database app's map; FramePlayer.wait_drawn). One word per preview.
+      s.acked = clip;
+      model.send({ type: "drawn", clip });
+    }
     controls();
     if (group && fromClock !== "group") {
       for (const other of group) if (other !== view) other.follow(i);

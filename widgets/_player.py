@@ -57,6 +57,8 @@ class _PlayerView(anywidget.AnyWidget):
     group = Unicode("").tag(sync=True)
     #: Draw an enlarged clip smoothly (photos) rather than pixelated (simulation grids).
     smooth = Bool(False).tag(sync=True)
+    #: Tell the kernel when a preview's picture is drawn (FramePlayer.wait_drawn).
+    tell_drawn = Bool(False).tag(sync=True)
 
 
 class _Sender:
@@ -80,12 +82,13 @@ class _Sender:
         self._thread = None
         self.timeline = None  # the kernel's times of the clip's making (previews), if any
 
-    def set(self, clip, clip_id, ready, encoded=None, timeline=None):
+    def set(self, clip, clip_id, ready, encoded=None, timeline=None, sent=0):
+        """The clip to send; its first ``sent`` frames (in ``encoded``) the caller sends."""
         with self._cond:
             self.clip, self.clip_id, self.ready = clip, clip_id, ready
             self.timeline = timeline
             self.encoded = {} if encoded is None else encoded
-            self._sent = 0
+            self._sent = sent
             self._wants = []
             self._start()
 
@@ -100,12 +103,16 @@ class _Sender:
                 self._wants.append(max(0, int(have)))
                 self._start()
 
-    def encode(self, i, clip=None):
-        """Frame ``i``'s JPEG of the current clip (or of ``clip``), encoded once."""
+    def encode(self, i, clip=None, preview=None):
+        """Frame ``i``'s JPEG of the current clip (or of ``clip``), encoded once.
+
+        ``preview``: at the previews' quality (default: if the clip is a preview).
+        """
         with self._cond:
             clip = self.clip if clip is None else clip
             encoded = self.encoded
-            preview = clip is self.clip and self.timeline is not None
+            if preview is None:
+                preview = clip is self.clip and self.timeline is not None
             if clip is self.clip and i in encoded:
                 return encoded[i]
         data = jpeg(clip.frames[i], quality=_PREVIEW_QUALITY if preview else 95)
@@ -138,7 +145,7 @@ class _Sender:
             if clip is None:
                 continue
             for have in wants:  # a page that missed frames: resend those encoded
-                self._send(cid, have, [self.encoded[i] for i in range(have, start)])
+                self.send(cid, have, [self.encoded[i] for i in range(have, start)])
             if preview and start == 1 and ready > 1:
                 # The preview's first frame is on its way: let it reach the page first.
                 with self._cond:
@@ -161,9 +168,10 @@ class _Sender:
                     continue  # a new clip came meanwhile
                 self._sent = i
             if batch:
-                self._send(cid, start, batch)
+                self.send(cid, start, batch)
 
-    def _send(self, cid, start, frames):
+    def send(self, cid, start, frames):
+        """Send ``frames`` (JPEG bytes) of clip ``cid`` from frame ``start`` on."""
         for k in range(0, len(frames), 16):
             part = frames[k : k + 16]
             if part:
@@ -237,6 +245,8 @@ class FramePlayer(W.VBox):
         self._streaming = None  # the clip being streamed (stream), until it is set
         self._clips = 0
         self._timeline = None  # see show_timed
+        self._drawn = 0  # the last clip the page said it drew (previews; see wait_drawn)
+        self._drawn_lock = threading.Condition()
         #: The part the page runs: the picture, play/pause, frame slider, loop, fps.
         self.view = _PlayerView(
             display_width=self.display_width, slider_width=slider_width or "", group=group
@@ -312,7 +322,16 @@ class FramePlayer(W.VBox):
             self.view.ready = self._ready
             self.view.clip_id = self._clips if clip is not None else 0
         timeline, self._timeline = self._timeline, None
-        self._sender.set(clip, self.view.clip_id, self._ready, timeline=timeline)
+        if timeline is not None and clip is not None and self._ready:
+            # A preview's first frame goes out from here, right behind the clip's state
+            # (no hand-over to the sender's thread, which waited for the GIL while the
+            # kernel's thread drew the app's other views), and before the player's info
+            # line and whatever the app shows after it: the page draws it first.
+            first = self._sender.encode(0, clip, preview=True)
+            self._sender.set(clip, self.view.clip_id, self._ready, {0: first}, timeline, sent=1)
+            self._sender.send(self.view.clip_id, 0, [first])
+        else:
+            self._sender.set(clip, self.view.clip_id, self._ready, timeline=timeline)
         self._show_state(clip)
 
     def _show_state(self, clip):
@@ -376,6 +395,23 @@ class FramePlayer(W.VBox):
     def _message(self, _view, content, _buffers):
         if isinstance(content, dict) and content.get("type") == "want":
             self._sender.want(int(content.get("clip", -1)), int(content.get("have", 0)))
+        elif isinstance(content, dict) and content.get("type") == "drawn":
+            with self._drawn_lock:
+                self._drawn = max(self._drawn, int(content.get("clip", 0)))
+                self._drawn_lock.notify_all()
+
+    def wait_drawn(self, timeout):
+        """Wait until the page says it drew the clip shown with :meth:`show_timed`.
+
+        With ``view.tell_drawn`` on, the page tells the kernel once it has drawn a
+        preview's first frame (a message per preview: off by default); an app sends
+        what can wait (the video-database app's map) after it, so that it never
+        delays the picture. Returns whether the page said so within ``timeout``
+        seconds (False with no page, or for a clip shown otherwise).
+        """
+        clip_id = self.view.clip_id
+        with self._drawn_lock:
+            return self._drawn_lock.wait_for(lambda: self._drawn >= clip_id, timeout)
 
     def _encode(self, i):
         """Frame ``i`` of the clip as the JPEG bytes the page gets (encoded once)."""

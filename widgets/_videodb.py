@@ -11,6 +11,7 @@ came back.
 from __future__ import annotations
 
 import contextlib
+import inspect
 import time
 
 import ipywidgets as W
@@ -22,6 +23,7 @@ from fluidnb.videodb import (
     FRAGMENT,
     STARTER_KINDS,
     AnimateParams,
+    Assignment,
     assign,
     prefetch,
     prefetch_preview,
@@ -71,6 +73,9 @@ def _rendering(params):
 _PREVIEW_FACTOR = 2
 _PREVIEW_LEVELS = 1  # a plain weighted blend: a quarter faster, no seam shows at half size
 _PREVIEW_CACHE = 4096
+#: Whether the library's re-solve can start from given labels (``resolve(warm=...)``:
+#: one alpha-expansion sweep from them, a third of the full solve's time).
+_WARM_RESOLVE = "warm" in inspect.signature(Assignment.resolve).parameters
 
 
 class VideoDBApp(FlowSketch, App):
@@ -190,6 +195,12 @@ class VideoDBApp(FlowSketch, App):
         self.previews = 0  #: Preview frames shown.
         self._preview_cache = (None, {})  # (database, fragment id -> D_t)
         self._previewed = None  # (assignment, rendering values) of the last preview
+        self._mapped, self._mapped_at = None, 0.0  # the assignment the map shows, since
+        self._rough = None  # the assignment a warm start made while a slider was held
+        #: Longest wait (s) for the page to draw a preview frame before the map follows.
+        self.map_pause = 0.3
+        #: Longest seconds the map lags a drag that never pauses.
+        self.map_every = 0.6
 
         name = photo if isinstance(photo, str) and photo in PHOTOS else None
         self.photo, self.photo_alpha = self._load_photo(photo, matte)
@@ -282,6 +293,7 @@ class VideoDBApp(FlowSketch, App):
             self.titled("assignment (click a fragment)", self.map, margin="0"),
         )
         self.views_width = f"{MAP_WIDTH + 8}px"
+        self.player.view.tell_drawn = True  # the map waits for the preview's picture
         self.add_class("fluidnb-vdb-app")
         self.settle = 0.2  # the map and preview frame show the values; the clip at rest
 
@@ -291,7 +303,8 @@ class VideoDBApp(FlowSketch, App):
         self._render_button.on_click(lambda _: self.start_render())
         self._use_speed_button.on_click(lambda _: self.use_result_speed())
         self.panel.observe(self._panel_changed, "params")
-        self.observe(lambda _: self._show_stats(), ["retrievals", "resolves", "renders"])
+        # (re-solves are counted with the map: _show_assignment)
+        self.observe(lambda _: self._show_stats(), ["retrievals", "renders"])
         self._wire_canvas(canvas)
         self.map.set_photo(self.photo)
         self._show_n()
@@ -467,9 +480,9 @@ class VideoDBApp(FlowSketch, App):
 
     def _ran(self, clip, seconds):
         self._show_clip(clip, seconds)
-        self.on_main(self._show_assignment)
         self._render_button.disabled = False
         self._use_speed_button.disabled = False
+        self._show_map_soon()
         a = self.assignment
         # A slider moved during the run gets its re-solve; otherwise the preview worker
         # fills the preview's cache, so the first drag shows its preview at once.
@@ -496,6 +509,11 @@ class VideoDBApp(FlowSketch, App):
     def _render_task(self, params, progress):
         self.wait_preview()  # the re-solve of the latest values
         a = self.assignment
+        if a is not None and a is self._rough:  # (a warm start, never let go of)
+            a = self._base.resolve(**{k: getattr(a.params, k) for k in _SOLVE_FIELDS})
+            self.assignment, self._rough = a, None
+            self.resolves += 1
+            self._show_map_soon()
         # The assignment's own sigma, lambda, rho (they made it); the panel's rendering
         # settings.
         params = params.replace(**{k: getattr(a.params, k) for k in _SOLVE_FIELDS})
@@ -572,36 +590,80 @@ class VideoDBApp(FlowSketch, App):
         if base is None or current is None:
             return None
         wanted = {k: getattr(params, k) for k in _SOLVE_FIELDS}
-        if all(getattr(current.params, k) == v for k, v in wanted.items()):
+        rough = current is self._rough and not self.held  # let go: the full solve now
+        if not rough and all(getattr(current.params, k) == v for k, v in wanted.items()):
             # A second request for the values a preview already showed (it read them
             # while their own request still waited): nothing changed, keep its note.
             shown = self._previewed
             if shown is not None and shown[0] is current and shown[1] == _rendering(params):
+                self._follow_map()  # (its own preview's gave way to this request)
                 return None
             if self.live_preview and not self._clip_is_current():
                 return self._preview_clip(current, params, "a rendering setting changed")
+            self._follow_map()
             return None
         started = time.perf_counter()
-        new = base.resolve(**wanted)
+        # While a slider is held: one expansion sweep from the assignment shown (the
+        # library's warm start, where it has one); the full solve once it is let go.
+        warm = _WARM_RESOLVE and self.held and self.live_preview
+        new = base.resolve(**wanted, **({"warm": current} if warm else {}))
         if self._base is not base:  # a run replaced the tables meanwhile
             return None
         solved = time.perf_counter() - started
         changed = int((new.labels != current.labels).sum())
         self.assignment = new
+        self._rough = new if warm else None
         self.resolves += 1
+        how = "one sweep from the last" if warm else "from the kept tables"
         note = (
-            f"re-solved from the kept tables in {solved:.2f} s: {changed} of "
+            f"re-solved {how} in {solved:.2f} s: {changed} of "
             f"{plural(len(new.labels), 'fragment')} changed"
         )
         if not self.live_preview:
-            self.on_main(self._show_assignment)  # the map (the kernel's thread draws it)
+            self._show_map_soon()
             self.say(note)
             return None
-        clip = self._preview_clip(new, params, note)
-        # The map once the frame is made: drawn beside it, on the kernel's thread, it
-        # took the GIL from it (8 ms of Python), and the frame waited.
-        self.on_main(self._show_assignment)
-        return clip
+        # The map follows once the frame is on its way (after_preview).
+        return self._preview_clip(new, params, note)
+
+    def released(self):
+        """The slider let go: a warm-started assignment is solved in full (a preview)."""
+        if self._rough is not None and self._rough is self.assignment:
+            self.request_preview()
+
+    def after_preview(self, params):
+        """The assignment map, the energy plot and the counters, after the preview frame."""
+        self._follow_map()
+
+    def _follow_map(self):
+        """Show the current assignment in the map, the energy plot and the counters.
+
+        In a kernel, first the page draws the preview frame (it says so:
+        :meth:`FramePlayer.wait_drawn`; at most :attr:`map_pause` seconds): sent right
+        behind the frame, the map's picture and marks (36 KB, ~6 ms of the kernel's
+        thread), the energy plot and the counters were handled by the page before the
+        frame's decoded picture, and the frame waited (decode+draw 18-21 ms quiet, 40
+        at load 6). A newer value arriving meanwhile skips the map: that value's
+        preview comes first, and its map after it -- but during a long drag the map is
+        at most :attr:`map_every` seconds behind.
+        """
+        a = self.assignment
+        if a is None or self._mapped is a or self._closed:
+            return
+        deadline = time.monotonic() + (self.map_pause if self.in_kernel else 0.0)
+        while time.monotonic() < deadline:
+            if self.preview_pending():
+                if time.monotonic() - self._mapped_at < self.map_every:
+                    return
+                break
+            if self.preview_player.wait_drawn(0.005):
+                break
+        self._show_map_soon()
+
+    def _show_map_soon(self):
+        """The map, energy and counters of the current assignment, on the kernel's thread."""
+        self._mapped, self._mapped_at = self.assignment, time.monotonic()
+        self.on_main(self._show_assignment)  # (ipycanvas drawing is not thread-safe)
 
     def _preview_clip(self, a, params, note):
         """One frame of ``a``'s clip at half size (:func:`fluidnb.videodb.preview_frame`)."""
@@ -745,6 +807,7 @@ class VideoDBApp(FlowSketch, App):
         # The energy and its sigma, lambda, rho first: the map never shows under the
         # values of the one before (each widget sends its own message).
         self._show_energy()
+        self._show_stats()
         self.map.set_assignment(a)
 
     def _show_energy(self):

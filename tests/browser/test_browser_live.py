@@ -118,3 +118,63 @@ def test_preview_follows_a_held_slider_then_the_clip_plays_at_its_fps(name, note
     shot(app, "playing")
     # Slack for a loaded machine (the goal, 0.95 x fps, is the benchmark's).
     assert rate >= 0.75 * fps, (rate, fps, np.round(lags))
+
+
+_WATCH_ENERGY = """() => {
+  const log = window.__energy = {changes: [], moves: [], previews: []};
+  const box = document.querySelector('.fluidnb-app .fluidnb-vdb-energy');
+  new MutationObserver(() => log.changes.push(performance.now()))
+    .observe(box, {subtree: true, childList: true, characterData: true});
+  document.addEventListener('pointermove', e => log.moves.push(e.timeStamp), true);
+  document.addEventListener('fluidnb-frame', e => {
+    const made = e.detail.timeline && e.detail.timeline.made;  // (a preview's timeline)
+    if (made && e.target.closest('.fluidnb-preview-player'))
+      log.previews.push([e.detail.t, e.detail.clip]);
+  });
+}"""
+
+
+def test_videodb_a_held_sliders_preview_frame_is_drawn_before_its_map(notebook, wide, shot):
+    # Issue 36: the map's picture and marks, the energy plot and the counters reached
+    # the page beside the preview frame, and the frame waited for them (decode+draw
+    # 18-21 ms quiet, 40 at load 6). Now, while the handle is held, each move's frame
+    # is drawn first: no energy plot changes between a move and its first new frame,
+    # and the held slider's last value gets its energy plot after its frame.
+    page = wide
+    cell, slider, ready = APPS["videodb"]
+    notebook(["import os\n" + cell])
+    app = page.locator(".fluidnb-app")
+    page.locator(".fluidnb-app .fluidnb-status", has_text=ready).wait_for(timeout=240_000)
+    poll(
+        "a first picture in the player",
+        lambda: page.locator(PREVIEWS).first.get_attribute("data-drawn"),
+        timeout=120,
+    )
+    page.locator(".fluidnb-app .fluidnb-vdb-energy-plot").wait_for()
+    page.wait_for_timeout(1000)  # the run's own map and the preview cache, at rest
+    page.evaluate(_WATCH_ENERGY)
+    lags = preview_follows_held_slider(
+        page, slider, ".fluidnb-app .fluidnb-preview-player", [0.3, 0.6, 0.85], timeout=30
+    )
+    assert len(lags) == 3
+    shot(app, "held")
+    log = page.evaluate("() => window.__energy")
+    firsts = {}  # each preview clip's first drawing
+    for t, clip in log["previews"]:
+        firsts.setdefault(clip, t)
+    frames = sorted(firsts.values())
+    assert len(frames) >= 3, log["previews"]
+    # The moves: pointer moves more than 200 ms after the one before (the helper holds
+    # the handle still for 400 ms between them).
+    moves = [t for k, t in enumerate(log["moves"]) if k == 0 or t - log["moves"][k - 1] > 200]
+    checked = 0
+    for k, move in enumerate(moves):
+        after = [t for t in frames if t > move]
+        following = moves[k + 1] if k + 1 < len(moves) else float("inf")
+        if not after or after[0] > following:
+            continue  # (the pointer's way to the handle, before the press)
+        between = [t for t in log["changes"] if move < t < after[0]]
+        assert not between, ("the energy plot changed before the move's frame", between, log)
+        checked += 1
+    assert checked >= 3, (frames, log["moves"])
+    assert any(t > frames[-1] for t in log["changes"]), ("no energy plot after its frame", log)

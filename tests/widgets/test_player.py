@@ -250,3 +250,54 @@ def test_a_preview_sends_its_first_frame_alone_then_the_others_smaller():
         # Still the frame (quality 80 here: ~4.2 grey levels; 95: 2.2; another frame: 10+).
         assert np.abs(shown - to_uint8(frames[i])).mean() < 6
     p.close()
+
+
+def test_a_previews_first_frame_leaves_before_show_timed_returns_and_before_the_info_line():
+    # Issue 36: a preview's first frame went through the sender's thread, which waited
+    # for the GIL while the kernel's thread drew the app's other views (the video
+    # database's map); they reached the page first and the frame waited behind them.
+    # Now the caller sends it, right behind the clip's state, before the info line.
+    p = FramePlayer()
+    events = []
+    p.view.send = lambda content, buffers=None: events.append(
+        ("frames", content["clip"], content["start"], len(buffers))
+    )
+    p.info.observe(lambda change: events.append(("info", change["new"])), "value")
+    p.show_timed(clip(3), {"changed": 1.0, "started": 2.0, "made": 3.0})
+    assert events[0] == ("frames", 1, 0, 1)  # sent already, alone, before the info line
+    assert events[1][0] == "info"
+    assert "3 frames" in events[1][1]
+    wait_for(lambda: sum(e[3] for e in events if e[0] == "frames") == 3)
+    time.sleep(0.1)
+    # The others follow from the sender's thread, each once.
+    starts = sorted(e[2] + k for e in events if e[0] == "frames" for k in range(e[3]))
+    assert starts == [0, 1, 2]
+    # A page that lost its frames (a reload) gets the first one again too.
+    del events[:]
+    p._message(None, {"type": "want", "clip": 1, "have": 0}, [])
+    wait_for(lambda: sum(e[3] for e in events if e[0] == "frames") == 3)
+    # A plain clip is still sent by the sender's thread (a render's frames).
+    del events[:]
+    p.clip = clip(2)
+    wait_for(lambda: sum(e[3] for e in events if e[0] == "frames" and e[1] == 2) == 2)
+    p.close()
+
+
+def test_the_page_says_when_it_drew_a_preview():
+    # The page tells the kernel once it has drawn a preview's first frame (one word per
+    # preview); an app sends what can wait after it (the video-database app's map).
+    p = FramePlayer()
+    assert not p.view.tell_drawn  # (a message per preview: only for an app that waits)
+    p.view.tell_drawn = True
+    p.view.send = lambda content, buffers=None: None
+    p.show_timed(clip(2), {"changed": 1.0, "started": 2.0, "made": 3.0})
+    assert not p.wait_drawn(0.01)  # no page has said so
+    p._message(None, {"type": "drawn", "clip": p.view.clip_id}, [])
+    assert p.wait_drawn(0.0)
+    p.show_timed(clip(2), {"changed": 1.0, "started": 2.0, "made": 3.0})
+    assert not p.wait_drawn(0.01)  # the next preview needs its own word
+    p._message(None, {"type": "drawn", "clip": p.view.clip_id - 1}, [])  # a late word
+    assert not p.wait_drawn(0.01)
+    p._message(None, {"type": "drawn", "clip": p.view.clip_id}, [])
+    assert p.wait_drawn(0.0)
+    p.close()

@@ -9,6 +9,7 @@ import datetime as dt
 import io
 import json
 import threading
+import time
 
 import ipywidgets as W
 import numpy as np
@@ -863,3 +864,120 @@ def test_a_drag_prefetches_only_once_the_values_rest(app, monkeypatch):
     assert app.resolves >= 2
     assert fetched == [app.assignment]  # only the last value's, once it rested
     assert app.assignment.params.sigma == sigma * 16
+
+
+def test_the_map_follows_the_preview_frame_and_gives_way_to_a_newer_value(app, monkeypatch):
+    # Issue 36: sent beside a preview's frame, the map's picture and marks, the energy
+    # plot and the counters reached the page first and the frame waited for them. The
+    # frame goes first; the rest follows it -- in a kernel only after map_pause, and not
+    # while a newer value waits (its preview comes first), unless a long drag has left
+    # the map map_every seconds behind.
+    draw_scene(app)
+    app.run(timeout=120)
+    app.settle = 1e9
+    app.wait_resolve()
+    events = []
+    send = app.player.view.send
+    app.player.view.send = lambda content, buffers=None: (
+        events.append(("frame", content["clip"])) or send(content, buffers)
+    )
+    set_assignment = app.map.set_assignment
+    monkeypatch.setattr(
+        app.map, "set_assignment", lambda a: events.append(("map", a)) or set_assignment(a)
+    )
+    app.energy.observe(lambda _: events.append(("energy",)), "value")
+    resolves = app.resolves
+    sigma = app.assignment.params.sigma
+    app.panel.set("sigma", sigma * 10)
+    app.wait_resolve()
+    assert app.resolves == resolves + 1
+    a = app.assignment
+    assert [e[0] for e in events] == ["frame", "energy", "map"]
+    assert app.player.view.tell_drawn  # (the page says when the frame is drawn)
+    assert events[-1] == ("map", a)
+    assert f"re-solves <b class='fluidnb-vdb-resolves'>{resolves + 1}</b>" in app.stats.value
+    # In a kernel, with a newer value waiting: the map gives way to its preview.
+    monkeypatch.setattr(type(app), "in_kernel", property(lambda self: True))
+    waiting = [True]
+    monkeypatch.setattr(app, "preview_pending", lambda: waiting[0])
+    app.map_pause, app.map_every = 0.05, 1e9
+    del events[:]
+    app.assignment = b = a.resolve(sigma=sigma * 100)
+    app._follow_map()
+    assert events == []
+    app.map_every = 0.0  # a drag that never pauses: the map follows at least this often
+    app._follow_map()
+    assert events[-1] == ("map", b)
+    app._follow_map()  # (shown already: not again)
+    assert [e for e in events if e[0] == "map"] == [("map", b)]
+    # No newer value: it follows once the page has drawn the frame (the page says so)...
+    waiting[0] = False
+    app.map_pause = 60.0
+    app.assignment = c = a.resolve(sigma=sigma * 1000)
+    player = app.preview_player
+    player._message(None, {"type": "drawn", "clip": player.view.clip_id}, [])
+    started = time.monotonic()
+    app._follow_map()
+    assert events[-1] == ("map", c)
+    assert time.monotonic() - started < app.map_pause  # (it did not wait for the page)
+    # ... or after map_pause seconds without its word (no page open, say).
+    app.map_pause = 0.05
+    app.assignment = d = a.resolve(sigma=sigma * 3000)
+    shown = app._preview_clip(d, app.panel.params, "")
+    player.show_timed(shown, {"changed": 1.0, "started": 2.0, "made": 3.0})
+    started = time.monotonic()
+    app._follow_map()
+    assert events[-1] == ("map", d)
+    assert time.monotonic() - started >= app.map_pause
+
+
+def test_a_held_slider_previews_a_warm_start_and_its_release_solves_in_full(app, monkeypatch):
+    # Issue 36: the full re-solve was two thirds of a preview's CPU. Where the library
+    # offers resolve(warm=...) (one expansion sweep from given labels), a held
+    # slider's values start from the assignment shown; the release (and Render) solve
+    # in full, so the map at rest and the clip are the full solve's.
+    from fluidnb.videodb import Assignment
+
+    draw_scene(app)
+    app.run(timeout=120)
+    app.settle = 1e9
+    app.wait_resolve()
+    calls = []
+    real = Assignment.resolve
+
+    def resolve(self, *, warm=None, **values):
+        calls.append(warm)
+        return real(self, **values)
+
+    monkeypatch.setattr(module, "_WARM_RESOLVE", True)
+    monkeypatch.setattr(Assignment, "resolve", resolve)
+    sigma = app.assignment.params.sigma
+    shown = app.assignment
+    app._live.held = True  # the page says: a slider is held
+    app.panel.set("sigma", sigma * 10)
+    app.wait_resolve()
+    assert calls == [shown]  # from the assignment shown
+    assert "one sweep from the last" in app.status
+    rough = app.assignment
+    assert app.map.assignment is rough  # the map follows the preview
+    app._live.held = False  # let go: the same values, solved in full
+    app.wait_resolve()
+    assert calls[-1] is None
+    assert app.assignment is not rough
+    assert app.assignment.params.sigma == sigma * 10
+    assert app.map.assignment is app.assignment
+    assert "from the kept tables" in app.status
+    # Without a held slider (the keyboard, code): the full solve at once.
+    app.panel.set("sigma", sigma * 100)
+    app.wait_resolve()
+    assert calls[-1] is None
+    # Render with a warm start never let go of (a lost release): solved in full first.
+    app._live.held = True
+    app.panel.set("sigma", sigma * 1000)
+    app.wait_resolve()
+    assert calls[-1] is not None
+    clip = app.render_clip(timeout=120)
+    assert calls[-1] is None
+    assert app.assignment is not app._rough
+    assert clip.metadata["params"]["sigma"] == pytest.approx(sigma * 1000)
+    assert clip.metadata["energy"] == pytest.approx(app.assignment.solution.energy)

@@ -196,3 +196,42 @@ def test_its_one_level_blend_is_blend_differences_with_one_level(scene):
     blended = blend_differences(diffs[:, None], a.target.positions, (hc, wc), margin=0, levels=1)
     np.testing.assert_allclose(d, blended[0], rtol=0, atol=1e-6)
     assert np.abs(d).max() > 0.05
+
+
+@pytest.mark.parametrize("factor", [2, 3, 4, 6, 8])
+def test_its_small_blend_is_the_full_size_blend_in_block_means(scene, factor):
+    # The one-level blend made at the preview's size at once (block means of each
+    # weighted fragment, added on the small grid) is the full-size blend shrunk.
+    import fluidnb.videodb.rendering._preview as module
+
+    a, _ = scene
+    hc, wc = a.target.canvas.shape[:2]
+    diffs = module._difference_frames(a.db, a.fragments, 4, {})
+    still = module._target_constants(a.target, 1, {})
+    full = module._weighted_sum(diffs, a.target.positions, still.weights, (hc, wc))
+    small = module._weighted_sum_shrunk(diffs, a.target.positions, still.weights, (hc, wc), factor)
+    blocks = full.reshape(hc // factor, factor, wc // factor, factor).mean(axis=(1, 3))
+    np.testing.assert_allclose(small, blocks, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(small, downsample(full, factor, precision="float32"), atol=1e-6)
+    assert np.abs(small).max() > 0.02
+
+
+def test_the_matching_to_the_photo_is_made_once_and_is_match_histograms_cells(scene):
+    import fluidnb.videodb.rendering._preview as module
+    from fluidnb.videodb.rendering import match_histograms_cells
+
+    a, _ = scene
+    still = module._target_constants(a.target, 2, {})
+    rng = np.random.default_rng(3)
+    frame = (still.in_axes + 0.05 * rng.standard_normal(still.in_axes.shape)).astype(np.float32)
+    matching = still.matching(24)
+    assert still.matching(24) is matching
+    assert still.matching(12) is not matching
+    got = matching.match(frame, np.empty_like(frame))
+    want = match_histograms_cells(frame[None], still.in_axes, still.matte, cell=24)[0]
+    np.testing.assert_array_equal(got, want)
+    # The preview with its kept matching: the same with a cache and without one.
+    cache = {}
+    first = preview_frame(a, cache=cache)
+    np.testing.assert_array_equal(preview_frame(a, cache=cache), first)
+    np.testing.assert_array_equal(preview_frame(a), first)
