@@ -356,6 +356,41 @@ def test_saving_a_streamed_render_holds_a_few_frames_not_the_clip(db, photo, tmp
     assert held - streamed > stream.nbytes - 4 * frame, (streamed, held, stream.nbytes)
 
 
+def test_the_next_runs_frames_are_made_while_a_run_is_handed_out():
+    # What the consumer does with a run (a stream's .npz writes ~70 MB a run at
+    # 1920 px) overlaps the next run's frames: they are queued before it is handed
+    # out. Were they queued after, the consumer would wait here in vain.
+    import threading
+    import types
+
+    from fluidnb.videodb.rendering import _render
+
+    started = {}
+
+    class Frames:
+        n_frames = 12
+        blended = types.SimpleNamespace(canvas=(1968, 1320))  # runs of two frames
+
+        def blend(self, t0, t1):
+            return t0
+
+        def frames(self, t0, d, block):
+            block[:] = t0
+            started.setdefault(t0, threading.Event()).set()
+
+    runs = list(_render._runs(12, (1968, 1320)))
+    assert [t1 - t0 for t0, t1 in runs] == [2] * 6
+    handed = []
+    for t0, _t1, block in _render._made(Frames(), lambda *a: None, lambda a, b: np.empty(b - a)):
+        assert (block == t0).all()
+        handed.append(t0)
+        later = [r for r, _ in runs if r > t0]
+        if t0 > 0 and later:  # the first run is handed at once, alone
+            event = started.setdefault(later[0], threading.Event())
+            assert event.wait(timeout=10), f"run {later[0]} not started while {t0} was out"
+    assert handed == [r for r, _ in runs]
+
+
 def test_a_render_stopped_between_runs_stops_cleanly(anim, monkeypatch):
     # The next run is blended while the frames of the one before are made: stopping
     # (the app's Cancel) raises at once, and what was handed out is final.

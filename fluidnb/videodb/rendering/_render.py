@@ -288,6 +288,11 @@ def _made(frames, making, into):
     other threads (both cores busy); the first is handed out as soon as it is made.
     The one loop of the clip held in memory and of the stream (:func:`render`), so
     both hold the same frames.
+
+    A run's frames are queued on the maker before the run before it is handed out,
+    so what the consumer does with a block (a stream's ``.npz`` writes 70 MB a run
+    at 1920 px, ~8 s of system time over 96 frames) overlaps the next frames instead
+    of leaving both cores idle. It costs one more run's block in memory.
     """
     total = frames.n_frames
     pending = None
@@ -300,11 +305,12 @@ def _made(frames, making, into):
             for t0, t1 in _runs(total, frames.blended.canvas):
                 making(t0 / total, f"rendering frames {t0 + 1}-{t1} of {total}")
                 d = frames.blend(t0, t1)
-                if pending is not None:
-                    yield _handed(pending)
                 block = into(t0, t1)
-                pending = (maker.submit(frames.frames, t0, d, block), t0, t1, block)
+                run = (maker.submit(frames.frames, t0, d, block), t0, t1, block)
                 del d
+                if pending is not None:
+                    yield _handed(pending)  # these frames are made meanwhile
+                pending = run
                 if t0 == 0:
                     yield _handed(pending)
                     pending = None
