@@ -176,5 +176,8 @@ def test_videodb_a_held_sliders_preview_frame_is_drawn_before_its_map(notebook, 
         between = [t for t in log["changes"] if move < t < after[0]]
         assert not between, ("the energy plot changed before the move's frame", between, log)
         checked += 1
+        last = after[0]  # the last held move's first frame
     assert checked >= 3, (frames, log["moves"])
-    assert any(t > frames[-1] for t in log["changes"]), ("no energy plot after its frame", log)
+    # (Not after the very last frame: the release's float64 solve may draw the same
+    # plot as the held value's float32 one, and an unchanged plot is not redrawn.)
+    assert any(t > last for t in log["changes"]), ("no energy plot after its frame", log)
