@@ -476,6 +476,22 @@ def test_a_proxy_exports_the_full_size_frames(tmp_path):
     assert np.abs(saved.frames[:, region] - photo[region]).max() > 0.02  # it flickers
 
 
+def test_a_previewed_proxy_gives_its_export_its_length():
+    # Frost fits its growth rate at each size, so its growth -- the longest layer, the
+    # scene's length -- ends a few frames apart at two sizes: an export of a previewed
+    # proxy keeps the preview's length; an unrendered proxy or a set duration is kept.
+    photo = sample("lake", size=160)  # 90 x 160
+    region = _box(photo.shape[:2], (0.1, 0.9), (0.1, 0.9))
+    layer = Layer("frost", region, FrostParams(target=40, max_frames=80), seed=2)
+    proxy = Scene(photo, [layer], size=64, fps=8.0)
+    assert proxy.resized().duration is None  # nothing rendered yet
+    preview = render(proxy)
+    full = proxy.resized()
+    assert full.duration == pytest.approx(len(preview) / 8.0)
+    assert len(render(full, stream=True)) == len(preview)
+    assert Scene(photo, [layer], size=64, fps=8.0, duration=3.0).resized().duration == 3.0
+
+
 def test_resizing_refuses_bad_input():
     photo = sample("lake", size=96)  # 54 x 96
     scene = Scene(photo, size=48)
