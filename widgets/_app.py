@@ -668,6 +668,9 @@ class App(W.VBox):
             note = clip.metadata.get("note")
             note = f": {note}" if note else ""
             self.say(f"preview ({time.monotonic() - started:.2f} s){note}")
+            if not self._task_active:  # the last result's full green bar: not these values'
+                self.progress.value = 0
+                self.progress.bar_style = ""
         if not self._previews.pending():  # a newer value's preview comes first
             self.after_preview(params)
         self._warm_up()

@@ -351,6 +351,22 @@ def test_a_newer_value_stops_the_full_result_of_the_old_one_quietly():
         app.close()
 
 
+def test_a_preview_after_a_result_empties_the_bar_it_left_full():
+    # The full, green bar says a result of the values shown is done; a preview of
+    # newer values shows something else (seen in FlickerApp: green beside "preview").
+    app, canvas = make_app(preview=level_clip)
+    try:
+        canvas.paint([[4, 4]], radius=2)
+        app.run(timeout=10)
+        assert (app.progress.value, app.progress.bar_style) == (1, "success")
+        app.panel.controls["level"].value = 0.9
+        app.wait_preview()
+        assert "preview" in app.status
+        assert (app.progress.value, app.progress.bar_style) == (0, "")
+    finally:
+        app.close()
+
+
 def test_a_preview_that_ends_while_a_superseded_run_winds_down_is_shown():
     # Seen in the browser under load: the slider held, a preview came while the run
     # its press stopped was still winding down, and was dropped as if that run's
