@@ -262,10 +262,15 @@ class _Matching:
     def match(self, frame, out, span=None):
         """Match one frame (H, W, C) float32 into ``out`` (H, W, C) float32.
 
-        ``span`` (r0, r1, c0, c1): the frame's bins span its values there only (the
-        whole frame if None).
+        ``span`` (r0, r1, c0, c1), or a sequence of them: the frame's bins span its
+        values there only (in their union; the whole frame if None).
         """
-        lo, step = _bins(frame if span is None else frame[span[0] : span[1], span[2] : span[3]])
+        if span is None:
+            lo, step = _bins(frame)
+        elif np.ndim(span[0]) == 0:
+            lo, step = _bins(frame[span[0] : span[1], span[2] : span[3]])
+        else:
+            lo, step = _bins_over(frame, span)
         inv_step = 1.0 / step
         counts = np.zeros((1, self.n_ch, self.n_cells, HISTOGRAM_BINS))
         _histogram_kernel(frame, self.cid, self.weight, lo, inv_step, counts[0])
@@ -280,6 +285,24 @@ class _Matching:
 def _bins(image):
     """An image's bins per channel: the lowest edge and the width (its own range / bins)."""
     lo, hi = _channel_range(image.reshape(-1, image.shape[-1]))
+    lo, hi = lo.astype(np.float64), hi.astype(np.float64)
+    return lo, np.where(hi > lo, (hi - lo) / HISTOGRAM_BINS, 1.0 / HISTOGRAM_BINS)
+
+
+def _bins_over(image, rects):
+    """:func:`_bins` of the union of the parts ``[r0:r1, c0:c1]`` of ``image`` (disjoint or not).
+
+    Each part's extremes, then theirs: the same lowest and highest values as over the
+    union's pixels in any order (min and max are exact), without gathering them.
+    """
+    n_ch = image.shape[-1]
+    lo = np.full(n_ch, np.inf, np.float32)
+    hi = np.full(n_ch, -np.inf, np.float32)
+    for r0, r1, c0, c1 in rects:
+        part = image[r0:r1, c0:c1]
+        if part.size:
+            low, high = _channel_range(part.reshape(-1, n_ch))
+            lo, hi = np.minimum(lo, low), np.maximum(hi, high)
     lo, hi = lo.astype(np.float64), hi.astype(np.float64)
     return lo, np.where(hi > lo, (hi - lo) / HISTOGRAM_BINS, 1.0 / HISTOGRAM_BINS)
 
