@@ -259,11 +259,13 @@ class _Matching:
         cut.cols = tuple(np.ascontiguousarray(x[c0:c1]) for x in self.cols)
         return cut
 
-    def match(self, frame, out, span=None):
+    def match(self, frame, out, span=None, where=None):
         """Match one frame (H, W, C) float32 into ``out`` (H, W, C) float32.
 
         ``span`` (r0, r1, c0, c1), or a sequence of them: the frame's bins span its
-        values there only (in their union; the whole frame if None).
+        values there only (in their union; the whole frame if None). ``where``: a
+        sequence of them, the only parts of ``out`` written (each pixel is mapped on
+        its own: the same values there as matching the whole frame); None: all.
         """
         if span is None:
             lo, step = _bins(frame)
@@ -278,7 +280,18 @@ class _Matching:
         _quantiles_kernel(counts, lo[None], step[None], q)
         luts = np.empty(counts.shape[:3] + (HISTOGRAM_BINS + 1,))
         _maps_kernel(q, self.q_ref[0], lo[None], step[None], self.slopes, luts)
-        _apply_kernel(frame, luts[0], lo, inv_step, *self.rows, *self.cols, self.mass, self.nx, out)
+        if where is None:
+            _apply_kernel(
+                frame, luts[0], lo, inv_step, *self.rows, *self.cols, self.mass, self.nx, out
+            )
+            return out
+        for r0, r1, c0, c1 in where:
+            rows = tuple(x[r0:r1] for x in self.rows)
+            cols = tuple(x[c0:c1] for x in self.cols)
+            part = out[r0:r1, c0:c1]
+            _apply_kernel(
+                frame[r0:r1, c0:c1], luts[0], lo, inv_step, *rows, *cols, self.mass, self.nx, part
+            )
         return out
 
 

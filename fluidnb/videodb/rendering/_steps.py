@@ -345,6 +345,9 @@ class _FlowFrames(_Frames):
                 # the box they are the layer itself, which no pixel the frame shows
                 # or its bins read depends on.
                 self.bands = _band_spans(self.alpha, self.box, BAND_MARGIN)
+                # The matching maps only the matte's own spans (the composite shows
+                # nothing else of the frame: 0 elsewhere, the photo exactly).
+                self.shown = _band_spans(self.alpha, self.box, 0) - np.array([r0, r0, c0, c0])
         _tick(clock, "composite", t)
         offsets = self.loop.offsets
         self.stages = {
@@ -440,7 +443,12 @@ class _FlowFrames(_Frames):
             moved, np.float32(self.params.detail), detail, self.centre, self.axes, rotated
         )
         clock = _tick(times, "advect", clock)
-        matched = self.box_matching.match(rotated, np.empty_like(rotated), self.box_span)
+        if self.bands is None:
+            matched = self.box_matching.match(rotated, np.empty_like(rotated), self.box_span)
+        else:
+            matched = self.box_matching.match(
+                rotated, np.zeros_like(rotated), self.box_span, self.shown
+            )
         # The photo outside the box (what the composite gives where the matte is 0),
         # the box composited as on the whole canvas.
         _outside(out, self.still, (r0, min(r1, h), c0, min(c1, w)))
