@@ -464,8 +464,8 @@ class _FlowFrames(_Frames):
 
         Within the bands, the same values as sampled on the whole box (each pixel's
         coordinates and its bicubic sample depend on that pixel alone); elsewhere both
-        phases are the layer and :math:`w_a = 1`, finite values the frame does not
-        show (the cross-fade's pyramids reach less than :data:`BOX_MARGIN`).
+        phases are the layer and :math:`w_a = 1`: finite values that neither what the
+        frame shows nor its bins depend on (:data:`BAND_MARGIN`).
         """
         r0, r1, c0, c1 = self.box
         a = self.layer[r0:r1, c0:c1].copy()
