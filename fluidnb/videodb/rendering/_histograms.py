@@ -259,13 +259,20 @@ class _Matching:
         cut.cols = tuple(np.ascontiguousarray(x[c0:c1]) for x in self.cols)
         return cut
 
-    def match(self, frame, out, span=None):
+    def match(self, frame, out, span=None, where=None):
         """Match one frame (H, W, C) float32 into ``out`` (H, W, C) float32.
 
-        ``span`` (r0, r1, c0, c1): the frame's bins span its values there only (the
-        whole frame if None).
+        ``span`` (r0, r1, c0, c1), or a sequence of them: the frame's bins span its
+        values there only (in their union; the whole frame if None). ``where``: a
+        sequence of them, the only parts of ``out`` written (each pixel is mapped on
+        its own: the same values there as matching the whole frame); None: all.
         """
-        lo, step = _bins(frame if span is None else frame[span[0] : span[1], span[2] : span[3]])
+        if span is None:
+            lo, step = _bins(frame)
+        elif np.ndim(span[0]) == 0:
+            lo, step = _bins(frame[span[0] : span[1], span[2] : span[3]])
+        else:
+            lo, step = _bins_over(frame, span)
         inv_step = 1.0 / step
         counts = np.zeros((1, self.n_ch, self.n_cells, HISTOGRAM_BINS))
         _histogram_kernel(frame, self.cid, self.weight, lo, inv_step, counts[0])
@@ -273,13 +280,42 @@ class _Matching:
         _quantiles_kernel(counts, lo[None], step[None], q)
         luts = np.empty(counts.shape[:3] + (HISTOGRAM_BINS + 1,))
         _maps_kernel(q, self.q_ref[0], lo[None], step[None], self.slopes, luts)
-        _apply_kernel(frame, luts[0], lo, inv_step, *self.rows, *self.cols, self.mass, self.nx, out)
+        if where is None:
+            _apply_kernel(
+                frame, luts[0], lo, inv_step, *self.rows, *self.cols, self.mass, self.nx, out
+            )
+            return out
+        for r0, r1, c0, c1 in where:
+            rows = tuple(x[r0:r1] for x in self.rows)
+            cols = tuple(x[c0:c1] for x in self.cols)
+            part = out[r0:r1, c0:c1]
+            _apply_kernel(
+                frame[r0:r1, c0:c1], luts[0], lo, inv_step, *rows, *cols, self.mass, self.nx, part
+            )
         return out
 
 
 def _bins(image):
     """An image's bins per channel: the lowest edge and the width (its own range / bins)."""
     lo, hi = _channel_range(image.reshape(-1, image.shape[-1]))
+    lo, hi = lo.astype(np.float64), hi.astype(np.float64)
+    return lo, np.where(hi > lo, (hi - lo) / HISTOGRAM_BINS, 1.0 / HISTOGRAM_BINS)
+
+
+def _bins_over(image, rects):
+    """:func:`_bins` of the union of the parts ``[r0:r1, c0:c1]`` of ``image`` (disjoint or not).
+
+    Each part's extremes, then theirs: the same lowest and highest values as over the
+    union's pixels in any order (min and max are exact), without gathering them.
+    """
+    n_ch = image.shape[-1]
+    lo = np.full(n_ch, np.inf, np.float32)
+    hi = np.full(n_ch, -np.inf, np.float32)
+    for r0, r1, c0, c1 in rects:
+        part = image[r0:r1, c0:c1]
+        if part.size:
+            low, high = _channel_range(part.reshape(-1, n_ch))
+            lo, hi = np.minimum(lo, low), np.maximum(hi, high)
     lo, hi = lo.astype(np.float64), hi.astype(np.float64)
     return lo, np.where(hi > lo, (hi - lo) / HISTOGRAM_BINS, 1.0 / HISTOGRAM_BINS)
 

@@ -688,3 +688,97 @@ def test_the_matte_box_holds_the_matte_with_a_margin_on_the_grid():
     # Within the canvas; the whole picture: None.
     assert _steps._matte_box(alpha, (100, 120), margin=40, grid=8) == (0, 96, 0, 112)
     assert _steps._matte_box(alpha, (90, 100), margin=50, grid=8) is None
+
+
+def _two_mattes():
+    """Two pools in opposite corners of their box, and a diagonal stream (160, 192)."""
+    pools = np.zeros((192, 256), np.float32)
+    pools[48:72, 48:88] = 1.0
+    pools[120:144, 160:200] = 1.0
+    yy, xx = np.mgrid[:160, :192]
+    stream = (np.abs((yy - 48) - 0.6 * (xx - 48)) < 8).astype(np.float32)
+    stream[:48] = stream[104:] = 0
+    stream[:, :48] = stream[:, 140:] = 0
+    return [ndi.gaussian_filter(m, 1.0) for m in (pools, stream)]
+
+
+@pytest.mark.parametrize("which", [0, 1])
+def test_frames_sampled_band_by_band_are_the_box_and_canvas_frames(db, monkeypatch, which):
+    # A matte that fills little of its box: the phases are sampled only in the bands'
+    # spans within BAND_MARGIN of the matte (_FlowFrames._banded), the layer
+    # elsewhere. Every frame is the box's and the whole canvas's, bit for bit (the
+    # histograms' bins span the same pixels near the matte in all three).
+    # Mutations caught: BAND_MARGIN = BOX_MARGIN (the stream's frames 2e-4 off: the
+    # bins read pixels the pyramids made from the layer), spans without the rows
+    # either side of a band, the coordinates not shifted to the span.
+    from fluidnb.videodb.rendering import _steps
+
+    matte = _two_mattes()[which]
+    shape = matte.shape
+    img = np.stack([texture(4, shape, blur=2.0)] * 3, axis=-1) * [0.5, 0.7, 0.9]
+    img = img.astype(np.float32)
+    a = assign(img, matte, db, FEW)
+    box = _steps._matte_box(a.target.canvas_matte, shape)
+    assert box is not None
+    bands = _steps._band_spans(a.target.canvas_matte, box, _steps.BAND_MARGIN)
+    r0, r1, c0, c1 = box
+    area = ((bands[:, 1] - bands[:, 0]) * (bands[:, 3] - bands[:, 2])).sum()
+    # Part of the box left out (the pools: a fifth; this small stream: 1 %, but it is
+    # where a margin of BOX_MARGIN leaves pixels the bins read wrong).
+    assert area < (0.85, 0.995)[which] * (r1 - r0) * (c1 - c0)
+    calls = []
+    banded = _steps._FlowFrames._banded
+    monkeypatch.setattr(
+        _steps._FlowFrames, "_banded", lambda s, *x: calls.append(1) or banded(s, *x)
+    )
+    for params in (FEW, FEW.replace(cell=24, travel=4.0, detail=0.2)):
+        calls.clear()
+        bands_out = render(a, params, stages=False).clip.frames
+        assert calls  # the bands were used
+        monkeypatch.setattr(_steps, "_BANDS", False)
+        boxed = render(a, params, stages=False).clip.frames
+        monkeypatch.setattr(_steps, "_BOX", False)
+        whole = render(a, params, stages=False).clip.frames
+        monkeypatch.setattr(_steps, "_BOX", True)
+        monkeypatch.setattr(_steps, "_BANDS", True)
+        assert np.array_equal(bands_out.view(np.uint32), boxed.view(np.uint32))
+        assert np.array_equal(bands_out.view(np.uint32), whole.view(np.uint32))
+        inside = a.target.canvas_matte[: shape[0], : shape[1]] > 0.5
+        assert np.abs(np.diff(bands_out[:, inside], axis=0)).max() > 0.05  # it moves
+
+
+def test_the_band_spans_hold_every_pixel_near_the_matte():
+    from fluidnb.videodb.rendering import _steps
+
+    rng = np.random.default_rng(3)
+    alpha = np.zeros((150, 130), np.float32)
+    alpha[rng.integers(20, 130, 12), rng.integers(10, 120, 12)] = 0.3
+    alpha[60:64, 30:90] = 1.0
+    box = (8, 144, 0, 128)
+    for margin, band in ((0, 1), (5, 8), (16, 32), (32, 32)):
+        spans = _steps._band_spans(alpha, box, margin, band)
+        covered = np.zeros(alpha.shape, int)
+        for s0, s1, t0, t1 in spans:
+            assert box[0] <= s0 < s1 <= box[1]
+            assert box[2] <= t0 < t1 <= box[3]
+            assert (s0 - box[0]) % band == 0
+            covered[s0:s1, t0:t1] += 1
+        assert covered.max() == 1  # the bands do not overlap
+        near = ndi.maximum_filter(alpha > 0, size=2 * margin + 1, mode="constant")
+        near[: box[0]] = near[box[1] :] = False
+        near[:, : box[2]] = near[:, box[3] :] = False
+        assert covered[near].all()
+        assert covered.sum() < near.size
+    assert _steps._band_spans(np.zeros((20, 20)), (0, 20, 0, 20), 4).shape == (0, 4)
+
+
+def test_bins_over_parts_are_the_bins_of_their_pixels():
+    from fluidnb.videodb.rendering._histograms import _bins, _bins_over
+
+    rng = np.random.default_rng(5)
+    img = rng.random((40, 50, 3)).astype(np.float32)
+    rects = [(0, 10, 5, 20), (10, 25, 30, 50), (30, 40, 0, 3), (5, 5, 0, 50)]
+    pixels = np.concatenate([img[r0:r1, c0:c1].reshape(-1, 3) for r0, r1, c0, c1 in rects])
+    for want, got in zip(_bins(pixels[None]), _bins_over(img, rects)):
+        assert np.array_equal(want, got)
+    assert not np.array_equal(_bins(img)[0], _bins_over(img, rects)[0])
