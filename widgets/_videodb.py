@@ -648,17 +648,16 @@ class VideoDBApp(FlowSketch, App):
         frame's decoded picture, and the frame waited (decode+draw 18-21 ms quiet, 40
         at load 6). A newer value arriving meanwhile skips the map: that value's
         preview comes first, and its map after it -- but during a long drag the map is
-        at most :attr:`map_every` seconds behind.
+        at most :attr:`map_every` seconds behind (still after its own frame is drawn:
+        under load the page decodes slowly, and a map sent at once was drawn first).
         """
         a = self.assignment
         if a is None or self._mapped is a or self._closed:
             return
         deadline = time.monotonic() + (self.map_pause if self.in_kernel else 0.0)
         while time.monotonic() < deadline:
-            if self.preview_pending():
-                if time.monotonic() - self._mapped_at < self.map_every:
-                    return
-                break
+            if self.preview_pending() and time.monotonic() - self._mapped_at < self.map_every:
+                return
             if self.preview_player.wait_drawn(0.005):
                 break
         self._show_map_soon()

@@ -905,9 +905,12 @@ def test_the_map_follows_the_preview_frame_and_gives_way_to_a_newer_value(app, m
     app.assignment = b = a.resolve(sigma=sigma * 100)
     app._follow_map()
     assert events == []
-    app.map_every = 0.0  # a drag that never pauses: the map follows at least this often
+    app.map_every = 0.0  # a drag that never pauses: the map follows at least this often,
+    started = time.monotonic()
     app._follow_map()
     assert events[-1] == ("map", b)
+    # ... still after its frame is drawn (here: no page, so after map_pause).
+    assert time.monotonic() - started >= app.map_pause
     app._follow_map()  # (shown already: not again)
     assert [e for e in events if e[0] == "map"] == [("map", b)]
     # No newer value: it follows once the page has drawn the frame (the page says so)...
