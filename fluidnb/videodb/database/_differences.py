@@ -4,7 +4,9 @@ The rendering animates with the fragments' difference frames; they are made from
 fragment's frames as soon as the database rebuilds them
 (:func:`~fluidnb.videodb.database._frames.rebuild_fragments`, on its threads) and kept
 in the database's frame cache, so a render of the same fragments does nothing with
-them but blend.
+them but blend. They are kept frame-major, ``(L, h, w)``: a renderer plays them a
+frame at a time (:func:`~fluidnb.videodb.rendering._loops.play_loops` reads whole
+planes).
 """
 
 from __future__ import annotations
@@ -18,12 +20,13 @@ __all__ = ["difference_frames"]
 
 
 def difference_frames(frames, loop=0, *, out=None):
-    r"""A fragment's difference frames :math:`D_i = F_i - A`, cross-faded to loop, pixel-major.
+    r"""A fragment's difference frames :math:`D_i = F_i - A`, cross-faded to loop, frame-major.
 
     :math:`A = \frac{1}{N} \sum_i F_i` in float32 (summed in frame order, as
     ``frames.mean(axis=0)``), then, with ``loop`` > 0, :func:`loop_crossfade`'s
     equal-power fade of the last ``loop`` frames into the first, in one pass (in
-    float64, as it does). Written pixel-major, as the blend reads them.
+    float64, as it does). Frame-major, as the frames: ``play_loops`` reads a frame's
+    plane in order (the blend's pixel-major input is what it writes).
 
     Parameters
     ----------
@@ -31,16 +34,16 @@ def difference_frames(frames, loop=0, *, out=None):
         A fragment's frames :math:`F_i`.
     loop : int
         Frames to cross-fade, in [0, N // 2].
-    out : ndarray, shape (h, w, N - loop), float32, optional
+    out : ndarray, shape (N - loop, h, w), float32, optional
 
     Returns
     -------
-    ndarray, shape (h, w, N - loop), float32
+    ndarray, shape (N - loop, h, w), float32
     """
     f = np.ascontiguousarray(frames, dtype=np.float32)
     loop = check_int("loop", loop, 0, f.shape[0] // 2)
     if out is None:
-        out = np.empty((*f.shape[1:], f.shape[0] - loop), np.float32)
+        out = np.empty((f.shape[0] - loop, *f.shape[1:]), np.float32)
     theta = 0.5 * np.pi * np.arange(1, loop + 1) / (loop + 1)
     _difference_frames(f, np.sin(theta), np.cos(theta), out)
     return out
@@ -65,10 +68,9 @@ def _difference_frames(f, sin, cos, out):
         for i in range(n):
             for c in range(w):
                 d[i, c] = f[i, r, c] - a[r, c]
-        for c in range(w):
-            o = out[r, c]
-            for i in range(loop, length):
-                o[i] = d[i, c]
+        for i in range(loop, length):
+            for c in range(w):
+                out[i, r, c] = d[i, c]
         if loop == 0:
             continue
         # The fade's mean of D (zero but for rounding), in float64 as loop_crossfade.
@@ -76,10 +78,9 @@ def _difference_frames(f, sin, cos, out):
         for i in range(n):
             for c in range(w):
                 m[c] += np.float64(d[i, c])
-        for c in range(w):
-            mc = m[c] / n
-            o = out[r, c]
-            for j in range(loop):
+        for j in range(loop):
+            for c in range(w):
+                mc = m[c] / n
                 head = np.float64(d[j, c]) - mc
                 tail = np.float64(d[length + j, c]) - mc
-                o[j] = np.float32(mc + sin[j] * head + cos[j] * tail)
+                out[j, r, c] = np.float32(mc + sin[j] * head + cos[j] * tail)

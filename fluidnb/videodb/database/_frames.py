@@ -288,9 +288,9 @@ def rebuild_fragments(db, ids, *, margin, grey, differences=None, progress=None)
         Luminance (:func:`luminance`) instead of RGB.
     differences : int, optional
         Instead of the frames, the rendering's difference frames :math:`D_i = F_i -
-        A` cross-faded over this many frames, pixel-major (grey only): made on the
+        A` cross-faded over this many frames, frame-major (grey only): made on the
         rebuild's threads and kept in the cache as they are (a render of the same
-        fragments then does nothing with them but blend).
+        fragments then only plays and blends them, a frame's plane at a time).
     progress : callable, optional
         ``progress(fraction, message)`` after each clip, from the calling thread;
         raising (:class:`fluidnb.Cancelled`) stops the rebuild.
@@ -300,7 +300,7 @@ def rebuild_fragments(db, ids, *, margin, grey, differences=None, progress=None)
     dict
         Fragment id -> read-only float32 (N, 48 + 2 margin, 48 + 2 margin[, 3]) in
         [0, 1], as :meth:`~fluidnb.videodb.VideoDatabase.fragment_frames` documents;
-        with ``differences``, (48 + 2 margin, 48 + 2 margin, N - differences)
+        with ``differences``, (N - differences, 48 + 2 margin, 48 + 2 margin)
         (:func:`fluidnb.videodb.database._differences.difference_frames`).
     """
     if differences is not None and not grey:

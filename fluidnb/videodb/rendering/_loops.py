@@ -1,9 +1,16 @@
 r"""Every fragment's loop of difference frames played from its offset, mirrored, at its rate.
 
 :func:`~fluidnb.videodb.rendering.stagger` on loops already made (the database's frame
-cache keeps each fragment's :math:`D_i`, cross-faded into a loop) and laid out
+cache keeps each fragment's :math:`D_i`, cross-faded into a loop, frame-major), written
 pixel-major as the blend reads them (beyond the paper: neighbours that share a
 fragment start it at different times, :mod:`fluidnb.videodb.rendering._desync`).
+
+The loops are kept frame-major, ``(L, s, s)``: a frame :math:`t` of the clip reads
+two whole planes of each fragment's loop (the frames below and above its time), one
+after the other. Kept pixel-major, ``(s, s, L)``, each pixel's value was one float of
+a different cache line: a 1920-px frame (one frame per run, 1960 fragments) read
+every line of every loop, ten times the bytes it used (issue 39: ~10 s of CPU of the
+96-frame clip).
 """
 
 from __future__ import annotations
@@ -22,17 +29,18 @@ def play_loops(loops, offsets, *, rates=None, n_frames=None, mirrors=None, frame
     r"""Every fragment's loop played from its offset, mirrored, at its rate, pixel-major.
 
     What :func:`fluidnb.videodb.rendering.stagger` does after making the loops, for loops
-    already made (:func:`difference_frames`, kept in the frame cache) and laid out as
-    the blend reads them: fragment ``p`` shows frame :math:`(o_p + r_p t) \bmod L` of
-    its loop at time :math:`t` (linear between frames at fractional times), flipped
-    across ``mirrors[p]`` (0: upside down, 1: left to right, -1: not). The times are
-    computed as ``stagger`` computes them and the interpolation is the same float32
-    ``a + f (b - a)``, so the frames are ``stagger``'s bit for bit (tested).
+    already made (:func:`difference_frames`, kept frame-major in the frame cache),
+    written pixel-major as the blend reads them: fragment ``p`` shows frame
+    :math:`(o_p + r_p t) \bmod L` of its loop at time :math:`t` (linear between frames
+    at fractional times), flipped across ``mirrors[p]`` (0: upside down, 1: left to
+    right, -1: not). The times are computed as ``stagger`` computes them and the
+    interpolation is the same float32 ``a + f (b - a)``, so the frames are
+    ``stagger``'s bit for bit (tested).
 
     Parameters
     ----------
-    loops : sequence of ndarray, shape (s, s, L), float32
-        Each fragment's loop, pixel-major.
+    loops : sequence of ndarray, shape (L, s, s), float32
+        Each fragment's loop, frame-major (as the frame cache keeps it).
     offsets : ndarray, shape (P,)
         :math:`o_p`, in frames.
     rates : ndarray, shape (P,), optional
@@ -61,7 +69,13 @@ def play_loops(loops, offsets, *, rates=None, n_frames=None, mirrors=None, frame
     if p == 0:
         n = len(t) if frames is not None else (0 if n_frames is None else n_frames)
         return np.zeros((0, FRAGMENT, FRAGMENT, n), np.float32)
-    side, length = loops[0].shape[0], loops[0].shape[2]
+    length, side = loops[0].shape[0], loops[0].shape[1]
+    if any(x.shape != (length, side, side) for x in loops):
+        # Also what a pixel-major (s, s, L) loop of another length than s looks like.
+        raise ValueError(
+            "loops must be frame-major loops (L, s, s) of one shape, got "
+            f"{sorted({x.shape for x in loops})[:3]}"
+        )
     if frames is None:
         n_frames = length if n_frames is None else check_int("n_frames", n_frames, 1)
         t = np.arange(n_frames)
@@ -90,15 +104,31 @@ def play_loops(loops, offsets, *, rates=None, n_frames=None, mirrors=None, frame
 
 @njit(cache=True, nogil=True)
 def _play_loop(loop, below, above, frac, mirror, out):
-    side = loop.shape[0]
+    # A row of the output at a time, frame by frame: each frame reads a row of its two
+    # planes in order (backwards when mirrored left to right) and writes that frame's
+    # slot of the row's pixels, which stay in the L1 cache across the run's frames.
+    # Whether the frame is interpolated is decided once per row, not per pixel.
+    side = loop.shape[1]
     for r in range(side):
         rr = side - 1 - r if mirror == 0 else r
-        for c in range(side):
-            cc = side - 1 - c if mirror == 1 else c
-            src = loop[rr, cc]
-            dst = out[r, c]
-            for t in range(frac.shape[0]):
-                v = src[below[t]]
-                if frac[t] != 0:
-                    v = v + frac[t] * (src[above[t]] - v)
-                dst[t] = v
+        dst = out[r]
+        for t in range(frac.shape[0]):
+            a = loop[below[t], rr]
+            f = frac[t]
+            if f == 0:
+                if mirror == 1:
+                    for c in range(side):
+                        dst[c, t] = a[side - 1 - c]
+                else:
+                    for c in range(side):
+                        dst[c, t] = a[c]
+                continue
+            b = loop[above[t], rr]
+            if mirror == 1:
+                for c in range(side):
+                    v = a[side - 1 - c]
+                    dst[c, t] = v + f * (b[side - 1 - c] - v)
+            else:
+                for c in range(side):
+                    v = a[c]
+                    dst[c, t] = v + f * (b[c] - v)

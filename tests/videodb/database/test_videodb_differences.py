@@ -11,10 +11,10 @@ def test_difference_frames_are_the_frames_minus_their_mean_cross_faded():
     gen = np.random.default_rng(3)
     frames = gen.random((12, 9, 11)).astype(np.float32)
     d = frames - frames.mean(axis=0)
-    # D_i = F_i - A as numpy computes it, pixel-major (as the blend reads them).
-    assert np.array_equal(difference_frames(frames), np.moveaxis(d, 0, 2))
+    # D_i = F_i - A as numpy computes it, frame-major (as play_loops reads them).
+    assert np.array_equal(difference_frames(frames), d)
     for loop in (1, 3, 6):
-        got = np.moveaxis(difference_frames(frames, loop), 2, 0)
+        got = difference_frames(frames, loop)
         assert got.shape == (12 - loop, 9, 11)
         np.testing.assert_allclose(got, loop_crossfade(d, overlap=loop), rtol=0, atol=1e-7)
         assert np.array_equal(got[loop:], d[loop : 12 - loop])
@@ -45,5 +45,6 @@ def test_difference_frames_are_their_numpy_steps_bit_for_bit():
         for j, (s, c) in enumerate(zip(np.sin(theta), np.cos(theta))):
             head, tail = d[j].astype(np.float64) - m, d[length + j].astype(np.float64) - m
             want[j] = (m + s * head + c * tail).astype(np.float32)
-        got = np.moveaxis(difference_frames(frames, loop), 2, 0)
+        got = difference_frames(frames, loop)
+        assert got.flags.c_contiguous
         assert np.array_equal(got.view(np.uint32), want.view(np.uint32))

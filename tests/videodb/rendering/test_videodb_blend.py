@@ -329,22 +329,24 @@ def test_play_loops_is_stagger_on_loops_already_made():
     rates = np.array([1.0, 0.5, 1.5, 1.0, 0.25])
     mirrors = np.array([-1, 0, 1, -1, 0])
     loops = np.moveaxis(loop_crossfade(np.moveaxis(diffs, 1, 0), overlap=3), 0, 1)
-    pixel_major = [np.moveaxis(x, 0, 2) for x in loops]
+    frame_major = list(loops)  # (L, 8, 8) each, as the frame cache keeps them
     for kw in ({}, {"mirrors": mirrors}, {"rates": rates, "n_frames": 14, "mirrors": mirrors}):
         want = np.moveaxis(stagger(diffs, offsets, overlap=3, **kw), 1, 3)
-        assert np.array_equal(play_loops(pixel_major, offsets, **kw), want)
-    assert np.array_equal(play_loops(pixel_major, np.zeros(5)), np.moveaxis(loops, 1, 3))
+        assert np.array_equal(play_loops(frame_major, offsets, **kw), want)
+    assert np.array_equal(play_loops(frame_major, np.zeros(5)), np.moveaxis(loops, 1, 3))
     with pytest.raises(ValueError, match="offsets must have shape"):
-        play_loops(pixel_major, offsets[:2])
+        play_loops(frame_major, offsets[:2])
+    with pytest.raises(ValueError, match="frame-major"):
+        play_loops([np.moveaxis(x, 0, 2) for x in loops], offsets)  # pixel-major (8, 8, 7)
     # Any frames of the clip, in any order: those frames of the whole clip (a
     # renderer makes the clip a run of frames at a time).
     kw = {"rates": rates, "mirrors": mirrors}
-    whole = play_loops(pixel_major, offsets, n_frames=14, **kw)
+    whole = play_loops(frame_major, offsets, n_frames=14, **kw)
     for frames in ([0, 1, 2], [13, 5, 5], [9]):
-        part = play_loops(pixel_major, offsets, frames=np.array(frames), **kw)
+        part = play_loops(frame_major, offsets, frames=np.array(frames), **kw)
         assert np.array_equal(part, whole[..., frames])
     with pytest.raises(ValueError, match="frames must be a 1-D array"):
-        play_loops(pixel_major, offsets, frames=np.array([-1, 2]))
+        play_loops(frame_major, offsets, frames=np.array([-1, 2]))
 
 
 @pytest.mark.parametrize(
