@@ -25,7 +25,7 @@ from ._threads import _THREADS, _in_order
 __all__ = ["play_loops"]
 
 
-def play_loops(loops, offsets, *, rates=None, n_frames=None, mirrors=None, frames=None):
+def play_loops(loops, offsets, *, rates=None, n_frames=None, mirrors=None, frames=None, out=None):
     r"""Every fragment's loop played from its offset, mirrored, at its rate, pixel-major.
 
     What :func:`fluidnb.videodb.rendering.stagger` does after making the loops, for loops
@@ -53,6 +53,10 @@ def play_loops(loops, offsets, *, rates=None, n_frames=None, mirrors=None, frame
         Which frames :math:`t` to make (default ``range(n_frames)``): a renderer
         makes a clip a few frames at a time; each frame is the same however the clip
         is cut.
+    out : ndarray, shape (P, s, s, len(frames)), float32, C-contiguous, optional
+        Where to write them: a renderer plays a run of frames after another into the
+        same array (at 1920 px a run's is 40 MB, which numpy would otherwise map
+        afresh, page by page, for every frame).
 
     Returns
     -------
@@ -89,7 +93,14 @@ def play_loops(loops, offsets, *, rates=None, n_frames=None, mirrors=None, frame
     i0 = np.floor(times).astype(np.int64)
     frac = (times - i0).astype(np.float32)
     below, above = i0 % length, (i0 + 1) % length
-    out = np.empty((p, side, side, n_frames), np.float32)
+    shape = (p, side, side, n_frames)
+    if out is None:
+        out = np.empty(shape, np.float32)
+    elif out.shape != shape or out.dtype != np.float32 or not out.flags.c_contiguous:
+        raise ValueError(
+            f"out must be a C-contiguous float32 array of shape {shape}, got "
+            f"{out.dtype} {out.shape}"
+        )
     loops = [np.ascontiguousarray(x, np.float32) for x in loops]
 
     def play(k0, k1):

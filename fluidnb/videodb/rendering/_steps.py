@@ -52,6 +52,7 @@ class _BlendedFrames:
         self.done = np.zeros(self.length, bool)
         self.frames = np.empty((self.length,) + canvas, np.float32)
         self.plan = None  # the blend's weights (_BlendPlan), kept for the target
+        self.played = None  # the last run's played loops (P, s, s, T), reused
 
     def get(self, idx, *, keep=True):
         """The blended frames ``idx`` (T, Hc, Wc); ``keep=False``: made, not kept.
@@ -71,9 +72,21 @@ class _BlendedFrames:
     def _make(self, todo):
         t = time.perf_counter()
         # Every fragment's loop played from its offset, mirrored, at its rate (what
-        # stagger does), pixel-major as the blend reads it.
+        # stagger does), pixel-major as the blend reads it; into the last run's array
+        # when it has the same size (the blend below is done with it when it returns).
+        if self.loops:
+            side = self.loops[0].shape[1]
+            shape = (len(self.loops), side, side, len(todo))
+            if self.played is None or self.played.shape != shape:
+                self.played = None  # (the old one freed first)
+                self.played = np.empty(shape, np.float32)
         played = play_loops(
-            self.loops, self.offsets, rates=self.rates, mirrors=self.mirrors, frames=todo
+            self.loops,
+            self.offsets,
+            rates=self.rates,
+            mirrors=self.mirrors,
+            frames=todo,
+            out=self.played if self.loops else None,
         )
         t = _tick(self.clock, "rebuild", t)
         if self.plan is None:

@@ -347,6 +347,14 @@ def test_play_loops_is_stagger_on_loops_already_made():
         assert np.array_equal(part, whole[..., frames])
     with pytest.raises(ValueError, match="frames must be a 1-D array"):
         play_loops(frame_major, offsets, frames=np.array([-1, 2]))
+    # Into a given array (a renderer's runs reuse one): every value written.
+    buf = np.full(whole[..., :3].shape, np.nan, np.float32)
+    for frames in ([0, 1, 2], [13, 5, 5]):
+        got = play_loops(frame_major, offsets, frames=np.array(frames), out=buf, **kw)
+        assert got is buf
+        assert np.array_equal(buf, whole[..., frames])
+    with pytest.raises(ValueError, match="out must be"):
+        play_loops(frame_major, offsets, frames=np.array([0, 1]), out=buf, **kw)
 
 
 @pytest.mark.parametrize(
