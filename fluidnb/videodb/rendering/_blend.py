@@ -29,7 +29,13 @@ import numpy as np
 from numba import njit
 
 from ..._validation import check_array, check_int
-from ...fields._pyramid import _collapse32, _gaussian32, _laplacian32
+from ...fields._pyramid import (
+    _collapse32,
+    _gaussian32,
+    _weight_spans32,
+    _weighted_laplacian32,
+)
+from ...fields._pyramid_fused import add_spans
 from .._common._geometry import FRAGMENT, STRIDE
 from .._common._weights import FEATHER, _check_feather, _check_positions, _raw_weights, _weight_sum
 from ._threads import _THREADS, _in_order
@@ -291,27 +297,26 @@ def _blend(d, pos, shape, m, levels, feather, plan=None):
     fill = _fill(d, plan.positions, m, plan.shape, plan.fill_den)
 
     def bands(index):
-        """One phase layer's Laplacian bands L_l(X), each weighted by G_l(W)."""
+        """One phase layer's Laplacian bands L_l(X), each weighted by G_l(W), on its spans."""
         layer = fill.copy()
         # Each fragment's window pasted in (_window's slices, compiled: at 1920 px a
         # run of two frames pasted 5,000 windows through Python, 60 ms a frame).
         _paste_windows(layer, d, plan.positions, plan.layers[index], m, plan.tile)
         # The pyramids' float32 kernels themselves: the inputs are this function's.
-        weighted = _laplacian32(layer, levels)
-        for band, g in zip(weighted, plan.weights[index]):
-            _weigh(band, g)
-        return weighted
+        # Only where the layer's weight is not 0 (at 1920 px a fifth of a layer's
+        # finest level): elsewhere its weighted band is 0 and left out of the sum.
+        return _weighted_laplacian32(layer, plan.weights[index], plan.spans[index])
 
     # The layers' pyramids on threads (the compiled kernels release the GIL; a few
-    # layers in flight), weighted there, and summed here in layer order: the same sums
-    # as one thread's (each product rounded, then added).
-    acc = None
-    for bs in _in_order(bands, range(len(plan.layers))):
-        if acc is None:
-            acc = bs
-            continue
-        for a, b in zip(acc, bs):
-            np.add(a, b, out=a)
+    # layers in flight), and summed here in layer order, each on its spans: the same
+    # sums as one thread's (each product rounded, then added). The sums start at -0,
+    # the identity of float addition, so a pixel's sum is its weighted layers' sum
+    # exactly; the layers left out there add a product by 0 (+-0), which changes no
+    # sum but one of weighted zeros only (where all weighted products are -0).
+    acc = [np.full(g.shape[:2] + (n,), -0.0, np.float32) for g in plan.weight_sums]
+    for index, bs in enumerate(_in_order(bands, range(len(plan.layers)))):
+        for a, b, (ptr, runs, _) in zip(acc, bs, plan.spans[index], strict=True):
+            add_spans(a, b, ptr, runs)
     for a, s in zip(acc, plan.weight_sums):
         _normalise(a, s, np.float32(_TINY))
     out = _collapse32(acc)
@@ -387,6 +392,9 @@ class _BlendPlan:
             for r, c in pos[members]:
                 weight[r : r + FRAGMENT, c : c + FRAGMENT, 0] = raw
             self.weights.append(_gaussian32(weight, levels))
+        # Where each layer's weights are not 0, level by level: its bands are made
+        # and summed there only.
+        self.spans = [_weight_spans32(g) for g in self.weights]
         sums = [g.copy() for g in self.weights[0]]
         for gw in self.weights[1:]:
             for s, g in zip(sums, gw):

@@ -380,3 +380,25 @@ def test_blend_on_the_fragments_box_is_the_whole_canvas_blend_bit_for_bit(
     whole = blend_differences(diffs, pos, shape, margin=12, levels=levels)
     assert np.array_equal(boxed.view(np.uint32), whole.view(np.uint32))
     assert np.abs(whole).max() > 0.5
+
+
+def test_blend_plan_skips_only_pixels_of_weight_zero():
+    # Each layer's bands are made and summed only on its spans: every pixel of a
+    # non-zero weight G_l(W) lies on them (a skipped one would drop its product from
+    # the sum), and at the finest level they leave out the pixels far from the
+    # layer's cores (the gain). Mutations caught: a run one pixel short, the spans
+    # of the weights' level below.
+    from fluidnb.videodb.rendering._blend import _BlendPlan
+
+    shape = (240, 288)
+    pos = grid(shape)
+    plan = _BlendPlan(pos, shape, 12, 4, 8.0)
+    for weights, spans in zip(plan.weights, plan.spans, strict=True):
+        for level, (g, (ptr, runs, _)) in enumerate(zip(weights, spans, strict=True)):
+            inside = np.zeros(g.shape[:2], bool)
+            for i in range(g.shape[0]):
+                for c0, c1 in runs[ptr[i] : ptr[i + 1]]:
+                    inside[i, c0:c1] = True
+            assert np.all(inside[g[..., 0] != 0]), level
+            if level == 0:
+                assert inside.mean() < 0.6
