@@ -320,3 +320,92 @@ def add_spans(acc, band, ptr, spans):
             sb = bi[spans[s, 0] * nc : spans[s, 1] * nc]
             for q in range(sa.size):
                 sa[q] += sb[q]
+
+
+@njit(cache=True, nogil=True)
+def spans_mask(ptr, spans, w):
+    """The mask (h, w) bool of the runs ``(ptr, spans)``: the inverse of :func:`mask_spans`."""
+    h = ptr.size - 1
+    mask = np.zeros((h, w), np.bool_)
+    for i in range(h):
+        for s in range(ptr[i], ptr[i + 1]):
+            mask[i, spans[s, 0] : spans[s, 1]] = True
+    return mask
+
+
+@njit(cache=True, nogil=True)
+def expand_reads(a_ptr, a_spans, h, w, kernels, d0):
+    """The pixels of ``x`` (h, w) that :func:`_weighted_band_spans` reads, as a mask."""
+    taps = kernels.shape[1]
+    pad = max(-d0, d0 + taps - 1)
+    mask = np.zeros((h, w), np.bool_)
+    for i in range(h):
+        for s in range(a_ptr[i], a_ptr[i + 1]):
+            for a in range(a_spans[s, 0] // 2 - pad, (a_spans[s, 1] + 1) // 2 + pad):
+                mask[i, _reflect(a, w)] = True
+    return mask
+
+
+@njit(cache=True, nogil=True)
+def reduce_reads(ptr, spans, h, w, k2):
+    """The pixels of ``x`` (h, w) that :func:`_reduce_spans` reads for these runs, a mask."""
+    r = (k2.size - 2) // 2
+    mask = np.zeros((h, w), np.bool_)
+    for i in range(ptr.size - 1):
+        for s in range(ptr[i], ptr[i + 1]):
+            q0 = max(0, 2 * spans[s, 0] - r)
+            q1 = min(w, 2 * (spans[s, 1] + (k2.size - 1) // 2) - r)
+            for t in range(k2.size):
+                mask[_reflect(2 * i + t - r, h), q0:q1] = True
+    return mask
+
+
+@njit(cache=True, nogil=True)
+def _reduce_spans(x, k2, ptr, spans, out):
+    """:func:`_reduce_fused` on the runs (``ptr``, ``spans``) of ``out`` only.
+
+    ``out`` is not written off the runs; ``x`` is read only where
+    :func:`reduce_reads` says. The same sums in the same order as
+    :func:`_reduce_fused`: each value is that of the whole reduce.
+    """
+    h, w, nc = x.shape
+    r = (k2.size - 2) // 2
+    reach = (k2.size - 1) // 2  # the row filter reads even/odd[b .. b + reach]
+    wide = w * nc
+    rows = x.reshape(h, wide)
+    col = np.empty(wide, np.float32)  # the column filter's row, on q0..q1 - 1
+    half = (w + 2 * r + 2) // 2
+    even = np.empty(half * nc, np.float32)
+    odd = np.empty(half * nc, np.float32)
+    flat = out.reshape(h // 2, (w // 2) * nc)
+    for i in range(h // 2):
+        for s in range(ptr[i], ptr[i + 1]):
+            b0 = spans[s, 0]
+            b1 = spans[s, 1]
+            # The columns the row filter reads (reflected ones included: near an
+            # edge the range reaches it).
+            q0 = max(0, 2 * b0 - r)
+            q1 = min(w, 2 * (b1 + reach) - r)
+            n = (q1 - q0) * nc
+            c = col[q0 * nc : q1 * nc]
+            c[:] = 0.0
+            for t in range(k2.size):
+                _axpy(c, k2[t], rows[_reflect(2 * i + t - r, h)], q0 * nc, n)
+            # even[a - b0] is column 2a - r, odd[a - b0] column 2a + 1 - r.
+            if nc == 1 and 2 * b0 - r >= 0 and 2 * (b1 + reach) - r <= w:
+                # Inside the row: strided copies (no reflection).
+                k = b1 + reach - b0
+                even[:k] = col[2 * b0 - r : 2 * (b1 + reach) - r : 2]
+                odd[:k] = col[2 * b0 + 1 - r : 2 * (b1 + reach) + 1 - r : 2]
+            else:
+                for a in range(b0, b1 + reach):
+                    e = _reflect(2 * a - r, w) * nc
+                    o = _reflect(2 * a + 1 - r, w) * nc
+                    for ch in range(nc):
+                        even[(a - b0) * nc + ch] = col[e + ch]
+                        odd[(a - b0) * nc + ch] = col[o + ch]
+            m = (b1 - b0) * nc
+            dst = flat[i, b0 * nc : b1 * nc]
+            dst[:] = 0.0
+            for t in range(k2.size):
+                _axpy(dst, k2[t], even if t % 2 == 0 else odd, (t // 2) * nc, m)

@@ -294,6 +294,7 @@ def _blend(d, pos, shape, m, levels, feather, plan=None):
         plan = _BlendPlan(pos, shape, m, levels, feather)
     # On the plan's box (the fragments' windows and the pyramids' reach): the same
     # pixels as on the whole canvas, which is 0 outside it.
+    d = np.ascontiguousarray(d)  # (the compiled paste reads its rows flat)
     fill = _fill(d, plan.positions, m, plan.shape, plan.fill_den)
 
     def bands(index):
@@ -315,7 +316,7 @@ def _blend(d, pos, shape, m, levels, feather, plan=None):
     # sum but one of weighted zeros only (where all weighted products are -0).
     acc = [np.full(g.shape[:2] + (n,), -0.0, np.float32) for g in plan.weight_sums]
     for index, bs in enumerate(_in_order(bands, range(len(plan.layers)))):
-        for a, b, (ptr, runs, _) in zip(acc, bs, plan.spans[index], strict=True):
+        for a, b, (ptr, runs, _, _) in zip(acc, bs, plan.spans[index], strict=True):
             add_spans(a, b, ptr, runs)
     for a, s in zip(acc, plan.weight_sums):
         _normalise(a, s, np.float32(_TINY))
@@ -411,14 +412,21 @@ def _paste_windows(layer, d, pos, members, m, tile):
     canvas; the data's own window): a plain copy, as the numpy loop makes it.
     """
     grow = (tile - FRAGMENT) // 2
-    height, width = layer.shape[:2]
+    height, width, n = layer.shape
+    # Rows as flat runs of pixels' frames: a plain loop over contiguous values (2.6
+    # times as fast as numba's 2-D slice assignment at 1920 px).
+    rows = layer.reshape(height, width * n)
+    data = d.reshape(d.shape[0], d.shape[1], d.shape[2] * n)
     for k in members:
         r = pos[k, 0]
         c = pos[k, 1]
         r0, r1 = max(r - grow, 0), min(r + FRAGMENT + grow, height)
         c0, c1 = max(c - grow, 0), min(c + FRAGMENT + grow, width)
         for i in range(r0, r1):
-            layer[i, c0:c1] = d[k, i - r + m, c0 - c + m : c1 - c + m]
+            dst = rows[i, c0 * n : c1 * n]
+            src = data[k, i - r + m, (c0 - c + m) * n : (c1 - c + m) * n]
+            for q in range(dst.size):
+                dst[q] = src[q]
 
 
 @njit(cache=True, nogil=True)

@@ -394,7 +394,7 @@ def test_blend_plan_skips_only_pixels_of_weight_zero():
     pos = grid(shape)
     plan = _BlendPlan(pos, shape, 12, 4, 8.0)
     for weights, spans in zip(plan.weights, plan.spans, strict=True):
-        for level, (g, (ptr, runs, _)) in enumerate(zip(weights, spans, strict=True)):
+        for level, (g, (ptr, runs, _, _)) in enumerate(zip(weights, spans, strict=True)):
             inside = np.zeros(g.shape[:2], bool)
             for i in range(g.shape[0]):
                 for c0, c1 in runs[ptr[i] : ptr[i + 1]]:
