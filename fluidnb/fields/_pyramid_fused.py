@@ -260,9 +260,10 @@ def _weighted_band_spans(x, kernels, d0, base, weight, a_ptr, a_spans, ptr, span
                     row[2 * m0 + p : 2 * m1 + p : 2] = phase[m0 - c0 : m1 - c0]
                 else:
                     for m in range(m0, m1):
-                        row[(2 * m + p) * nc : (2 * m + p + 1) * nc] = phase[
-                            (m - c0) * nc : (m - c0 + 1) * nc
-                        ]
+                        j = (2 * m + p) * nc
+                        q = (m - c0) * nc
+                        for ch in range(nc):
+                            row[j + ch] = phase[q + ch]
     flat = out.reshape(2 * h, wide)
     fine = base.reshape(2 * h, wide)
     gains = weight.reshape(2 * h, 2 * w)
@@ -283,10 +284,12 @@ def _weighted_band_spans(x, kernels, d0, base, weight, a_ptr, a_spans, ptr, span
                 g = gains[i, q0 : q0 + n]
                 for q in range(n):
                     dst[q] = (src[q] + sign * acc[q]) * g[q]
-            else:
+            else:  # a pixel's frames, contiguous, times its weight
                 g = gains[i, spans[s, 0] : spans[s, 1]]
-                for q in range(n):
-                    dst[q] = (src[q] + sign * acc[q]) * g[q // nc]
+                for j in range(g.size):
+                    c = g[j]
+                    for q in range(j * nc, (j + 1) * nc):
+                        dst[q] = (src[q] + sign * acc[q]) * c
 
 
 @njit(cache=True, nogil=True)
@@ -301,8 +304,13 @@ def weigh_spans(band, weight, ptr, spans):
         for s in range(ptr[i], ptr[i + 1]):
             r = row[spans[s, 0] * nc : spans[s, 1] * nc]
             c = g[spans[s, 0] : spans[s, 1]]
-            for q in range(r.size):
-                r[q] *= c[q // nc]
+            if nc == 1:
+                for q in range(r.size):
+                    r[q] *= c[q]
+            else:
+                for j in range(c.size):
+                    for q in range(j * nc, (j + 1) * nc):
+                        r[q] *= c[j]
 
 
 @njit(cache=True, nogil=True)
@@ -392,11 +400,17 @@ def _reduce_spans(x, k2, ptr, spans, out):
             for t in range(k2.size):
                 _axpy(c, k2[t], rows[_reflect(2 * i + t - r, h)], q0 * nc, n)
             # even[a - b0] is column 2a - r, odd[a - b0] column 2a + 1 - r.
-            if nc == 1 and 2 * b0 - r >= 0 and 2 * (b1 + reach) - r <= w:
-                # Inside the row: strided copies (no reflection).
+            inside = 2 * b0 - r >= 0 and 2 * (b1 + reach) - r <= w
+            if inside and nc == 1:  # strided copies (no reflection)
                 k = b1 + reach - b0
                 even[:k] = col[2 * b0 - r : 2 * (b1 + reach) - r : 2]
                 odd[:k] = col[2 * b0 + 1 - r : 2 * (b1 + reach) + 1 - r : 2]
+            elif inside:
+                for a in range(b1 + reach - b0):
+                    e = (2 * (a + b0) - r) * nc
+                    for ch in range(nc):
+                        even[a * nc + ch] = col[e + ch]
+                        odd[a * nc + ch] = col[e + nc + ch]
             else:
                 for a in range(b0, b1 + reach):
                     e = _reflect(2 * a - r, w) * nc
