@@ -14,6 +14,9 @@ the float64 pyramids (the literal definition, scipy.ndimage).
 
 Every function takes and returns C-contiguous float32 (h, w, C) arrays; the passes
 run row by row over whole rows (``w * C`` values), which the compiler vectorises.
+The ``*_spans`` kernels are the same passes on runs of each row only (a multiband
+blend's bands where their weights are not 0, and the Gaussian levels those read),
+with the same sums in the same order: their values are those of the whole passes.
 """
 
 from __future__ import annotations
