@@ -519,3 +519,109 @@ def _collapse32(bands, sigma=1.0):
     for band in reversed(bands[:-1]):
         out = _expand32(out, band.shape[:2], sigma, band, 1.0)
     return out
+
+
+# --------------------------------------------------------------------------------------
+# The weighted Laplacian pyramid of a multiband blend, where the weights are not 0
+# --------------------------------------------------------------------------------------
+
+
+#: Runs of non-zero weights closer than this (pixels) are made one run: the blend's
+#: kernels' work per run costs about as much as 30 pixels' (measured at 1920 px).
+_GAP = 32
+
+
+def _weight_spans32(weights, sigma=1.0, gap=_GAP):
+    """Where the weights' Gaussian pyramid ``[G_l(W)]`` (each (h_l, w_l, 1)) is not 0.
+
+    Per level ``(ptr, spans, across, need)``: the runs of each row with a non-zero
+    weight (:func:`._pyramid_fused.mask_spans`; runs less than ``gap`` pixels apart
+    made one, the weights of 0 between them included); where the level's band is
+    made by the fused expansion (an exact doubling), the runs of the coarser level's
+    width-doubled rows that those runs need (else None); and the runs of the
+    Gaussian level :func:`_weighted_laplacian32` makes (reads): those of the weights,
+    what the finer level's expansion reads and what the reduce to the next level
+    reads there (None: the whole level). They depend on the weights only: a blend
+    makes them once for all its images.
+    """
+    levels = len(weights)
+    k2, (kernels, d0) = _fused_kernels(sigma) if sigma > 0 else (None, (None, 0))
+    shapes = [g.shape[:2] for g in weights]
+    runs, reads, whole = [], [], [False] * levels
+    for level, g in enumerate(weights):
+        ptr, spans = _fused.mask_spans(g[..., 0] != 0, gap)
+        across = None
+        if level + 1 < levels and _doubles(weights[level + 1], g.shape[:2], sigma):
+            rows = _fused.expand_rows_needed(g[..., 0] != 0, shapes[level + 1][0], kernels, d0)
+            across = _fused.mask_spans(rows, gap)
+        runs.append((ptr, spans, across))
+        reads.append(_fused.spans_mask(ptr, spans, shapes[level][1]))
+    for level in range(levels - 1):
+        across = runs[level][2]
+        if across is None:  # OpenCV's expansion reads the whole coarser level
+            whole[level + 1] = True
+        else:
+            reads[level + 1] |= _fused.expand_reads(*across, *shapes[level + 1], kernels, d0)
+    needs = [None] * levels
+    for level in range(levels - 2, -1, -1):
+        h, w = shapes[level]
+        if whole[level + 1] or not _halves((h, w), sigma):
+            # The whole reduce: it reads the whole finer level (or all of the
+            # coarser level is needed anyway).
+            whole[level] = True
+            continue
+        needs[level + 1] = _fused.mask_spans(reads[level + 1], gap)
+        reads[level] |= _fused.reduce_reads(*needs[level + 1], h, w, k2)
+    if not whole[0]:
+        needs[0] = _fused.mask_spans(reads[0], gap)
+    return [r + (need,) for r, need in zip(runs, needs, strict=True)]
+
+
+def _halves(shape, sigma):
+    """Whether :func:`_reduce32` of a level of ``shape`` takes the fused path."""
+    return sigma > 0 and shape[0] % 2 == 0 and shape[1] % 2 == 0
+
+
+def _doubles(x, shape, sigma):
+    """Whether :func:`_expand32` of ``x`` to ``shape`` takes the fused path."""
+    return sigma > 0 and tuple(shape) == (2 * x.shape[0], 2 * x.shape[1])
+
+
+def _weighted_laplacian32(x, weights, spans, sigma=1.0):
+    """``[G_l(W) * L_l(x)]``, the bands of :func:`_laplacian32` weighted, on ``spans`` only.
+
+    ``weights`` (each (h_l, w_l, 1)) and ``spans`` their :func:`_weight_spans32`; ``x``
+    (h, w, C) is overwritten, and read only on the runs of ``spans[0]``'s ``need``
+    (if not None). Each band holds the value of ``_laplacian32(x)[l] *
+    weights[l]`` (the same float32 sums and product) on the runs where the weight is
+    not 0, and anything elsewhere: a blend that multiplies the bands by the weights
+    need not make the pixels it multiplies by 0, and reads the bands on the spans
+    only. The Gaussian levels are made where those bands read them.
+    """
+    levels = len(weights)
+    gauss = [x]
+    for _, _, _, need in spans[1:]:
+        if need is None:
+            gauss.append(_reduce32(gauss[-1], sigma))
+        else:  # only the pixels the bands and the coarser levels read
+            g = gauss[-1]
+            out = np.empty((g.shape[0] // 2, g.shape[1] // 2, g.shape[2]), np.float32)
+            _fused._reduce_spans(g, _fused_kernels(sigma)[0], *need, out)
+            gauss.append(out)
+    bands = []
+    for level, (g, (ptr, runs, across, _)) in enumerate(zip(gauss, spans, strict=True)):
+        if level + 1 == levels:
+            band = g  # the residual, weighted in place
+            _fused.weigh_spans(band, weights[level], ptr, runs)
+        elif across is not None:
+            kernels, d0 = _fused_kernels(sigma)[1]
+            band = np.empty_like(g)
+            a_ptr, a_runs = across
+            _fused._weighted_band_spans(
+                gauss[level + 1], kernels, d0, g, weights[level], a_ptr, a_runs, ptr, runs, band
+            )
+        else:
+            band = _expand32(gauss[level + 1], g.shape[:2], sigma, g, -1.0)
+            _fused.weigh_spans(band, weights[level], ptr, runs)
+        bands.append(band)
+    return bands

@@ -294,3 +294,66 @@ def test_fused_reduce_and_expand_are_blur_and_resample(shape, sigma):
     np.testing.assert_allclose(
         _expand32(coarse, shape[:2], sigma, x, 1.0), x + steps, rtol=0, atol=1e-6
     )
+
+
+def _weights_with_holes(rng, shape, levels):
+    """A blend layer's weight pyramid: tents on a few cells of the left half, 0
+    between and around them and on the right half."""
+    from fluidnb.fields._pyramid import _gaussian32
+
+    w = np.zeros(shape[:2] + (1,), np.float32)
+    for r in range(4, shape[0] - 20, 30):
+        for c in range(2, shape[1] // 2 - 20, 26):
+            if rng.random() < 0.7:
+                w[r : r + 16, c : c + 16, 0] = rng.random((16, 16)) + 0.1
+    return _gaussian32(w, levels)
+
+
+@pytest.mark.parametrize(
+    ("shape", "levels", "gap"),
+    [((96, 256, 1), 4, 0), ((96, 192, 3), 3, 32), ((90, 250, 2), 3, 5), ((96, 128, 1), 1, 0)],
+)
+def test_weighted_bands_on_spans_are_the_bands_weighted_bit_for_bit(shape, levels, gap):
+    """The blend's bands made only where the weight is not 0: on every pixel with a
+    weight, ``_laplacian32(x)[l] * G_l(W)`` bit for bit (the same float32 sums, the
+    same product), and the spans leave no weighted pixel out but skip the rest
+    (gap 0); the input is read only where ``need`` says (NaN elsewhere changes
+    nothing). Odd sizes (90 x 250: a level of odd size) take OpenCV's reduce and
+    expansion. Mutations caught: a run one pixel short (a weighted pixel skipped),
+    the expansion's coarse row one off, the weight left out of a level, the reduce's
+    reads one column short."""
+    from fluidnb.fields._pyramid import _laplacian32, _weight_spans32, _weighted_laplacian32
+    from fluidnb.fields._pyramid_fused import spans_mask
+
+    rng = np.random.default_rng(5)
+    x = rng.standard_normal(shape).astype(np.float32)
+    weights = _weights_with_holes(rng, shape, levels)
+    spans = _weight_spans32(weights, gap=gap)
+    want = [band * g for band, g in zip(_laplacian32(x.copy(), levels), weights, strict=True)]
+    partial = x.copy()
+    need = spans[0][3]
+    if need is not None:
+        partial[~spans_mask(*need, shape[1])] = np.nan
+        assert np.isnan(partial).mean() > 0.1
+    got = _weighted_laplacian32(partial, weights, spans)
+    for level, (a, b, g, (ptr, runs, _, _)) in enumerate(
+        zip(got, want, weights, spans, strict=True)
+    ):
+        inside = spans_mask(ptr, runs, g.shape[1])
+        assert np.all(inside[g[..., 0] != 0]), level  # no weighted pixel skipped
+        if gap == 0:
+            assert np.array_equal(inside, g[..., 0] != 0)  # and nothing else made
+        assert np.array_equal(a[inside].view(np.uint32), b[inside].view(np.uint32)), level
+    assert np.mean(want[0] == 0) > 0.3  # zeros to skip at level 0
+
+
+def test_mask_spans_are_the_runs_merged_across_small_gaps():
+    from fluidnb.fields._pyramid_fused import mask_spans
+
+    mask = np.array([[0, 1, 1, 0, 0, 1, 0, 0, 0, 0, 1, 1], [0] * 12, [1] * 12], bool)
+    ptr, runs = mask_spans(mask)
+    assert ptr.tolist() == [0, 3, 3, 4]
+    assert runs.tolist() == [[1, 3], [5, 6], [10, 12], [0, 12]]
+    ptr, runs = mask_spans(mask, 4)  # a gap of 2 merged, of 4 not
+    assert ptr.tolist() == [0, 2, 2, 3]
+    assert runs.tolist() == [[1, 6], [10, 12], [0, 12]]

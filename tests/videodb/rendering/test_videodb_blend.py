@@ -133,7 +133,7 @@ def test_blend_is_the_per_fragment_blend_where_no_fragments_share_a_phase(
     """Up to 3 x 3 fragments every phase layer holds one fragment: the fast path is then
     Burt & Adelson's blend written per fragment, to float32 round-off.
 
-    Mutations caught: the bands weighted by the weight squared (_weigh); the boundary
+    Mutations caught: the bands weighted by the weight squared (_weighted_band_spans); the boundary
     between two cells one pixel off (_common._weights._profile; the plain version has
     its own weights)."""
     gen = np.random.default_rng(4)
@@ -288,14 +288,17 @@ def test_blend_on_threads_is_the_blend_on_one(monkeypatch):
 
 
 @pytest.mark.parametrize(
-    ("margin", "feather", "frames", "every"), [(12, 8.0, 12, 2), (16, 24.0, 4, 3), (6, 0.0, 6, 1)]
+    ("margin", "feather", "frames", "every"),
+    # 2 frames: batches of one frame, the renderer's at 1920 px (the compiled
+    # kernels' one-channel paths).
+    [(12, 8.0, 12, 2), (16, 24.0, 4, 3), (6, 0.0, 6, 1), (12, 8.0, 2, 1)],
 )
 def test_blend_is_the_numpy_layer_blend_bit_for_bit(margin, feather, frames, every):
     # The compiled fill, weighting and normalisation and the weights made once give
     # the phase-layer blend written in numpy exactly; fragments missing here and
     # there (every), zero weights far from the cores, margins short and long.
     # Mutations caught: the fill summed without its tent (_accumulate_windows), the
-    # bands weighted by the weight squared (_weigh), the cell boundary one pixel off.
+    # bands weighted by the weight squared (_weighted_band_spans), the cell boundary one pixel off.
     from fluidnb.videodb.rendering._blend import _blend, _BlendPlan
     from fluidnb.videodb.rendering._reference import reference_layer_blend
 
@@ -317,6 +320,7 @@ def test_blend_is_the_numpy_layer_blend_bit_for_bit(margin, feather, frames, eve
                      feather, plan)  # fmt: skip
         alone = blend_differences(diffs[:, part], pos, shape, margin=margin, feather=feather)
         assert np.array_equal(got.view(np.uint32), alone.view(np.uint32))
+        assert np.array_equal(got.view(np.uint32), ref[part].view(np.uint32))
 
 
 def test_play_loops_is_stagger_on_loops_already_made():
@@ -390,3 +394,25 @@ def test_blend_on_the_fragments_box_is_the_whole_canvas_blend_bit_for_bit(
     whole = blend_differences(diffs, pos, shape, margin=12, levels=levels)
     assert np.array_equal(boxed.view(np.uint32), whole.view(np.uint32))
     assert np.abs(whole).max() > 0.5
+
+
+def test_blend_plan_skips_only_pixels_of_weight_zero():
+    # Each layer's bands are made and summed only on its spans: every pixel of a
+    # non-zero weight G_l(W) lies on them (a skipped one would drop its product from
+    # the sum), and at the finest level they leave out the pixels far from the
+    # layer's cores (the gain). Mutations caught: a run one pixel short, the spans
+    # of the weights' level below.
+    from fluidnb.videodb.rendering._blend import _BlendPlan
+
+    shape = (240, 288)
+    pos = grid(shape)
+    plan = _BlendPlan(pos, shape, 12, 4, 8.0)
+    for weights, spans in zip(plan.weights, plan.spans, strict=True):
+        for level, (g, (ptr, runs, _, _)) in enumerate(zip(weights, spans, strict=True)):
+            inside = np.zeros(g.shape[:2], bool)
+            for i in range(g.shape[0]):
+                for c0, c1 in runs[ptr[i] : ptr[i + 1]]:
+                    inside[i, c0:c1] = True
+            assert np.all(inside[g[..., 0] != 0]), level
+            if level == 0:
+                assert inside.mean() < 0.6
