@@ -266,6 +266,7 @@ class _Matching:
         values there only (in their union; the whole frame if None). ``where``: a
         sequence of them, the only parts of ``out`` written (each pixel is mapped on
         its own: the same values there as matching the whole frame); None: all.
+        ``out`` may be ``frame`` (each value is read, then its own is written).
         ``counted``: a sequence of them that holds every pixel of weight > 0, on
         bands of rows in order (each row in one of them at most): only they are read
         for the histograms, which add the same weights in the same order as over

@@ -538,8 +538,9 @@ class _FlowFrames(_Frames):
                     self.centre, self.axes, rotated[s0 - r0 : s1 - r0, e0 - c0 : e1 - c0],
                 )  # fmt: skip
         clock = _tick(times, "advect", clock)
+        # Matched in place: each pixel is read, then written (after the histograms).
         matched = self.box_matching.match(
-            rotated, buffers["matched"], self.box_span, self.shown, counted=self.shown
+            rotated, rotated, self.box_span, self.shown, counted=self.shown
         )
         _outside_spans(out, self.still, self.composited)
         for s0, s1, e0, e1 in self.composited:
@@ -553,8 +554,8 @@ class _FlowFrames(_Frames):
     def _buffers(self):
         """A frame's box-sized arrays, reused from frame to frame (one set per frame at work).
 
-        Fresh arrays of this size cost their pages' faults every frame (measured at
-        1920 px: a third of the colour axes' and the sampling's time).
+        Fresh arrays of this size can cost their pages' faults every frame (measured
+        at 1920 px, the steps of a frame: 0.34 s with fresh arrays, 0.23 s reused).
         """
         with self.lock:
             if self.free:
@@ -562,7 +563,7 @@ class _FlowFrames(_Frames):
         r0, r1, c0, c1 = self.box
         box = (r1 - r0, c1 - c0)
         most = max((g1 - g0) * (f1 - f0) for (g0, g1, f0, f1), _ in self.groups)
-        names = ("a", "b", "rotated", "matched")
+        names = ("a", "b", "rotated")
         made = {k: np.empty(box + (3,), np.float32) for k in names}
         return made | {"wa": np.empty(box, np.float32), "moved": np.empty(3 * most, np.float32)}
 
