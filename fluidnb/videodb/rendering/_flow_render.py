@@ -886,15 +886,18 @@ def _staggered(maps, table, v, steps, t, period, offsets, scale, r0, c0, xa, ya,
                     xb[rr, cc], yb[rr, cc] = x, y
 
 
-def _blend_phases(a, b, w, out):
-    """The phases' blend into ``out``: one alone where its weight is 1, else variance_blend."""
+def _blend_phases(a, b, w, out, scratch=None):
+    """The phases' blend into ``out``: one alone where its weight is 1, else variance_blend.
+
+    ``scratch``: a dict that keeps the blend's intermediate arrays for the next call.
+    """
     if np.ndim(w) == 0 and w == 1:
         out[...] = a
     elif np.ndim(w) == 0 and w == 0:
         out[...] = b
     else:
         weights = np.full(a.shape[:2], w, np.float32) if np.ndim(w) == 0 else w
-        _blend(a, b, weights, out)
+        _blend(a, b, weights, out, scratch)
     return out
 
 

@@ -531,7 +531,7 @@ class _FlowFrames(_Frames):
         for (g0, g1, f0, f1), spans in self.groups:
             cut = (slice(g0 - r0, g1 - r0), slice(f0 - c0, f1 - c0))
             moved = buffers["moved"][: (g1 - g0) * (f1 - f0) * 3].reshape(g1 - g0, f1 - f0, 3)
-            _blend_phases(a[cut], b[cut], wa[cut], moved)
+            _blend_phases(a[cut], b[cut], wa[cut], moved, buffers["blend"])
             for s0, s1, e0, e1 in spans:
                 _advected_in_axes(
                     moved[s0 - g0 : s1 - g0, e0 - f0 : e1 - f0], detail, d[s0:s1, e0:e1],
@@ -565,7 +565,8 @@ class _FlowFrames(_Frames):
         most = max((g1 - g0) * (f1 - f0) for (g0, g1, f0, f1), _ in self.groups)
         names = ("a", "b", "rotated")
         made = {k: np.empty(box + (3,), np.float32) for k in names}
-        return made | {"wa": np.empty(box, np.float32), "moved": np.empty(3 * most, np.float32)}
+        made |= {"wa": np.empty(box, np.float32), "moved": np.empty(3 * most, np.float32)}
+        return made | {"blend": {}}  # the cross-fade's own, as it needs them (_scratch)
 
     def _release(self, buffers):
         with self.lock:
