@@ -375,12 +375,14 @@ def _supersample_axis(img, factor, axis):
     return out
 
 
-def _sample(fine, coordinates):
+def _sample(fine, coordinates, out=(None, None)):
     """Both phases sampled from ``fine`` (:func:`supersample`) where they are, and :math:`w_a`.
 
     ``coordinates`` are :meth:`_Loop.coordinates` in ``fine``'s pixels; OpenCV's
     bicubic remap (its kernel, Keys' with a = -0.75, gives a pixel's own value at
     whole coordinates), clamped at the border. A phase without coordinates is None.
+    ``out``: the two phases' arrays to sample into (views of a larger array will
+    do), or None each.
     """
     import cv2
 
@@ -388,10 +390,10 @@ def _sample(fine, coordinates):
     a, b = (
         None
         if x is None
-        else cv2.remap(fine, x, y, cv2.INTER_CUBIC, borderMode=cv2.BORDER_REPLICATE).reshape(
-            x.shape + fine.shape[2:]
-        )
-        for x, y in ((xa, ya), (xb, yb))
+        else cv2.remap(
+            fine, x, y, cv2.INTER_CUBIC, dst=into, borderMode=cv2.BORDER_REPLICATE
+        ).reshape(x.shape + fine.shape[2:])
+        for (x, y), into in zip(((xa, ya), (xb, yb)), out)
     )
     return a, b, w
 
@@ -884,15 +886,18 @@ def _staggered(maps, table, v, steps, t, period, offsets, scale, r0, c0, xa, ya,
                     xb[rr, cc], yb[rr, cc] = x, y
 
 
-def _blend_phases(a, b, w, out):
-    """The phases' blend into ``out``: one alone where its weight is 1, else variance_blend."""
+def _blend_phases(a, b, w, out, scratch=None):
+    """The phases' blend into ``out``: one alone where its weight is 1, else variance_blend.
+
+    ``scratch``: a dict that keeps the blend's intermediate arrays for the next call.
+    """
     if np.ndim(w) == 0 and w == 1:
         out[...] = a
     elif np.ndim(w) == 0 and w == 0:
         out[...] = b
     else:
         weights = np.full(a.shape[:2], w, np.float32) if np.ndim(w) == 0 else w
-        _blend(a, b, weights, out)
+        _blend(a, b, weights, out, scratch)
     return out
 
 

@@ -259,13 +259,18 @@ class _Matching:
         cut.cols = tuple(np.ascontiguousarray(x[c0:c1]) for x in self.cols)
         return cut
 
-    def match(self, frame, out, span=None, where=None):
+    def match(self, frame, out, span=None, where=None, counted=None):
         """Match one frame (H, W, C) float32 into ``out`` (H, W, C) float32.
 
         ``span`` (r0, r1, c0, c1), or a sequence of them: the frame's bins span its
         values there only (in their union; the whole frame if None). ``where``: a
         sequence of them, the only parts of ``out`` written (each pixel is mapped on
         its own: the same values there as matching the whole frame); None: all.
+        ``out`` may be ``frame`` (each value is read, then its own is written).
+        ``counted``: a sequence of them that holds every pixel of weight > 0, on
+        bands of rows in order (each row in one of them at most): only they are read
+        for the histograms, which add the same weights in the same order as over
+        the whole frame; None: the whole frame.
         """
         if span is None:
             lo, step = _bins(frame)
@@ -275,7 +280,14 @@ class _Matching:
             lo, step = _bins_over(frame, span)
         inv_step = 1.0 / step
         counts = np.zeros((1, self.n_ch, self.n_cells, HISTOGRAM_BINS))
-        _histogram_kernel(frame, self.cid, self.weight, lo, inv_step, counts[0])
+        if counted is None:
+            _histogram_kernel(frame, self.cid, self.weight, lo, inv_step, counts[0])
+        else:
+            for r0, r1, c0, c1 in counted:
+                _histogram_kernel(
+                    frame[r0:r1, c0:c1], self.cid[r0:r1, c0:c1], self.weight[r0:r1, c0:c1],
+                    lo, inv_step, counts[0],
+                )  # fmt: skip
         q = np.empty(counts.shape[:3] + (_QUANTILES + 1,))
         _quantiles_kernel(counts, lo[None], step[None], q)
         luts = np.empty(counts.shape[:3] + (HISTOGRAM_BINS + 1,))

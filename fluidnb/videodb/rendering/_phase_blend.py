@@ -26,23 +26,47 @@ from ..._validation import check_array
 __all__ = ["variance_blend"]
 
 
-def _low(x):
-    """Burt & Adelson's low pass: one 5-tap pyramid level down and up (OpenCV, reflect-101)."""
+def _low(x, scratch=None, name="low"):
+    """Burt & Adelson's low pass: one 5-tap pyramid level down and up (OpenCV, reflect-101).
+
+    ``scratch``: a dict of arrays to reuse (:func:`_scratch`), or None.
+    """
     import cv2
 
     h, w = x.shape[:2]
-    return cv2.pyrUp(cv2.pyrDown(x), dstsize=(w, h)).reshape(x.shape)
+    half = _scratch(scratch, name + "/2", ((h + 1) // 2, (w + 1) // 2) + x.shape[2:])
+    low = _scratch(scratch, name, x.shape)
+    return cv2.pyrUp(cv2.pyrDown(x, dst=half), dst=low, dstsize=(w, h)).reshape(x.shape)
 
 
-def _local(e):
+def _local(e, scratch=None):
     """The local mean of (H, W, 3) energies: two pyramid levels down, then up again."""
     import cv2
 
     h, w = e.shape[:2]
-    half = cv2.pyrDown(e)
-    quarter = cv2.pyrDown(half)
-    half = cv2.pyrUp(quarter, dstsize=half.shape[1::-1])
-    return cv2.pyrUp(half, dstsize=(w, h)).reshape(e.shape)
+    halves = ((h + 1) // 2, (w + 1) // 2, 3)
+    quarters = ((halves[0] + 1) // 2, (halves[1] + 1) // 2, 3)
+    half = cv2.pyrDown(e, dst=_scratch(scratch, "local/2", halves))
+    quarter = cv2.pyrDown(half, dst=_scratch(scratch, "local/4", quarters))
+    half = cv2.pyrUp(quarter, dst=_scratch(scratch, "local/2up", halves), dstsize=halves[1::-1])
+    out = _scratch(scratch, "local", e.shape)
+    return cv2.pyrUp(half, dst=out, dstsize=(w, h)).reshape(e.shape)
+
+
+def _scratch(scratch, name, shape):
+    """A float32 array of ``shape`` kept in the dict ``scratch`` for the next call, or None.
+
+    The same memory from call to call (a flat array, grown as needed): arrays of a
+    frame's size made afresh for each of a frame's rectangles fault their pages in
+    again whenever the allocator has given them back.
+    """
+    if scratch is None:
+        return None
+    size = int(np.prod(shape))
+    flat = scratch.get(name)
+    if flat is None or flat.size < size:
+        flat = scratch[name] = np.empty(size, np.float32)
+    return flat[:size].reshape(shape)
 
 
 def variance_blend(a, b, weight):
@@ -121,13 +145,23 @@ def variance_blend(a, b, weight):
     return out
 
 
-def _blend(a, b, w, out):
-    """:func:`variance_blend` of float32 ``a``, ``b`` (H, W[, C]) by ``w`` (H, W), into ``out``."""
+def _blend(a, b, w, out, scratch=None):
+    """:func:`variance_blend` of float32 ``a``, ``b`` (H, W[, C]) by ``w`` (H, W), into ``out``.
+
+    ``scratch``: a dict in which the intermediate arrays are kept for the next call
+    (:func:`_scratch`), or None: fresh ones.
+    """
     a3, b3 = a.reshape(a.shape[:2] + (-1,)), b.reshape(b.shape[:2] + (-1,))
-    hm = np.empty(a3.shape, np.float32)
-    energy = np.empty(a.shape[:2] + (3,), np.float32)
-    _details(a3, b3, _low(a).reshape(a3.shape), _low(b).reshape(b3.shape), w, hm, energy)
-    _restore(a3, b3, w, hm, _local(energy), out.reshape(a3.shape))
+    if scratch is None:
+        hm = np.empty(a3.shape, np.float32)
+        energy = np.empty(a.shape[:2] + (3,), np.float32)
+    else:
+        hm = _scratch(scratch, "hm", a3.shape)
+        energy = _scratch(scratch, "energy", a.shape[:2] + (3,))
+    la = _low(a, scratch, "low a").reshape(a3.shape)
+    lb = _low(b, scratch, "low b").reshape(b3.shape)
+    _details(a3, b3, la, lb, w, hm, energy)
+    _restore(a3, b3, w, hm, _local(energy, scratch), out.reshape(a3.shape))
     return out
 
 

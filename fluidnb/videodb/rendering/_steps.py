@@ -10,6 +10,7 @@ cores.
 
 from __future__ import annotations
 
+import threading
 import time
 
 import numpy as np
@@ -238,19 +239,29 @@ BOX_GRID = 8
 #: the fluid, which the composite does not show, do not set the bins.
 SPAN_MARGIN = 16
 
-#: The flow rendering with a still matte samples its phases band by band: in each
-#: band of this many rows of the matte's box, only the columns within
-#: :data:`BAND_MARGIN` of the matte (:func:`_band_spans`; the stream's diagonal matte
-#: fills 83 % of its box); False: the whole box (the tests compare the two).
+#: The flow rendering with a still matte makes each frame on the spans near the
+#: matte only: the matte's box in bands of this many rows (:func:`_band_spans`),
+#: each with the columns within :data:`SPAN_MARGIN` of the matte (at 1920 px, the
+#: stream's spans are 55 % of its box); False: the whole box (the tests compare the
+#: two).
 BAND = 32
 _BANDS = True
 
-#: How far from the matte the bands sample the phases: the matching's bins read the
-#: frame up to :data:`SPAN_MARGIN` from the matte, and the cross-fade's pyramids make
-#: a pixel from the phases up to ~18 px away (one level for the detail, 2 px a side
-#: at full size; two for its energies, 12 px more) -- measured: 32 px left frames
-#: 2e-4 off through the bins, 48 px gives them bit for bit.
-BAND_MARGIN = SPAN_MARGIN + BOX_MARGIN
+#: The spans' frames cross-fade their phases (:func:`variance_blend`) on rectangles
+#: of the box around the spans (:func:`_blend_groups`), each grown by this many
+#: pixels, and sample the phases within this many pixels of the spans
+#: (:func:`_pieces`; the layer elsewhere in the rectangles): the cross-fade's
+#: pyramids (one level for the detail, two for its energies) make a pixel from the
+#: phases up to 15 px away, and a rectangle's blend is the box's bit for bit from
+#: 16 px inside its edges (measured on random phases at every alignment: the
+#: pyramids' reflected borders reach 15 px in), when it starts on the box's grid
+#: of :data:`BLEND_GRID` (the coarsest level's).
+BLEND_CONTEXT = 16
+BLEND_GRID = 4
+
+#: What one more rectangle of the cross-fade costs, in pixels of its area (the calls,
+#: the small pyramids' edges): spans are grouped when their rectangle wastes less.
+BLEND_CALL = 8192
 
 
 def _matte_box(alpha, shape, margin=BOX_MARGIN, grid=BOX_GRID):
@@ -299,6 +310,46 @@ def _band_spans(alpha, box, margin, band=BAND):
         if s1 > s0:
             spans.append((b0, b1, s0, s1))
     return np.array(spans, np.int64).reshape(-1, 4)
+
+
+def _blend_groups(spans, box, context=BLEND_CONTEXT, grid=BLEND_GRID, call=BLEND_CALL):
+    """The rectangles on which the cross-fade makes ``spans`` exact, and the spans each holds.
+
+    ``spans`` (n, 4) rows (r0, r1, c0, c1) on the canvas, in order of their rows
+    (:func:`_band_spans`). Consecutive spans are grouped; a group's rectangle is
+    their hull grown by ``context`` on every side, its corner moved out onto the
+    ``grid`` of ``box``'s corner, all cut to ``box``: each span is then ``context``
+    pixels or more inside its rectangle, or at the box's own edge. The groups
+    minimise the rectangles' area plus ``call`` pixels each (dynamic programming
+    over the cuts). Returns a list of ``(rect, spans)``, ``rect`` (r0, r1, c0, c1).
+    """
+    spans = np.asarray(spans, np.int64).reshape(-1, 4)
+    br0, br1, bc0, bc1 = box
+    if not len(spans):
+        return []
+
+    def rect(i, j):  # the rectangle of spans[i:j]
+        part = spans[i:j]
+        r0 = max(br0 + (int(part[0, 0]) - context - br0) // grid * grid, br0)
+        c0 = max(bc0 + (int(part[:, 2].min()) - context - bc0) // grid * grid, bc0)
+        r1 = min(int(part[-1, 1]) + context, br1)
+        c1 = min(int(part[:, 3].max()) + context, bc1)
+        return r0, r1, c0, c1
+
+    n = len(spans)
+    best = [0.0] + [np.inf] * n  # best[j]: the cheapest grouping of spans[:j]
+    cut = [0] * (n + 1)
+    for j in range(1, n + 1):
+        for i in range(j - 1, -1, -1):
+            r0, r1, c0, c1 = rect(i, j)
+            cost = best[i] + (r1 - r0) * (c1 - c0) + call
+            if cost < best[j]:
+                best[j], cut[j] = cost, i
+    groups, j = [], n
+    while j > 0:
+        groups.append((rect(cut[j], j), spans[cut[j] : j]))
+        j = cut[j]
+    return groups[::-1]
 
 
 class _FlowFrames(_Frames):
@@ -353,14 +404,22 @@ class _FlowFrames(_Frames):
             if self.span is not None:
                 self.box_span = self.span - np.array([r0, r0, c0, c0])
             self.still = np.clip(back[:h, :w], 0, 1)
-            if _BANDS and self.loop.offsets is not None:
-                # The phases sampled only near the matte (BAND_MARGIN); elsewhere in
-                # the box they are the layer itself, which no pixel the frame shows
-                # or its bins read depends on.
-                self.bands = _band_spans(self.alpha, self.box, BAND_MARGIN)
-                # The matching maps only the matte's own spans (the composite shows
-                # nothing else of the frame: 0 elsewhere, the photo exactly).
-                self.shown = _band_spans(self.alpha, self.box, 0) - np.array([r0, r0, c0, c0])
+            if _BANDS and self.loop.offsets is not None and self.span is not None:
+                # The frame is made on the spans its bins read (self.span) only: the
+                # cross-fade on rectangles around them (_blend_groups), whose phases
+                # are sampled within BLEND_CONTEXT of the spans (self.bands) and are
+                # the layer elsewhere, which no pixel of the spans depends on; the
+                # colour axes on the spans.
+                self.groups = _blend_groups(self.span, self.box)
+                self.bands, self.fills = _pieces(self.groups, self.span, self.box)
+                # The matching maps, and the composite shows, only the matte's own
+                # spans, on the bands of self.span (inside them: what the frame holds
+                # there is made); elsewhere the frame is the photo, exactly as the
+                # composite makes it where the matte is 0.
+                shown = _band_spans(self.alpha, _matte_box(self.alpha, (0, 0), SPAN_MARGIN, 1), 0)
+                self.shown = shown - np.array([r0, r0, c0, c0])
+                self.composited = np.minimum(shown, [h, h, w, w])
+                self.lock, self.free = threading.Lock(), []  # _buffers
         _tick(clock, "composite", t)
         offsets = self.loop.offsets
         self.stages = {
@@ -441,14 +500,14 @@ class _FlowFrames(_Frames):
         The same operations on the box's pixels; the matching's bins span the frame's
         values in the box (:meth:`_Matching.cropped`).
         """
+        if self.bands is not None:
+            self._spanned(t, d, maps, out, times, clock)
+            return
         h, w = self.target.shape
         r0, r1, c0, c1 = self.box
         shape = (r1 - r0, c1 - c0, 3)
-        if self.bands is None:
-            at = self.loop.coordinates(maps, self.grid, t, scale=SUPERSAMPLE, box=self.box)
-            a, b, wa = _sample(self.fine, at)
-        else:
-            a, b, wa = self._banded(maps, t)
+        at = self.loop.coordinates(maps, self.grid, t, scale=SUPERSAMPLE, box=self.box)
+        a, b, wa = _sample(self.fine, at)
         moved = _blend_phases(a, b, wa, np.empty(shape, np.float32))
         rotated = np.empty(shape, np.float32)
         detail = np.ascontiguousarray(d[r0:r1, c0:c1])
@@ -456,12 +515,7 @@ class _FlowFrames(_Frames):
             moved, np.float32(self.params.detail), detail, self.centre, self.axes, rotated
         )
         clock = _tick(times, "advect", clock)
-        if self.bands is None:
-            matched = self.box_matching.match(rotated, np.empty_like(rotated), self.box_span)
-        else:
-            matched = self.box_matching.match(
-                rotated, np.zeros_like(rotated), self.box_span, self.shown
-            )
+        matched = self.box_matching.match(rotated, np.empty_like(rotated), self.box_span)
         # The photo outside the box (what the composite gives where the matte is 0),
         # the box composited as on the whole canvas.
         _outside(out, self.still, (r0, min(r1, h), c0, min(c1, w)))
@@ -472,24 +526,140 @@ class _FlowFrames(_Frames):
         )  # fmt: skip
         _tick(times, "match", clock)
 
-    def _banded(self, maps, t):
-        """Frame ``t``'s phases and :math:`w_a` on the box, sampled only in :attr:`bands`.
+    def _spanned(self, t, d, maps, out, times, clock):
+        """:meth:`_boxed` on the spans near the matte (:attr:`bands`), the photo elsewhere.
 
-        Within the bands, the same values as sampled on the whole box (each pixel's
-        coordinates and its bicubic sample depend on that pixel alone); elsewhere both
-        phases are the layer and :math:`w_a = 1`: finite values that neither what the
-        frame shows nor its bins depend on (:data:`BAND_MARGIN`).
+        The same values as the box's where the frame reads them: the cross-fade of
+        each rectangle of :attr:`groups` (its spans :data:`BLEND_CONTEXT` inside it,
+        or at the box's edge) is the box's there, bit for bit; the colour axes on
+        the spans the bins read (:attr:`span`), the matching's map and the composite
+        on the matte's own spans (:attr:`shown`), and the photo elsewhere (what the
+        composite gives where the matte is 0: ``back + 0 (x - back)``, clipped).
         """
+        r0, _, c0, _ = self.box
+        buffers = self._buffers()
+        a, b, wa = self._banded(maps, t, buffers)
+        rotated = buffers["rotated"]  # written on the spans only
+        detail = np.float32(self.params.detail)
+        for (g0, g1, f0, f1), spans in self.groups:
+            cut = (slice(g0 - r0, g1 - r0), slice(f0 - c0, f1 - c0))
+            moved = buffers["moved"][: (g1 - g0) * (f1 - f0) * 3].reshape(g1 - g0, f1 - f0, 3)
+            _blend_phases(a[cut], b[cut], wa[cut], moved, buffers["blend"])
+            for s0, s1, e0, e1 in spans:
+                _advected_in_axes(
+                    moved[s0 - g0 : s1 - g0, e0 - f0 : e1 - f0], detail, d[s0:s1, e0:e1],
+                    self.centre, self.axes, rotated[s0 - r0 : s1 - r0, e0 - c0 : e1 - c0],
+                )  # fmt: skip
+        clock = _tick(times, "advect", clock)
+        # Matched in place: each pixel is read, then written (after the histograms).
+        matched = self.box_matching.match(
+            rotated, rotated, self.box_span, self.shown, counted=self.shown
+        )
+        _outside_spans(out, self.still, self.composited)
+        for s0, s1, e0, e1 in self.composited:
+            _composite_from_axes(
+                matched[s0 - r0 : s1 - r0, e0 - c0 : e1 - c0], self.centre, self.axes,
+                self.back[s0:s1, e0:e1], self.alpha[s0:s1, e0:e1], out[s0:s1, e0:e1],
+            )  # fmt: skip
+        self._release(buffers)
+        _tick(times, "match", clock)
+
+    def _buffers(self):
+        """A frame's box-sized arrays, reused from frame to frame (one set per frame at work).
+
+        Fresh arrays of this size can cost their pages' faults every frame (measured
+        at 1920 px, the steps of a frame: 0.34 s with fresh arrays, 0.23 s reused).
+        """
+        with self.lock:
+            if self.free:
+                return self.free.pop()
         r0, r1, c0, c1 = self.box
-        a = self.layer[r0:r1, c0:c1].copy()
-        b = a.copy()
-        wa = np.ones((r1 - r0, c1 - c0), np.float32)
-        for b0, b1, s0, s1 in self.bands:
-            at = self.loop.coordinates(maps, self.grid, t, scale=SUPERSAMPLE, box=(b0, b1, s0, s1))
-            pa, pb, pw = _sample(self.fine, at)
-            cut = (slice(b0 - r0, b1 - r0), slice(s0 - c0, s1 - c0))
-            a[cut], b[cut], wa[cut] = pa, pb, pw
+        box = (r1 - r0, c1 - c0)
+        most = max((g1 - g0) * (f1 - f0) for (g0, g1, f0, f1), _ in self.groups)
+        names = ("a", "b", "rotated")
+        made = {k: np.empty(box + (3,), np.float32) for k in names}
+        made |= {"wa": np.empty(box, np.float32), "moved": np.empty(3 * most, np.float32)}
+        return made | {"blend": {}}  # the cross-fade's own, as it needs them (_scratch)
+
+    def _release(self, buffers):
+        with self.lock:
+            self.free.append(buffers)
+
+    def _banded(self, maps, t, buffers=None):
+        """Frame ``t``'s phases and :math:`w_a` on the box, made on :attr:`groups`' rectangles.
+
+        Within :attr:`bands` (:data:`BLEND_CONTEXT` of the spans), the same values
+        as sampled on the whole box (each pixel's coordinates and its bicubic sample
+        depend on that pixel alone); elsewhere in the rectangles both phases are the
+        layer and :math:`w_a = 1`: finite values that no pixel of the spans depends
+        on. The rest of the box is not written (``buffers``: :meth:`_buffers`).
+        """
+        r0, _, c0, _ = self.box
+        if buffers is None:
+            buffers = self._buffers()
+        a, b, wa = buffers["a"], buffers["b"], buffers["wa"]
+        for p0, p1, q0, q1 in self.bands:
+            at = self.loop.coordinates(maps, self.grid, t, scale=SUPERSAMPLE, box=(p0, p1, q0, q1))
+            cut = (slice(p0 - r0, p1 - r0), slice(q0 - c0, q1 - c0))
+            _sample(self.fine, at, out=(a[cut], b[cut]))
+            wa[cut] = at[4]
+        for p0, p1, q0, q1 in self.fills:
+            cut = (slice(p0 - r0, p1 - r0), slice(q0 - c0, q1 - c0))
+            a[cut] = b[cut] = self.layer[p0:p1, q0:q1]
+            wa[cut] = 1
         return a, b, wa
+
+
+def _pieces(groups, spans, box, reach=BLEND_CONTEXT):
+    """Where :meth:`_FlowFrames._banded` samples the phases and where it puts the layer.
+
+    The cross-fade makes a pixel from the phases up to ``reach`` pixels away
+    (:data:`BLEND_CONTEXT`): each row of ``box`` is sampled within ``reach`` of the
+    ``spans`` the frame needs (rows and columns), within the rectangles of
+    ``groups`` (:func:`_blend_groups`) that hold the row, and given the layer in the
+    rest of them (their hull in that row). Returns the two lists of rectangles
+    (r0, r1, c0, c1), sampled and layer, disjoint: runs of rows alike.
+    """
+    r0, r1, c0, c1 = box
+    n = r1 - r0
+    none = np.iinfo(np.int64).max
+
+    def hull(rects, grow):  # each row's hull of the rectangles grown by ``grow``, cut to box
+        lo, hi = np.full(n, none, np.int64), np.full(n, -1, np.int64)
+        for a0, a1, e0, e1 in rects:
+            rows = slice(max(a0 - grow, r0) - r0, max(min(a1 + grow, r1) - r0, 0))
+            lo[rows] = np.minimum(lo[rows], max(e0 - grow, c0))
+            hi[rows] = np.maximum(hi[rows], min(e1 + grow, c1))
+        return lo, hi
+
+    lo, hi = hull([rect for rect, _ in groups], 0)
+    near = hull(spans, reach)
+    s0, s1 = np.maximum(near[0], lo), np.minimum(near[1], hi)
+    rows = np.stack([lo, hi, s0, s1], axis=1)
+    starts = np.concatenate([[0], np.flatnonzero(np.any(rows[1:] != rows[:-1], axis=1)) + 1])
+    sampled, layered = [], []
+    for i0, i1 in zip(starts, np.append(starts[1:], n)):
+        a, z, e0, e1 = (int(x) for x in rows[i0])
+        if z <= a:
+            continue
+        at = (r0 + int(i0), r0 + int(i1))
+        if e1 <= e0:
+            e0 = e1 = z
+        else:
+            sampled.append(at + (e0, e1))
+        layered += [at + x for x in ((a, e0), (e1, z)) if x[1] > x[0]]
+    return np.array(sampled, np.int64).reshape(-1, 4), layered
+
+
+def _outside_spans(out, still, spans):
+    """``out = still`` outside the ``spans`` (r0, r1, c0, c1), disjoint, in order of rows."""
+    row = 0
+    for r0, r1, c0, c1 in spans:
+        out[row:r0] = still[row:r0]
+        out[r0:r1, :c0] = still[r0:r1, :c0]
+        out[r0:r1, c1:] = still[r0:r1, c1:]
+        row = max(row, r1)
+    out[row:] = still[row:]
 
 
 def _outside(out, still, box):

@@ -702,15 +702,29 @@ def _two_mattes():
     return [ndi.gaussian_filter(m, 1.0) for m in (pools, stream)]
 
 
+def _spans_of(alpha, box):
+    """What _FlowFrames makes a frame on: the spans, the blend's groups, the sampled pieces."""
+    from fluidnb.videodb.rendering import _steps
+
+    span_box = _steps._matte_box(alpha, (0, 0), _steps.SPAN_MARGIN, 1)
+    spans = _steps._band_spans(alpha, span_box, _steps.SPAN_MARGIN)
+    groups = _steps._blend_groups(spans, box)
+    return spans, groups, _steps._pieces(groups, spans, box)
+
+
 @pytest.mark.parametrize("which", [0, 1])
 def test_frames_sampled_band_by_band_are_the_box_and_canvas_frames(db, monkeypatch, which):
-    # A matte that fills little of its box: the phases are sampled only in the bands'
-    # spans within BAND_MARGIN of the matte (_FlowFrames._banded), the layer
-    # elsewhere. Every frame is the box's and the whole canvas's, bit for bit (the
-    # histograms' bins span the same pixels near the matte in all three).
-    # Mutations caught: BAND_MARGIN = BOX_MARGIN (the stream's frames 2e-4 off: the
-    # bins read pixels the pyramids made from the layer), spans without the rows
-    # either side of a band, the coordinates not shifted to the span.
+    # A matte that fills little of its box: each frame is made on the spans near the
+    # matte only (_FlowFrames._spanned): the phases sampled within BLEND_CONTEXT of
+    # them, the layer elsewhere in the cross-fade's rectangles (_banded), the colour
+    # axes on the spans, the matching's map and the composite on the matte's own
+    # spans, the photo elsewhere. Every frame is the box's and the whole canvas's,
+    # bit for bit (the histograms' bins span the same pixels near the matte in all
+    # three), with the cross-fade on few rectangles or on one per span.
+    # Mutations caught: a context of 12 px (the rectangles' borders reach the spans),
+    # the phases sampled 12 px around the spans, spans without the rows either side
+    # of a band, the coordinates not shifted to the span, the photo written over the
+    # matte's spans or not around them.
     from fluidnb.videodb.rendering import _steps
 
     matte = _two_mattes()[which]
@@ -720,31 +734,131 @@ def test_frames_sampled_band_by_band_are_the_box_and_canvas_frames(db, monkeypat
     a = assign(img, matte, db, FEW)
     box = _steps._matte_box(a.target.canvas_matte, shape)
     assert box is not None
-    bands = _steps._band_spans(a.target.canvas_matte, box, _steps.BAND_MARGIN)
     r0, r1, c0, c1 = box
+    _, _, (bands, _) = _spans_of(a.target.canvas_matte, box)
     area = ((bands[:, 1] - bands[:, 0]) * (bands[:, 3] - bands[:, 2])).sum()
-    # Part of the box left out (the pools: a fifth; this small stream: 1 %, but it is
-    # where a margin of BOX_MARGIN leaves pixels the bins read wrong).
-    assert area < (0.85, 0.995)[which] * (r1 - r0) * (c1 - c0)
+    # Part of the box left out (the pools: a quarter; this small stream: 4 %, but it
+    # is where a context of 12 px leaves pixels the bins read wrong).
+    assert area < (0.75, 0.97)[which] * (r1 - r0) * (c1 - c0)
+    grouped = _steps._blend_groups
+
+    def apart(spans, box):  # one rectangle a span: the most edges inside the box
+        return [grouped(x[None], box)[0] for x in spans]
+
     calls = []
     banded = _steps._FlowFrames._banded
     monkeypatch.setattr(
         _steps._FlowFrames, "_banded", lambda s, *x: calls.append(1) or banded(s, *x)
     )
     for params in (FEW, FEW.replace(cell=24, travel=4.0, detail=0.2)):
-        calls.clear()
-        bands_out = render(a, params, stages=False).clip.frames
-        assert calls  # the bands were used
+        made = []
+        for groups in (grouped, apart):
+            monkeypatch.setattr(_steps, "_blend_groups", groups)
+            calls.clear()
+            made.append(render(a, params, stages=False).clip.frames)
+            assert calls  # the bands were used
+        monkeypatch.setattr(_steps, "_blend_groups", grouped)
         monkeypatch.setattr(_steps, "_BANDS", False)
         boxed = render(a, params, stages=False).clip.frames
         monkeypatch.setattr(_steps, "_BOX", False)
         whole = render(a, params, stages=False).clip.frames
         monkeypatch.setattr(_steps, "_BOX", True)
         monkeypatch.setattr(_steps, "_BANDS", True)
-        assert np.array_equal(bands_out.view(np.uint32), boxed.view(np.uint32))
-        assert np.array_equal(bands_out.view(np.uint32), whole.view(np.uint32))
+        for bands_out in made:
+            assert np.array_equal(bands_out.view(np.uint32), boxed.view(np.uint32))
+            assert np.array_equal(bands_out.view(np.uint32), whole.view(np.uint32))
         inside = a.target.canvas_matte[: shape[0], : shape[1]] > 0.5
-        assert np.abs(np.diff(bands_out[:, inside], axis=0)).max() > 0.05  # it moves
+        assert np.abs(np.diff(made[0][:, inside], axis=0)).max() > 0.05  # it moves
+
+
+def test_the_cross_fade_on_its_rectangles_is_the_boxs_on_the_spans():
+    # The spans' frames cross-fade the phases on a few rectangles (_blend_groups)
+    # around the spans, each grown by BLEND_CONTEXT and started on the box's grid:
+    # on every span, the box's blend bit for bit, whatever the phases (random: the
+    # pyramids' borders reach farthest), with the phases sampled only within
+    # BLEND_CONTEXT of the spans (_pieces) and the layer elsewhere. A context of 12
+    # px, or a rectangle started off the grid, or the phases sampled 12 px around
+    # the spans, leaves pixels of the spans off: the test fails if a span is cut
+    # too short.
+    from fluidnb.videodb.rendering import _steps
+    from fluidnb.videodb.rendering._phase_blend import _blend
+
+    yy, xx = np.mgrid[:260, :320]
+    alpha = (np.abs(yy - 0.6 * xx - 20) < 10).astype(np.float32)
+    alpha[:48] = alpha[200:] = 0
+    alpha[:, :56] = alpha[:, 270:] = 0
+    alpha = ndi.gaussian_filter(alpha, 1.0)
+    h, w = alpha.shape
+    box = _steps._matte_box(alpha, (h, w))
+    r0, r1, c0, c1 = box
+    gen = np.random.default_rng(11)
+    pa, pb, layer = gen.random((3, h, w, 3), dtype=np.float32)
+    pw = gen.random((h, w), dtype=np.float32)
+
+    def blended(a, b, wa):
+        out = np.empty(a.shape, np.float32)
+        a, b, wa = (np.ascontiguousarray(x) for x in (a, b, wa))
+        return _blend(a, b, wa, out)
+
+    truth = blended(pa[r0:r1, c0:c1], pb[r0:r1, c0:c1], pw[r0:r1, c0:c1])
+
+    def off(context=_steps.BLEND_CONTEXT, grid=_steps.BLEND_GRID, reach=_steps.BLEND_CONTEXT):
+        """Pixels of the spans where the rectangles' blend is not the box's."""
+        span_box = _steps._matte_box(alpha, (0, 0), _steps.SPAN_MARGIN, 1)
+        spans = _steps._band_spans(alpha, span_box, _steps.SPAN_MARGIN)
+        # One rectangle a span: the most edges inside the box.
+        groups = [_steps._blend_groups(x[None], box, context, grid)[0] for x in spans]
+        sampled, layered = _steps._pieces(groups, spans, box, reach)
+        a, b = (np.full((h, w, 3), np.nan, np.float32) for _ in range(2))
+        wa = np.full((h, w), np.nan, np.float32)
+        for p0, p1, q0, q1 in sampled:
+            cut = np.s_[p0:p1, q0:q1]
+            a[cut], b[cut], wa[cut] = pa[cut], pb[cut], pw[cut]
+        for p0, p1, q0, q1 in layered:
+            cut = np.s_[p0:p1, q0:q1]
+            assert np.isnan(wa[cut]).all()  # sampled and layer are disjoint
+            a[cut], b[cut], wa[cut] = layer[cut], layer[cut], 1
+        wrong = 0
+        for (g0, g1, f0, f1), held in groups:
+            assert r0 <= g0 < g1 <= r1
+            assert c0 <= f0 < f1 <= c1
+            assert (g0 - r0) % grid == 0
+            assert (f0 - c0) % grid == 0
+            assert not np.isnan(wa[g0:g1, f0:f1]).any()  # the rectangles are whole
+            moved = blended(a[g0:g1, f0:f1], b[g0:g1, f0:f1], wa[g0:g1, f0:f1])
+            for s0, s1, e0, e1 in held:
+                part = moved[s0 - g0 : s1 - g0, e0 - f0 : e1 - f0]
+                want = truth[s0 - r0 : s1 - r0, e0 - c0 : e1 - c0]
+                wrong += int((part.view(np.uint32) != want.view(np.uint32)).sum())
+        assert np.array_equal(np.concatenate([x for _, x in groups]), spans)  # in order
+        return wrong, len(groups)
+
+    wrong, n = off()
+    assert wrong == 0
+    assert n >= 6
+    assert off(context=12)[0] > 0
+    assert off(grid=2)[0] > 0
+    assert off(reach=12)[0] > 0
+
+
+def test_the_spans_groups_cost_less_than_the_box_and_hold_every_span():
+    from fluidnb.videodb.rendering import _steps
+
+    alpha = _two_mattes()[0]
+    box = _steps._matte_box(alpha, alpha.shape)
+    spans, groups, _ = _spans_of(alpha, box)
+    area = sum((g1 - g0) * (f1 - f0) for (g0, g1, f0, f1), _ in groups)
+    assert area < 0.8 * (box[1] - box[0]) * (box[3] - box[2])  # the pools: the corners left
+    for (g0, g1, f0, f1), held in groups:
+        for s0, s1, e0, e1 in held:  # each span BLEND_CONTEXT inside, or at the box's edge
+            assert s0 - g0 >= _steps.BLEND_CONTEXT or g0 == box[0]
+            assert g1 - s1 >= _steps.BLEND_CONTEXT or g1 == box[1]
+            assert e0 - f0 >= _steps.BLEND_CONTEXT or f0 == box[2]
+            assert f1 - e1 >= _steps.BLEND_CONTEXT or f1 == box[3]
+    # At a huge cost per call, one rectangle for all.
+    assert len(groups) > 1
+    assert len(_steps._blend_groups(spans, box, call=10**9)) == 1
+    assert _steps._blend_groups(np.zeros((0, 4), int), box) == []
 
 
 def test_the_band_spans_hold_every_pixel_near_the_matte():
@@ -782,3 +896,26 @@ def test_bins_over_parts_are_the_bins_of_their_pixels():
     for want, got in zip(_bins(pixels[None]), _bins_over(img, rects)):
         assert np.array_equal(want, got)
     assert not np.array_equal(_bins(img)[0], _bins_over(img, rects)[0])
+
+
+def test_histograms_counted_on_the_mattes_spans_are_the_whole_frames():
+    # _Matching.match's counted: only the spans that hold every pixel of weight > 0
+    # are read for the histograms, which add the same weights in the same order:
+    # the matched frame is the whole frame's, bit for bit. Spans that leave a
+    # weighted pixel out change it.
+    from fluidnb.videodb.rendering import _steps
+    from fluidnb.videodb.rendering._histograms import _Matching
+
+    alpha = _two_mattes()[1]
+    gen = np.random.default_rng(8)
+    reference = gen.random(alpha.shape + (3,), dtype=np.float32)
+    frame = (reference + 0.1 * gen.standard_normal(reference.shape)).astype(np.float32)
+    matching = _Matching(reference, alpha.astype(np.float64), 24)
+    spans = _steps._band_spans(alpha, (0, alpha.shape[0], 0, alpha.shape[1]), 0)
+    assert (spans[:, 3] - spans[:, 2]).sum() * 32 < 0.5 * alpha.size  # most left out
+    want = matching.match(frame, np.empty_like(frame))
+    got = matching.match(frame, np.empty_like(frame), counted=spans)
+    assert np.array_equal(got.view(np.uint32), want.view(np.uint32))
+    short = spans.copy()
+    short[:, 3] -= 2  # the last weighted columns of each band left out
+    assert not np.array_equal(matching.match(frame, np.empty_like(frame), counted=short), want)
