@@ -291,8 +291,8 @@ def _blend(d, pos, shape, m, levels, feather, plan=None):
     """:func:`blend_differences` on checked, pixel-major differences (P, s, s, N) float32.
 
     The renderer's own differences come this way (:func:`play_loops` writes them so
-    from the frame-major loops): each fragment's window is then pasted into its layer and the fill as
-    contiguous blocks. ``plan``: the :class:`_BlendPlan` of these positions, canvas,
+    from the frame-major loops): each fragment's window is then pasted into its layer
+    and the fill as contiguous blocks. ``plan``: the :class:`_BlendPlan` of these positions, canvas,
     margin, levels and feather, if already made (a renderer blends its frames a few
     at a time).
     """
