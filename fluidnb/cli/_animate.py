@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import time
 
-from ._common import add_fps_option, add_output_option, add_params_options, add_seed_option
+from ._common import (
+    add_fps_option,
+    add_output_option,
+    add_params_options,
+    add_seed_option,
+    reuse_freed_memory,
+)
 from ._paths import add_input
 from ._photo import Photo, add_max_side_option
 
@@ -113,39 +119,6 @@ def _is_folder_name(db):
     return db not in _STARTERS
 
 
-def _reuse_freed_memory():
-    """Have glibc's malloc keep freed blocks of up to 32 MB for reuse (this process).
-
-    A 1920-px render frees and allocates arrays of 5-30 MB for every frame (the
-    pyramids of the blend and the phases' cross-fade, the remaps); by default glibc
-    hands such blocks back to the kernel (and each thread's arena its 64 MB heaps as
-    they empty) and gets fresh pages the next time, each faulted in and zeroed: 8.6
-    million faults and 30 s of system time at 96 frames. With blocks up to 32 MB
-    (glibc's largest threshold) taken from one heap that is not trimmed: 1.2 million
-    and 10 s, and a lower peak (2.6 GB, was 2.8). Nothing else changes; elsewhere than
-    glibc this does nothing.
-    """
-    import ctypes
-    import platform
-
-    # Only when the command is the process (main() without arguments): a notebook or
-    # a test calling main(argv) keeps its own allocator's settings.
-    from . import _main
-
-    if not _main.AS_PROCESS or platform.libc_ver()[0] != "glibc":
-        return
-    try:
-        mallopt = ctypes.CDLL(None).mallopt
-    except (OSError, AttributeError):
-        return
-    m_trim_threshold, m_mmap_threshold, m_arena_max = -1, -3, -8  # malloc.h
-    mallopt(m_mmap_threshold, 32 * 2**20)
-    mallopt(m_trim_threshold, 2**31 - 1)
-    # One arena for every thread: a thread's own arena grows in heaps of at most 64 MB
-    # and gives each back when it empties, so the frames' threads kept faulting.
-    mallopt(m_arena_max, 1)
-
-
 def _animate(args):
     import numpy as np
 
@@ -171,7 +144,7 @@ def _animate(args):
     if args.background is not None:
         background = picture.companion(args.background, "background", mode="rgb")
     picture.note(args.prog)
-    _reuse_freed_memory()
+    reuse_freed_memory()
     report = TextProgress()
     if args.db in _STARTERS:
         db = starter_database(args.db, quick=args.quick or None, progress=report)

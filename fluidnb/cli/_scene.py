@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ._common import add_output_option
+from ._common import add_output_option, reuse_freed_memory
 from ._paths import add_input, add_output
 
 #: The region options, bottom layer first (the order they are composited in).
@@ -117,6 +117,7 @@ def _scene(args):
         if args.strokes and args.water is None:
             raise ValueError("--strokes draws the water's flow: give --water too")
     print(f"{scene}; rendering each layer with its method…")
+    reuse_freed_memory()  # as animate: its water or clouds layer is a video-database render
     # Streamed: each layer's frames are made as the scene's are composited and written,
     # so a full-size photo needs a few frames of each layer, not their clips.
     clip = render(scene, stream=True, progress=TextProgress())

@@ -69,7 +69,11 @@ def test_build_errors_are_one_clear_line(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("rendering", ["paper", "flow", None])
-def test_animate_a_photo_with_strokes_and_speed(store, tmp_path, capsys, rendering):
+def test_animate_a_photo_with_strokes_and_speed(store, tmp_path, capsys, rendering, monkeypatch):
+    import fluidnb.cli._animate as command
+
+    tuned = []  # the allocator's settings for the command's process (issue 39)
+    monkeypatch.setattr(command, "reuse_freed_memory", lambda: tuned.append(True))
     gen = np.random.default_rng(3)
     photo = ndi.gaussian_filter(gen.random((80, 110)), 2.0)
     photo = (photo - photo.min()) / (photo.max() - photo.min())
@@ -105,6 +109,7 @@ def test_animate_a_photo_with_strokes_and_speed(store, tmp_path, capsys, renderi
     if rendering is not None:
         argv += ["--rendering", rendering]
     assert main(argv) == 0
+    assert tuned == [True]
     assert "wrote" in capsys.readouterr().out
     clip = load_clip(out)
     # --rendering round-trips into the clip's parameters; flow is the default.
